@@ -1,0 +1,154 @@
+/* backend_cpu.c - CPU backend: OpenMP loops over the shared bodies of sph_bodies.h. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "sph_bodies.h"
+#include "sphdem_internal.h"
+
+static int cpu_alloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
+  *ptr = malloc(bytes);
+  if (!*ptr) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of host memory", bytes);
+  return SPHDEM_OK;
+}
+static void cpu_free(struct sphdem_ctx_s *c, void *ptr) { (void)c; free(ptr); }
+static int cpu_copy(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
+  (void)c;
+  if (bytes) memmove(dst, src, bytes);
+  return SPHDEM_OK;
+}
+static int cpu_memset0(struct sphdem_ctx_s *c, void *ptr, size_t bytes) { (void)c; memset(ptr, 0, bytes); return SPHDEM_OK; }
+static int cpu_sync(struct sphdem_ctx_s *c) { (void)c; return SPHDEM_OK; }
+
+/* Counting sort by cell (stable in the old order), then insertion sort by tag inside each cell:
+ * the same (cell, tag) order as the CUDA radix sort of sort_key(). */
+static int cpu_sort_perm(struct sphdem_ctx_s *c, int set) {
+  sphdem_dev *D = &c->D;
+  int fl = set == SPHDEM_SET_FLUID;
+  int64_t n = fl ? D->nf : D->nw;
+  const double *x = fl ? D->x : D->wx;
+  const int64_t *tag = fl ? D->tag : D->wtag;
+  int32_t *cell = fl ? D->cell : D->wcell;
+  int64_t nc = D->ncells;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; i++) cell[i] = cell_of(D, x + 3 * i);
+  int64_t *start = (int64_t *)calloc((size_t)nc + 1, sizeof(int64_t));
+  if (!start) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the cell count table");
+  for (int64_t i = 0; i < n; i++) start[cell[i] + 1]++;
+  for (int64_t k = 0; k < nc; k++) start[k + 1] += start[k];
+  int32_t *perm = c->perm;
+  int32_t *sorted_cell = (int32_t *)c->scratch_i; /* scratch_i has 8 bytes per entry */
+  for (int64_t i = 0; i < n; i++) {
+    int64_t s = start[cell[i]]++;
+    perm[s] = (int32_t)i;
+    sorted_cell[s] = cell[i];
+  }
+  /* start[k] now holds the end of cell k; sort each cell's run by tag */
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int64_t k = 0; k < nc; k++) {
+    int64_t b = k == 0 ? 0 : start[k - 1], e = start[k];
+    for (int64_t i = b + 1; i < e; i++) {
+      int32_t p = perm[i];
+      int64_t t = tag[p], j = i - 1;
+      while (j >= b && tag[perm[j]] > t) { perm[j + 1] = perm[j]; j--; }
+      perm[j + 1] = p;
+    }
+  }
+  memcpy(cell, sorted_cell, sizeof(int32_t) * (size_t)n);
+  free(start);
+  return SPHDEM_OK;
+}
+
+static int cpu_gather(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t n) {
+  int ew = elem_bytes / 4;
+  uint32_t *tmp = (uint32_t *)c->scratch_d;
+  const uint32_t *src = (const uint32_t *)arr;
+  const int32_t *perm = c->perm;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; i++) gather_words_body(tmp, src, perm, ew, i);
+  memcpy(arr, tmp, (size_t)elem_bytes * (size_t)n);
+  return SPHDEM_OK;
+}
+
+static int cpu_cell_ranges(struct sphdem_ctx_s *c, int set) {
+  sphdem_dev *D = &c->D;
+  int fl = set == SPHDEM_SET_FLUID;
+  int64_t n = fl ? D->nf : D->nw;
+  int32_t *cs = fl ? D->cstart : D->wcstart, *ce = fl ? D->cend : D->wcend;
+  const int32_t *cell = fl ? D->cell : D->wcell;
+  memset(cs, 0, sizeof(int32_t) * (size_t)D->ncells);
+  memset(ce, 0, sizeof(int32_t) * (size_t)D->ncells);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; i++) cell_range_body(cell, n, i, cs, ce);
+  return SPHDEM_OK;
+}
+
+static int cpu_pressure(struct sphdem_ctx_s *c) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < D->nf; i++) predict_body(D, i);
+  return SPHDEM_OK;
+}
+
+static int cpu_wall_state(struct sphdem_ctx_s *c) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t w = 0; w < D->nw; w++) wall_state_body(D, w);
+  return SPHDEM_OK;
+}
+
+static int cpu_rates(struct sphdem_ctx_s *c) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t a = 0; a < D->nf; a++) rates_body(D, a);
+  return SPHDEM_OK;
+}
+
+static int cpu_kick(struct sphdem_ctx_s *c, double dth) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < D->nf; i++) kick_body(D, i, dth);
+  return SPHDEM_OK;
+}
+
+static int cpu_drift(struct sphdem_ctx_s *c, double dt) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < D->nf; i++) drift_body(D, i, dt);
+  return SPHDEM_OK;
+}
+
+static int cpu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
+  const sphdem_dev *D = &c->D;
+  int64_t n = set == SPHDEM_SET_FLUID ? D->nf : D->nw;
+  red_init(out);
+#pragma omp parallel
+  {
+    sphdem_red r;
+    red_init(&r);
+#pragma omp for schedule(static) nowait
+    for (int64_t i = 0; i < n; i++) red_body(D, set, i, &r);
+#pragma omp critical
+    red_combine(out, &r);
+  }
+  return SPHDEM_OK;
+}
+
+const sphdem_ops sphdem_cpu_ops = {
+  .name = "cpu",
+  .alloc = cpu_alloc,
+  .free = cpu_free,
+  .h2d = cpu_copy,
+  .d2h = cpu_copy,
+  .memset0 = cpu_memset0,
+  .d2d = cpu_copy,
+  .sort_perm = cpu_sort_perm,
+  .gather = cpu_gather,
+  .cell_ranges = cpu_cell_ranges,
+  .pressure = cpu_pressure,
+  .wall_state = cpu_wall_state,
+  .rates = cpu_rates,
+  .kick = cpu_kick,
+  .drift = cpu_drift,
+  .reduce = cpu_reduce,
+  .sync = cpu_sync,
+};

@@ -1,0 +1,246 @@
+/* backend_cuda.cu - CUDA backend: kernels that call the shared bodies of sph_bodies.h. */
+#include <cuda_runtime.h>
+#include <thrust/device_ptr.h>
+#include <thrust/execution_policy.h>
+#include <thrust/sequence.h>
+#include <thrust/sort.h>
+#include <stdio.h>
+
+#include "sph_bodies.h"
+#include "sphdem_internal.h"
+
+#define SPHDEM_BLOCK 256
+#define SPHDEM_RED_BLOCKS 512
+
+static inline unsigned nblocks(int64_t n) { return (unsigned)((n + SPHDEM_BLOCK - 1) / SPHDEM_BLOCK); }
+
+static int cuda_check(struct sphdem_ctx_s *c, cudaError_t e, const char *what) {
+  if (e == cudaSuccess) return SPHDEM_OK;
+  return sphdem_fail(c, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
+}
+#define CK(c, call, what) do { int rc_ = cuda_check(c, (call), what); if (rc_) return rc_; } while (0)
+#define LAUNCHED(c, what) CK(c, cudaGetLastError(), what)
+
+/* ---- kernels: one thread per particle, bodies shared with the CPU loops --------------------------- */
+
+__global__ void k_cell(sphdem_dev D, int set, uint64_t *key, int32_t *perm) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int fl = set == SPHDEM_SET_FLUID;
+  int64_t n = fl ? D.nf : D.nw;
+  if (i >= n) return;
+  int32_t c = cell_of(&D, (fl ? D.x : D.wx) + 3 * i);
+  key[i] = sort_key(c, fl ? D.tag[i] : D.wtag[i]);
+  perm[i] = (int32_t)i;
+}
+
+__global__ void k_cell_from_key(const uint64_t *key, int32_t *cell, int64_t n) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < n) cell[i] = (int32_t)(key[i] >> 36);
+}
+
+__global__ void k_gather(uint32_t *dst, const uint32_t *src, const int32_t *perm, int ew, int64_t n) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < n) gather_words_body(dst, src, perm, ew, i);
+}
+
+__global__ void k_cell_ranges(const int32_t *cell, int64_t n, int32_t *cs, int32_t *ce) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < n) cell_range_body(cell, n, i, cs, ce);
+}
+
+__global__ void k_pressure(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) predict_body(&D, i);
+}
+
+__global__ void k_wall_state(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nw) wall_state_body(&D, i);
+}
+
+__global__ void k_rates(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) rates_body(&D, i);
+}
+
+__global__ void k_kick(sphdem_dev D, double dth) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) kick_body(&D, i, dth);
+}
+
+__global__ void k_drift(sphdem_dev D, double dt) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) drift_body(&D, i, dt);
+}
+
+/* Block-wise reduction with the shared red_combine; the host combines the block results. */
+__global__ void k_reduce(sphdem_dev D, int set, sphdem_red *out) {
+  __shared__ sphdem_red sh[SPHDEM_BLOCK];
+  int64_t n = set == SPHDEM_SET_FLUID ? D.nf : D.nw;
+  sphdem_red r;
+  red_init(&r);
+  for (int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x; i < n; i += (int64_t)gridDim.x * blockDim.x)
+    red_body(&D, set, i, &r);
+  sh[threadIdx.x] = r;
+  __syncthreads();
+  for (int s = blockDim.x / 2; s > 0; s >>= 1) {
+    if (threadIdx.x < s) red_combine(&sh[threadIdx.x], &sh[threadIdx.x + s]);
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) out[blockIdx.x] = sh[0];
+}
+
+/* ---- operations ------------------------------------------------------------------------------------- */
+
+typedef struct {
+  sphdem_red *dred;
+  sphdem_red hred[SPHDEM_RED_BLOCKS];
+} cuda_data;
+
+static int cu_alloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
+  cudaError_t e = cudaMalloc(ptr, bytes);
+  if (e != cudaSuccess) {
+    *ptr = NULL;
+    return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of GPU memory (%s)", bytes, cudaGetErrorString(e));
+  }
+  return SPHDEM_OK;
+}
+static void cu_free(struct sphdem_ctx_s *c, void *ptr) { (void)c; cudaFree(ptr); }
+static int cu_h2d(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
+  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "host-to-device copy");
+  return SPHDEM_OK;
+}
+static int cu_d2h(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
+  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "device-to-host copy");
+  return SPHDEM_OK;
+}
+static int cu_d2d(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
+  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToDevice), "device copy");
+  return SPHDEM_OK;
+}
+static int cu_memset0(struct sphdem_ctx_s *c, void *ptr, size_t bytes) {
+  CK(c, cudaMemset(ptr, 0, bytes), "memset");
+  return SPHDEM_OK;
+}
+static int cu_sync(struct sphdem_ctx_s *c) {
+  CK(c, cudaDeviceSynchronize(), "kernel execution");
+  return SPHDEM_OK;
+}
+
+static int cu_sort_perm(struct sphdem_ctx_s *c, int set) {
+  sphdem_dev *D = &c->D;
+  int fl = set == SPHDEM_SET_FLUID;
+  int64_t n = fl ? D->nf : D->nw;
+  uint64_t *key = (uint64_t *)c->scratch_i;
+  k_cell<<<nblocks(n), SPHDEM_BLOCK>>>(*D, set, key, c->perm);
+  LAUNCHED(c, "cell index kernel");
+  thrust::sort_by_key(thrust::device, thrust::device_ptr<uint64_t>(key), thrust::device_ptr<uint64_t>(key + n),
+                      thrust::device_ptr<int32_t>(c->perm));
+  LAUNCHED(c, "radix sort");
+  k_cell_from_key<<<nblocks(n), SPHDEM_BLOCK>>>(key, fl ? D->cell : D->wcell, n);
+  LAUNCHED(c, "cell extraction kernel");
+  return SPHDEM_OK;
+}
+
+static int cu_gather(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t n) {
+  k_gather<<<nblocks(n), SPHDEM_BLOCK>>>((uint32_t *)c->scratch_d, (const uint32_t *)arr, c->perm, elem_bytes / 4, n);
+  LAUNCHED(c, "gather kernel");
+  return cu_d2d(c, arr, c->scratch_d, (size_t)elem_bytes * (size_t)n);
+}
+
+static int cu_cell_ranges(struct sphdem_ctx_s *c, int set) {
+  sphdem_dev *D = &c->D;
+  int fl = set == SPHDEM_SET_FLUID;
+  int64_t n = fl ? D->nf : D->nw;
+  int32_t *cs = fl ? D->cstart : D->wcstart, *ce = fl ? D->cend : D->wcend;
+  CK(c, cudaMemset(cs, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
+  CK(c, cudaMemset(ce, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
+  k_cell_ranges<<<nblocks(n), SPHDEM_BLOCK>>>(fl ? D->cell : D->wcell, n, cs, ce);
+  LAUNCHED(c, "cell range kernel");
+  return SPHDEM_OK;
+}
+
+static int cu_pressure(struct sphdem_ctx_s *c) {
+  k_pressure<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+  LAUNCHED(c, "pressure kernel");
+  return SPHDEM_OK;
+}
+static int cu_wall_state(struct sphdem_ctx_s *c) {
+  k_wall_state<<<nblocks(c->D.nw), SPHDEM_BLOCK>>>(c->D);
+  LAUNCHED(c, "wall state kernel");
+  return SPHDEM_OK;
+}
+static int cu_rates(struct sphdem_ctx_s *c) {
+  k_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+  LAUNCHED(c, "rates kernel");
+  return SPHDEM_OK;
+}
+static int cu_kick(struct sphdem_ctx_s *c, double dth) {
+  k_kick<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dth);
+  LAUNCHED(c, "kick kernel");
+  return SPHDEM_OK;
+}
+static int cu_drift(struct sphdem_ctx_s *c, double dt) {
+  k_drift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dt);
+  LAUNCHED(c, "drift kernel");
+  return SPHDEM_OK;
+}
+
+static int cu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
+  cuda_data *cd = (cuda_data *)c->backend_data;
+  int64_t n = set == SPHDEM_SET_FLUID ? c->D.nf : c->D.nw;
+  red_init(out);
+  if (n == 0) return SPHDEM_OK;
+  unsigned nb = nblocks(n);
+  if (nb > SPHDEM_RED_BLOCKS) nb = SPHDEM_RED_BLOCKS;
+  k_reduce<<<nb, SPHDEM_BLOCK>>>(c->D, set, cd->dred);
+  LAUNCHED(c, "reduction kernel");
+  CK(c, cudaMemcpy(cd->hred, cd->dred, nb * sizeof(sphdem_red), cudaMemcpyDeviceToHost), "reduction copy");
+  for (unsigned b = 0; b < nb; b++) red_combine(out, &cd->hred[b]);
+  return SPHDEM_OK;
+}
+
+extern "C" {
+
+const sphdem_ops sphdem_cuda_ops = {
+  "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
+  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync,
+};
+
+/* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */
+int sphdem_cuda_probe(char *msg, size_t msglen) {
+  int n = 0;
+  cudaError_t e = cudaGetDeviceCount(&n);
+  if (e != cudaSuccess) {
+    snprintf(msg, msglen, "cudaGetDeviceCount: %s", cudaGetErrorString(e));
+    cudaGetLastError();
+    return SPHDEM_ERR_NO_GPU;
+  }
+  if (n == 0) { snprintf(msg, msglen, "no CUDA device found"); return SPHDEM_ERR_NO_GPU; }
+  cudaDeviceProp prop;
+  if (cudaGetDeviceProperties(&prop, 0) != cudaSuccess) { snprintf(msg, msglen, "cannot query device 0"); return SPHDEM_ERR_NO_GPU; }
+  snprintf(msg, msglen, "GPU 0: %s (sm_%d%d, %.1f GiB)", prop.name, prop.major, prop.minor,
+           prop.totalGlobalMem / 1073741824.0);
+  return SPHDEM_OK;
+}
+
+int sphdem_cuda_init(struct sphdem_ctx_s *c) {
+  cuda_data *cd = (cuda_data *)calloc(1, sizeof(cuda_data));
+  if (!cd) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate CUDA backend data");
+  if (cudaMalloc((void **)&cd->dred, SPHDEM_RED_BLOCKS * sizeof(sphdem_red)) != cudaSuccess) {
+    free(cd);
+    return sphdem_fail(c, SPHDEM_ERR_CUDA, "cannot allocate the reduction buffer on the GPU");
+  }
+  c->backend_data = cd;
+  return SPHDEM_OK;
+}
+
+void sphdem_cuda_fini(struct sphdem_ctx_s *c) {
+  cuda_data *cd = (cuda_data *)c->backend_data;
+  if (!cd) return;
+  cudaFree(cd->dred);
+  free(cd);
+  c->backend_data = NULL;
+}
+
+}

@@ -1,0 +1,740 @@
+/* core.c - the sphdem context: parameters, particle upload/download, search grid, stepping, stats. */
+#define _POSIX_C_SOURCE 200809L
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "sph_bodies.h"
+#include "sphdem_internal.h"
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...) {
+  if (c) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(c->err, sizeof c->err, fmt, ap);
+    va_end(ap);
+  }
+  return code;
+}
+
+const char *sphdem_strerror(int code) {
+  switch (code) {
+#define SPHDEM_CASE_(name, val, msg) case val: return msg;
+    SPHDEM_ERROR_LIST(SPHDEM_CASE_)
+#undef SPHDEM_CASE_
+  }
+  return "unknown sphdem error code";
+}
+
+const char *sphdem_last_error(sphdem_ctx c) { return c ? c->err : "no context"; }
+int sphdem_backend(sphdem_ctx c) { return c ? c->backend : SPHDEM_DEVICE_CPU; }
+const char *sphdem_backend_note(sphdem_ctx c) { return c ? c->note : ""; }
+int64_t sphdem_nsorts(sphdem_ctx c) { return c ? c->nsorts : 0; }
+size_t sphdem_device_bytes(sphdem_ctx c) { return c ? c->bytes : 0; }
+
+void sphdem_timers(sphdem_ctx c, double t[SPHDEM_NTIMERS]) {
+  for (int k = 0; k < SPHDEM_NTIMERS; k++) t[k] = c ? c->timers[k] : 0.0;
+}
+void sphdem_timers_reset(sphdem_ctx c) {
+  if (c) memset(c->timers, 0, sizeof c->timers);
+}
+
+int sphdem_gpu_available(void) {
+#ifdef SPHDEM_WITH_CUDA
+  char msg[256];
+  return sphdem_cuda_probe(msg, sizeof msg) == SPHDEM_OK;
+#else
+  return 0;
+#endif
+}
+
+/* ---- parameters ------------------------------------------------------------------------------ */
+
+void sphdem_params_default(sphdem_params *p) {
+  memset(p, 0, sizeof *p);
+  p->dim = 3;
+  p->gamma = 7.0;
+  p->visc = SPHDEM_VISC_NONE;
+  p->tensile_n = 4.0;
+  p->cfl = 0.25;
+  p->rho_err_max = 0.2;
+  for (int d = 0; d < 3; d++) { p->boxlo[d] = -1e300; p->boxhi[d] = 1e300; }
+}
+
+#define CHECK(cond, ...) do { if (!(cond)) { snprintf(msg, msglen, __VA_ARGS__); return SPHDEM_ERR_ARG; } } while (0)
+
+int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
+  char dummy[8];
+  if (!msg || msglen == 0) { msg = dummy; msglen = sizeof dummy; }
+  msg[0] = 0;
+  CHECK(p, "parameters missing");
+  CHECK(p->dim == 2 || p->dim == 3, "dim must be 2 or 3 (got %d)", p->dim);
+  CHECK(p->h > 0 && isfinite(p->h), "h (smoothing length) must be > 0 (got %g)", p->h);
+  CHECK(p->dx > 0 && isfinite(p->dx), "dx (initial particle spacing) must be > 0 (got %g)", p->dx);
+  CHECK(p->rho0 > 0, "rho0 (reference density) must be > 0 (got %g)", p->rho0);
+  CHECK(p->c0 > 0, "c0 (sound speed) must be > 0 (got %g)", p->c0);
+  CHECK(p->gamma >= 1, "gamma (Tait exponent) must be >= 1 (got %g)", p->gamma);
+  CHECK(p->visc >= SPHDEM_VISC_NONE && p->visc <= SPHDEM_VISC_ARTIFICIAL,
+        "visc must be none, morris or artificial");
+  CHECK(p->visc != SPHDEM_VISC_MORRIS || p->mu > 0, "visc morris needs a dynamic viscosity mu > 0 (got %g)", p->mu);
+  CHECK(p->visc != SPHDEM_VISC_ARTIFICIAL || p->alpha > 0, "visc artificial needs alpha > 0 (got %g)", p->alpha);
+  CHECK(p->tensile_eps >= 0, "tensile eps must be >= 0 (got %g)", p->tensile_eps);
+  CHECK(p->tensile_eps == 0 || p->tensile_n > 0, "tensile exponent n must be > 0 (got %g)", p->tensile_n);
+  CHECK(p->xsph_eps >= 0 && p->xsph_eps <= 1, "xsph eps must be in [0, 1] (got %g)", p->xsph_eps);
+  CHECK(p->rep_D >= 0, "repulsion D must be >= 0 (got %g)", p->rep_D);
+  CHECK(p->rep_D == 0 || p->rep_r0 > 0, "repulsion r0 must be > 0 (got %g)", p->rep_r0);
+  CHECK(p->skin >= 0, "skin must be >= 0 (got %g)", p->skin);
+  CHECK(p->cfl > 0 && p->cfl <= 1, "cfl must be in (0, 1] (got %g)", p->cfl);
+  CHECK(p->rho_err_max > 0, "rho_err_max must be > 0 (got %g)", p->rho_err_max);
+  for (int d = 0; d < p->dim; d++) {
+    CHECK(p->boxhi[d] > p->boxlo[d], "box: hi must exceed lo on axis %c", "xyz"[d]);
+    if (p->periodic[d]) {
+      double L = p->boxhi[d] - p->boxlo[d];
+      CHECK(L >= 3.0 * (2.0 * p->h + p->skin),
+            "periodic box length %g on axis %c is below 3 (2h + skin) = %g; enlarge the box or "
+            "reduce h/skin", L, "xyz"[d], 3.0 * (2.0 * p->h + p->skin));
+    }
+  }
+  for (int d = 0; d < 3; d++) CHECK(isfinite(p->gravity[d]), "gravity must be finite");
+  return SPHDEM_OK;
+}
+
+double sphdem_tait_B(const sphdem_params *p) { return p->c0 * p->c0 * p->rho0 / p->gamma; }
+
+double sphdem_hydrostatic_rho(const sphdem_params *p, double depth) {
+  double g = sqrt(p->gravity[0] * p->gravity[0] + p->gravity[1] * p->gravity[1] +
+                  (p->dim == 3 ? p->gravity[2] * p->gravity[2] : 0.0));
+  double B = sphdem_tait_B(p);
+  return p->rho0 * pow(1.0 + p->rho0 * g * depth / B, 1.0 / p->gamma);
+}
+
+static void derive(sphdem_dev *D) {
+  const sphdem_params *p = &D->P;
+  D->B = sphdem_tait_B(p);
+  D->h = p->h;
+  D->inv_h = 1.0 / p->h;
+  D->support2 = 4.0 * p->h * p->h;
+  D->alphaD = wendland_alpha(p->dim, p->h);
+  D->w_dx_inv = 1.0 / wendland_w(D->alphaD, p->dx / p->h);
+  D->gamma_is_7 = p->gamma == 7.0;
+  D->tensile_n_is_4 = p->tensile_n == 4.0;
+  for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+}
+
+int sphdem_set_params(sphdem_ctx c, const sphdem_params *p) {
+  char msg[512];
+  if (!c) return SPHDEM_ERR_ARG;
+  if (sphdem_params_check(p, msg, sizeof msg) != SPHDEM_OK) return sphdem_fail(c, SPHDEM_ERR_ARG, "%s", msg);
+  if (p->dim != c->D.P.dim || p->h != c->D.P.h)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "dim and h cannot change after the context is created");
+  int box_changed = memcmp(p->boxlo, c->D.P.boxlo, sizeof p->boxlo) ||
+                    memcmp(p->boxhi, c->D.P.boxhi, sizeof p->boxhi) ||
+                    memcmp(p->periodic, c->D.P.periodic, sizeof p->periodic) || p->skin != c->D.P.skin;
+  c->D.P = *p;
+  derive(&c->D);
+  if (box_changed) c->need_sort = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_get_params(sphdem_ctx c, sphdem_params *p) {
+  if (!c || !p) return SPHDEM_ERR_ARG;
+  *p = c->D.P;
+  return SPHDEM_OK;
+}
+
+/* ---- memory ------------------------------------------------------------------------------------ */
+
+static int dalloc(sphdem_ctx c, void **ptr, size_t bytes) {
+  if (bytes == 0) bytes = 8;
+  int rc = c->ops->alloc(c, ptr, bytes);
+  if (rc == SPHDEM_OK) c->bytes += bytes;
+  return rc;
+}
+
+#define DFREE(cx, p_, nb_) do { if (p_) { (cx)->ops->free((cx), (p_)); (cx)->bytes -= (nb_); (p_) = NULL; } } while (0)
+
+static void free_fluid(sphdem_ctx c) {
+  sphdem_dev *D = &c->D;
+  size_t n = (size_t)c->cap_f;
+  if (!n) return;
+  DFREE(c, D->x, 24 * n); DFREE(c, D->v, 24 * n); DFREE(c, D->rho, 8 * n); DFREE(c, D->mass, 8 * n);
+  DFREE(c, D->drho, 8 * n); DFREE(c, D->a, 24 * n); DFREE(c, D->u, 24 * n); DFREE(c, D->p, 8 * n);
+  DFREE(c, D->x0, 24 * n); DFREE(c, D->rhop, 8 * n); DFREE(c, D->ve, 24 * n); DFREE(c, D->tag, 8 * n); DFREE(c, D->uidx, 4 * n); DFREE(c, D->cell, 4 * n);
+  c->cap_f = 0;
+}
+
+static void free_walls(sphdem_ctx c) {
+  sphdem_dev *D = &c->D;
+  size_t n = (size_t)c->cap_w;
+  if (!n) return;
+  DFREE(c, D->wx, 24 * n); DFREE(c, D->wv, 24 * n); DFREE(c, D->wa, 24 * n); DFREE(c, D->wmass, 8 * n);
+  DFREE(c, D->wp, 8 * n); DFREE(c, D->wrho, 8 * n); DFREE(c, D->wvx, 24 * n); DFREE(c, D->wtag, 8 * n);
+  DFREE(c, D->wcell, 4 * n);
+  c->cap_w = 0;
+}
+
+static void free_scratch(sphdem_ctx c) {
+  size_t n = (size_t)c->cap_scratch;
+  if (!n) return;
+  DFREE(c, c->perm, 4 * n); DFREE(c, c->scratch_d, 24 * n); DFREE(c, c->scratch_i, 8 * n);
+  c->cap_scratch = 0;
+}
+
+static void free_cells(sphdem_ctx c) {
+  size_t n = (size_t)c->cap_cells;
+  if (!n) return;
+  DFREE(c, c->D.cstart, 4 * n); DFREE(c, c->D.cend, 4 * n);
+  DFREE(c, c->D.wcstart, 4 * n); DFREE(c, c->D.wcend, 4 * n);
+  c->cap_cells = 0;
+}
+
+#define TRY(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
+
+static int ensure_scratch(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_scratch) return SPHDEM_OK;
+  free_scratch(c);
+  size_t m = (size_t)n;
+  TRY(dalloc(c, (void **)&c->perm, 4 * m));
+  TRY(dalloc(c, (void **)&c->scratch_d, 24 * m));
+  TRY(dalloc(c, (void **)&c->scratch_i, 8 * m));
+  c->cap_scratch = n;
+  return SPHDEM_OK;
+}
+
+static int ensure_fluid(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_f && c->cap_f > 0) return SPHDEM_OK;
+  free_fluid(c);
+  sphdem_dev *D = &c->D;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  TRY(dalloc(c, (void **)&D->x, 24 * m)); TRY(dalloc(c, (void **)&D->v, 24 * m));
+  TRY(dalloc(c, (void **)&D->rho, 8 * m)); TRY(dalloc(c, (void **)&D->mass, 8 * m));
+  TRY(dalloc(c, (void **)&D->drho, 8 * m)); TRY(dalloc(c, (void **)&D->a, 24 * m));
+  TRY(dalloc(c, (void **)&D->u, 24 * m)); TRY(dalloc(c, (void **)&D->p, 8 * m));
+  TRY(dalloc(c, (void **)&D->x0, 24 * m)); TRY(dalloc(c, (void **)&D->tag, 8 * m));
+  TRY(dalloc(c, (void **)&D->rhop, 8 * m)); TRY(dalloc(c, (void **)&D->ve, 24 * m));
+  TRY(dalloc(c, (void **)&D->uidx, 4 * m)); TRY(dalloc(c, (void **)&D->cell, 4 * m));
+  c->cap_f = (int64_t)m;
+  return ensure_scratch(c, (int64_t)m);
+}
+
+static int ensure_walls(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_w && c->cap_w > 0) return SPHDEM_OK;
+  free_walls(c);
+  sphdem_dev *D = &c->D;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  TRY(dalloc(c, (void **)&D->wx, 24 * m)); TRY(dalloc(c, (void **)&D->wv, 24 * m));
+  TRY(dalloc(c, (void **)&D->wa, 24 * m)); TRY(dalloc(c, (void **)&D->wmass, 8 * m));
+  TRY(dalloc(c, (void **)&D->wp, 8 * m)); TRY(dalloc(c, (void **)&D->wrho, 8 * m));
+  TRY(dalloc(c, (void **)&D->wvx, 24 * m)); TRY(dalloc(c, (void **)&D->wtag, 8 * m));
+  TRY(dalloc(c, (void **)&D->wcell, 4 * m));
+  c->cap_w = (int64_t)m;
+  return ensure_scratch(c, (int64_t)m);
+}
+
+static int ensure_cells(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_cells) return SPHDEM_OK;
+  free_cells(c);
+  size_t m = (size_t)n;
+  TRY(dalloc(c, (void **)&c->D.cstart, 4 * m)); TRY(dalloc(c, (void **)&c->D.cend, 4 * m));
+  TRY(dalloc(c, (void **)&c->D.wcstart, 4 * m)); TRY(dalloc(c, (void **)&c->D.wcend, 4 * m));
+  c->cap_cells = n;
+  return SPHDEM_OK;
+}
+
+/* Host staging buffers (plain malloc on both backends). */
+static int ensure_host(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_host) return SPHDEM_OK;
+  free(c->hbuf); free(c->htag); free(c->huidx);
+  size_t m = (size_t)(n > 0 ? n : 1);
+  c->hbuf = (double *)malloc(sizeof(double) * SPHDEM_NSTATE * m);
+  c->htag = (int64_t *)malloc(sizeof(int64_t) * m);
+  c->huidx = (int32_t *)malloc(sizeof(int32_t) * m);
+  c->host_tags_valid = 0;
+  if (!c->hbuf || !c->htag || !c->huidx) {
+    c->cap_host = 0;
+    return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %lld host staging entries", (long long)m);
+  }
+  c->cap_host = (int64_t)m;
+  return SPHDEM_OK;
+}
+
+/* ---- create / destroy ----------------------------------------------------------------------------- */
+
+int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, char *msg, size_t msglen) {
+  char m[512];
+  if (!out) return SPHDEM_ERR_ARG;
+  *out = NULL;
+  if (sphdem_params_check(p, m, sizeof m) != SPHDEM_OK) {
+    if (msg && msglen) snprintf(msg, msglen, "%s", m);
+    return SPHDEM_ERR_ARG;
+  }
+  if (dev != SPHDEM_DEVICE_AUTO && dev != SPHDEM_DEVICE_CPU && dev != SPHDEM_DEVICE_GPU) {
+    if (msg && msglen) snprintf(msg, msglen, "device must be auto, cpu or gpu");
+    return SPHDEM_ERR_ARG;
+  }
+  sphdem_ctx c = (sphdem_ctx)calloc(1, sizeof *c);
+  if (!c) {
+    if (msg && msglen) snprintf(msg, msglen, "cannot allocate the context");
+    return SPHDEM_ERR_ALLOC;
+  }
+  c->D.P = *p;
+  derive(&c->D);
+  c->ops = &sphdem_cpu_ops;
+  c->backend = SPHDEM_DEVICE_CPU;
+  if (dev != SPHDEM_DEVICE_CPU) {
+#ifdef SPHDEM_WITH_CUDA
+    int rc = sphdem_cuda_probe(m, sizeof m);
+    if (rc == SPHDEM_OK) rc = sphdem_cuda_init(c);
+    if (rc == SPHDEM_OK) {
+      c->ops = &sphdem_cuda_ops;
+      c->backend = SPHDEM_DEVICE_GPU;
+      snprintf(c->note, sizeof c->note, "%s", m);
+    } else if (dev == SPHDEM_DEVICE_GPU) {
+      if (msg && msglen) snprintf(msg, msglen, "device gpu requested but no GPU is usable: %s", m);
+      free(c);
+      return SPHDEM_ERR_NO_GPU;
+    } else {
+      snprintf(c->note, sizeof c->note, "no usable GPU (%s); running on the CPU backend", m);
+    }
+#else
+    if (dev == SPHDEM_DEVICE_GPU) {
+      if (msg && msglen)
+        snprintf(msg, msglen, "device gpu requested but this build has no CUDA backend (rebuild with "
+                              "nvcc available and SPHDEM_CUDA=AUTO or ON)");
+      free(c);
+      return SPHDEM_ERR_NO_GPU;
+    }
+    snprintf(c->note, sizeof c->note, "built without CUDA; running on the CPU backend");
+#endif
+  }
+  c->need_sort = 1;
+  *out = c;
+  return SPHDEM_OK;
+}
+
+int sphdem_destroy(sphdem_ctx *pc) {
+  if (!pc || !*pc) return SPHDEM_OK;
+  sphdem_ctx c = *pc;
+  free_fluid(c);
+  free_walls(c);
+  free_scratch(c);
+  free_cells(c);
+#ifdef SPHDEM_WITH_CUDA
+  if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
+#endif
+  free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
+  free(c);
+  *pc = NULL;
+  return SPHDEM_OK;
+}
+
+/* ---- grid and sorting ------------------------------------------------------------------------------ */
+
+static int timed_reduce(sphdem_ctx c, int set, sphdem_red *r) {
+  double t0 = now();
+  int rc = c->ops->reduce(c, set, r);
+  c->timers[SPHDEM_T_REDUCE] += now() - t0;
+  return rc;
+}
+
+/* Search grid over the periodic box / the particles' bounding box, cells >= 2h + skin. */
+static int build_grid(sphdem_ctx c) {
+  sphdem_dev *D = &c->D;
+  sphdem_red rf, rw;
+  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &rf));
+  if (D->nw > 0) {
+    TRY(timed_reduce(c, SPHDEM_SET_WALL, &rw));
+    for (int d = 0; d < 3; d++) { rf.lo[d] = fmin(rf.lo[d], rw.lo[d]); rf.hi[d] = fmax(rf.hi[d], rw.hi[d]); }
+  }
+  double cmin = 2.0 * D->P.h + D->P.skin;
+  double scale = 1.0;
+  for (int iter = 0; iter < 64; iter++) {
+    int64_t total = 1;
+    for (int d = 0; d < 3; d++) {
+      if (d >= D->P.dim) { D->nc[d] = 1; D->glo[d] = 0.0; D->cs[d] = 1.0; D->cs_inv[d] = 1.0; continue; }
+      double lo, hi;
+      if (D->P.periodic[d]) { lo = D->P.boxlo[d]; hi = D->P.boxhi[d]; }
+      else {
+        lo = rf.lo[d]; hi = rf.hi[d];
+        if (!(hi >= lo)) { lo = 0.0; hi = 0.0; } /* empty or non-finite: one cell */
+        /* keep runaway particles from inflating the grid: clamp to the box +/- its size */
+        if (D->P.boxlo[d] > -1e299 && D->P.boxhi[d] < 1e299) {
+          double Lb = D->P.boxhi[d] - D->P.boxlo[d];
+          lo = fmax(lo, D->P.boxlo[d] - Lb); hi = fmin(hi, D->P.boxhi[d] + Lb);
+          if (hi < lo) hi = lo;
+        }
+      }
+      double len = hi - lo, cs = cmin * scale;
+      int n = (int)floor(len / cs);
+      if (n < 1) n = 1;
+      if (D->P.periodic[d]) {
+        if (n < 3) return sphdem_fail(c, SPHDEM_ERR_ARG, "periodic axis %c holds fewer than 3 cells of 2h + skin", "xyz"[d]);
+        cs = len / n;
+      } else if (len > 0) {
+        cs = fmax(cs, len / n);
+      }
+      D->nc[d] = n; D->glo[d] = lo; D->cs[d] = cs; D->cs_inv[d] = 1.0 / cs;
+      total *= n;
+    }
+    D->ncells = total;
+    if (total <= SPHDEM_MAX_CELLS) return ensure_cells(c, total);
+    scale *= 1.26;
+  }
+  return sphdem_fail(c, SPHDEM_ERR_ARG, "search grid too large");
+}
+
+/* Sort one set by (cell, tag) and permute every array that carries state across steps. */
+static int sort_set(sphdem_ctx c, int set) {
+  sphdem_dev *D = &c->D;
+  int64_t n = set == SPHDEM_SET_FLUID ? D->nf : D->nw;
+  if (n == 0) return SPHDEM_OK;
+  TRY(c->ops->sort_perm(c, set));
+  if (set == SPHDEM_SET_FLUID) {
+    void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx};
+    int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
+    for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
+    TRY(c->ops->d2d(c, D->x0, D->x, 24 * (size_t)n));
+  } else {
+    void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
+    int eb[] = {24, 24, 24, 8, 8};
+    for (int k = 0; k < 5; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
+  }
+  return c->ops->cell_ranges(c, set);
+}
+
+static int sort_all(sphdem_ctx c) {
+  double t0 = now();
+  TRY(build_grid(c));
+  TRY(sort_set(c, SPHDEM_SET_FLUID));
+  TRY(sort_set(c, SPHDEM_SET_WALL));
+  TRY(c->ops->sync(c));
+  c->timers[SPHDEM_T_SORT] += now() - t0;
+  c->need_sort = 0;
+  c->need_wall_sort = 0;
+  c->host_tags_valid = 0;
+  c->nsorts++;
+  return SPHDEM_OK;
+}
+
+/* ---- upload / download ----------------------------------------------------------------------------- */
+
+static int up(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return c->ops->h2d(c, dst, src, bytes); }
+static int down(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return c->ops->d2h(c, dst, src, bytes); }
+
+/* Upload the per-particle state (drho, a, u) from the caller layout through staging; order[s] is the
+ * caller index of device slot s (NULL = identity). state NULL means zero. */
+static int upload_state(sphdem_ctx c, int64_t n, const int32_t *order, const double *state) {
+  sphdem_dev *D = &c->D;
+  double *h = c->hbuf;
+  for (int64_t s = 0; s < n; s++) h[s] = state ? state[(order ? order[s] : s) * SPHDEM_NSTATE] : 0.0;
+  TRY(up(c, D->drho, h, 8 * (size_t)n));
+  for (int part = 0; part < 2; part++) {
+    double *dst = part == 0 ? D->a : D->u;
+    for (int64_t s = 0; s < n; s++)
+      for (int d = 0; d < 3; d++)
+        h[3 * s + d] = state ? state[(order ? order[s] : s) * SPHDEM_NSTATE + 1 + 3 * part + d] : 0.0;
+    TRY(up(c, dst, h, 24 * (size_t)n));
+  }
+  return SPHDEM_OK;
+}
+
+static int upload_vec(sphdem_ctx c, double *dst, const double *src, int64_t n, int ncomp, const int32_t *order) {
+  if (!order) return up(c, dst, src, 8 * (size_t)ncomp * (size_t)n);
+  for (int64_t s = 0; s < n; s++)
+    for (int d = 0; d < ncomp; d++) c->hbuf[ncomp * s + d] = src[(int64_t)order[s] * ncomp + d];
+  return up(c, dst, c->hbuf, 8 * (size_t)ncomp * (size_t)n);
+}
+
+/* Device slot -> caller index for an upload whose tags equal the resident set; NULL if not equal. */
+static int32_t *match_resident(sphdem_ctx c, int64_t n, const int64_t *tag) {
+  int64_t maxtag = 0;
+  for (int64_t i = 0; i < n; i++) {
+    if (tag[i] <= 0) return NULL;
+    if (tag[i] > maxtag) maxtag = tag[i];
+  }
+  if (maxtag > 8 * n + 1024) return NULL; /* sparse tags: rebuild instead of a huge map */
+  if (maxtag + 1 > c->hmap_len) {
+    free(c->hmap);
+    c->hmap = (int64_t *)malloc(sizeof(int64_t) * (size_t)(maxtag + 1));
+    c->hmap_len = c->hmap ? maxtag + 1 : 0;
+    if (!c->hmap) return NULL;
+  }
+  for (int64_t t = 0; t <= maxtag; t++) c->hmap[t] = -1;
+  for (int64_t i = 0; i < n; i++) {
+    if (c->hmap[tag[i]] >= 0) return NULL;
+    c->hmap[tag[i]] = i;
+  }
+  if (!c->host_tags_valid) {
+    if (down(c, c->htag, c->D.tag, 8 * (size_t)n) != SPHDEM_OK) return NULL;
+    c->host_tags_valid = 1;
+  }
+  for (int64_t s = 0; s < n; s++) {
+    int64_t t = c->htag[s];
+    if (t <= 0 || t > maxtag || c->hmap[t] < 0) return NULL;
+    c->huidx[s] = (int32_t)c->hmap[t];
+  }
+  return c->huidx;
+}
+
+int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, const double *v,
+                     const double *rho, const double *mass, const double *state) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: negative particle count");
+  if (n > 0 && (!x || !v || !rho || !mass))
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: x, v, rho and mass are required");
+  for (int64_t i = 0; i < n; i++) {
+    if (!(mass[i] > 0) || !(rho[i] > 0))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: particle %lld (tag %lld) has mass %g and density %g; "
+                         "both must be > 0", (long long)i, (long long)(tag ? tag[i] : i + 1), mass[i], rho[i]);
+  }
+  double t0 = now();
+  sphdem_dev *D = &c->D;
+  TRY(ensure_host(c, n));
+  int32_t *order = NULL;
+  if (n > 0 && n == D->nf && tag) order = match_resident(c, n, tag);
+  if (!order) {
+    TRY(ensure_fluid(c, n));
+    D->nf = n;
+    if (n > 0) {
+      for (int64_t i = 0; i < n; i++) { c->htag[i] = tag ? tag[i] : i + 1; c->huidx[i] = (int32_t)i; }
+      TRY(up(c, D->tag, c->htag, 8 * (size_t)n));
+      TRY(up(c, D->uidx, c->huidx, 4 * (size_t)n));
+      c->host_tags_valid = 1;
+    }
+  } else {
+    TRY(up(c, D->uidx, order, 4 * (size_t)n));
+  }
+  if (n > 0) {
+    TRY(upload_vec(c, D->x, x, n, 3, order));
+    TRY(upload_vec(c, D->v, v, n, 3, order));
+    TRY(upload_vec(c, D->rho, rho, n, 1, order));
+    TRY(upload_vec(c, D->mass, mass, n, 1, order));
+    TRY(upload_state(c, n, order, state));
+  }
+  c->have_rates = state != NULL;
+  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  if (!order) {
+    c->need_sort = 1;
+  } else {
+    /* data replaced in place: keep the order, but resort if positions moved beyond skin/2 */
+    sphdem_red r;
+    TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+    if (r.disp2max > 0.25 * D->P.skin * D->P.skin) c->need_sort = 1;
+  }
+  return SPHDEM_OK;
+}
+
+int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, const double *a, const double *mass) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_walls: negative particle count");
+  if (n > 0 && (!x || !mass)) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_walls: x and mass are required");
+  for (int64_t i = 0; i < n; i++)
+    if (!(mass[i] > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_walls: wall particle %lld has mass %g; must be > 0",
+                                           (long long)i, mass[i]);
+  double t0 = now();
+  sphdem_dev *D = &c->D;
+  TRY(ensure_walls(c, n));
+  TRY(ensure_host(c, n));
+  D->nw = n;
+  if (n > 0) {
+    TRY(up(c, D->wx, x, 24 * (size_t)n));
+    TRY(up(c, D->wmass, mass, 8 * (size_t)n));
+    for (int part = 0; part < 2; part++) {
+      const double *src = part == 0 ? v : a;
+      double *dst = part == 0 ? D->wv : D->wa;
+      if (src) TRY(up(c, dst, src, 24 * (size_t)n));
+      else TRY(c->ops->memset0(c, dst, 24 * (size_t)n));
+    }
+    for (int64_t i = 0; i < n; i++) c->htag[i] = i + 1;
+    TRY(up(c, D->wtag, c->htag, 8 * (size_t)n));
+    c->host_tags_valid = 0;
+  }
+  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  c->need_wall_sort = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p, double *state) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  int64_t n = D->nf;
+  if (n == 0) return SPHDEM_OK;
+  double t0 = now();
+  TRY(ensure_host(c, n));
+  TRY(c->ops->sync(c));
+  TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
+  const int32_t *ui = c->huidx;
+  double *h = c->hbuf;
+  struct { double *dst; const double *src; int ncomp; int off; int stride; } f[] = {
+    {x, D->x, 3, 0, 3}, {v, D->v, 3, 0, 3}, {rho, D->rho, 1, 0, 1},
+    {state, D->drho, 1, 0, SPHDEM_NSTATE}, {state, D->a, 3, 1, SPHDEM_NSTATE}, {state, D->u, 3, 4, SPHDEM_NSTATE},
+  };
+  for (size_t k = 0; k < sizeof f / sizeof f[0]; k++) {
+    if (!f[k].dst) continue;
+    TRY(down(c, h, f[k].src, 8 * (size_t)f[k].ncomp * (size_t)n));
+    for (int64_t s = 0; s < n; s++)
+      for (int d = 0; d < f[k].ncomp; d++) f[k].dst[(int64_t)ui[s] * f[k].stride + f[k].off + d] = h[f[k].ncomp * s + d];
+  }
+  if (p) {
+    TRY(down(c, h, D->rho, 8 * (size_t)n));
+    for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
+  }
+  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  return SPHDEM_OK;
+}
+
+/* ---- stepping ---------------------------------------------------------------------------------------- */
+
+int sphdem_kick(sphdem_ctx c, double dth) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (c->D.nf == 0) return SPHDEM_OK;
+  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "kick before the rates were computed (call sphdem_compute_rates first)");
+  double t0 = now();
+  TRY(c->ops->kick(c, dth));
+  TRY(c->ops->sync(c));
+  c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+  /* first half kick of a step: the next rates predict rho and v by dth; second one closes the step */
+  c->half_kicked = !c->half_kicked;
+  c->D.pred_dth = c->half_kicked ? dth : 0.0;
+  return SPHDEM_OK;
+}
+
+int sphdem_drift(sphdem_ctx c, double dt) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (c->D.nf == 0) return SPHDEM_OK;
+  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "drift before the rates were computed (call sphdem_compute_rates first)");
+  double t0 = now();
+  TRY(c->ops->drift(c, dt));
+  TRY(c->ops->sync(c));
+  c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+  /* displacement since the last sort decides the next resort (He 2018 §2.4.2) */
+  sphdem_red r;
+  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_compute_rates(sphdem_ctx c) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (D->nf == 0) { c->have_rates = 1; return SPHDEM_OK; }
+  if (c->need_sort) TRY(sort_all(c));
+  else if (c->need_wall_sort && D->nw > 0) {
+    double t0 = now();
+    TRY(sort_set(c, SPHDEM_SET_WALL));
+    TRY(c->ops->sync(c));
+    c->timers[SPHDEM_T_SORT] += now() - t0;
+    c->need_wall_sort = 0;
+  }
+  if (!c->half_kicked) c->D.pred_dth = 0.0;
+  double t0 = now();
+  TRY(c->ops->pressure(c));
+  TRY(c->ops->sync(c));
+  double t1 = now();
+  if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(c->ops->sync(c)); }
+  double t2 = now();
+  TRY(c->ops->rates(c));
+  TRY(c->ops->sync(c));
+  double t3 = now();
+  c->timers[SPHDEM_T_WALL] += t2 - t1;
+  c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2);
+  c->have_rates = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
+  if (!c || !s) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  memset(s, 0, sizeof *s);
+  s->nfluid = D->nf;
+  s->nwall = D->nw;
+  sphdem_red r;
+  if (D->nf > 0) TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  else red_init(&r);
+  const sphdem_params *P = &D->P;
+  s->vmax = sqrt(r.v2max);
+  s->amax = sqrt(r.a2max);
+  s->rho_err = r.rhoerr;
+  s->ke = r.ke;
+  s->nnan = r.nnan;
+  s->nlost = r.nlost;
+  s->dt_cfl = P->cfl * P->h / (P->c0 + s->vmax);
+  s->dt_visc = P->visc == SPHDEM_VISC_MORRIS ? 0.125 * P->h * P->h * P->rho0 / P->mu : DBL_MAX;
+  s->dt_force = s->amax > 0 ? 0.25 * sqrt(P->h / s->amax) : DBL_MAX;
+  s->dt_stable = fmin(s->dt_cfl, fmin(s->dt_visc, s->dt_force));
+  if (r.nnan > 0)
+    return sphdem_fail(c, SPHDEM_ERR_NAN,
+                       "%lld fluid particles have a non-finite position, velocity or density: the simulation "
+                       "blew up. Likely causes: a time step above the stable %g s, too few wall layers or no "
+                       "repulsion letting particles enter walls, or h/dx too small.",
+                       (long long)r.nnan, s->dt_stable);
+  if (r.nlost > 0)
+    return sphdem_fail(c, SPHDEM_ERR_LOST,
+                       "%lld fluid particles left the box. Likely causes: walls missing or thinner than the "
+                       "kernel support 2h (%g), no wall repulsion for a violent impact, or a time step too large "
+                       "(stable %g s).", (long long)r.nlost, 2.0 * P->h, s->dt_stable);
+  if (r.rhoerr > P->rho_err_max)
+    return sphdem_fail(c, SPHDEM_ERR_DENSITY,
+                       "max |rho/rho0 - 1| = %.3g exceeds rho_err_max %.3g. Likely causes: c0 too low for the "
+                       "flow (Mach number vmax/c0 = %.3g should stay below 0.1), a time step too large "
+                       "(stable %g s), or tensile clumping (try the tensile keyword).",
+                       r.rhoerr, P->rho_err_max, s->vmax / P->c0, s->dt_stable);
+  if (dt > 0 && dt > s->dt_stable) {
+    const char *lim = s->dt_stable == s->dt_cfl ? "the CFL condition cfl*h/(c0 + vmax)"
+                      : s->dt_stable == s->dt_visc ? "the viscous condition 0.125 h^2 rho0/mu"
+                                                   : "the force condition 0.25 sqrt(h/amax)";
+    return sphdem_fail(c, SPHDEM_ERR_UNSTABLE,
+                       "time step %g s exceeds the stable SPH time step %g s, limited by %s (CFL %g s, "
+                       "viscous %g s, force %g s; vmax %g m/s, amax %g m/s^2). Set the timestep to %g or less.",
+                       dt, s->dt_stable, lim, s->dt_cfl, s->dt_visc == DBL_MAX ? INFINITY : s->dt_visc,
+                       s->dt_force == DBL_MAX ? INFINITY : s->dt_force, s->vmax, s->amax, s->dt_stable);
+  }
+  return SPHDEM_OK;
+}
+
+/* ---- testing hook ---------------------------------------------------------------------------------- */
+
+int64_t sphdem_debug_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs) {
+  if (!c) return -SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  int64_t n = D->nf, np = 0;
+  if (n == 0) return 0;
+  if (c->need_sort) { int rc = sort_all(c); if (rc) return -rc; }
+  /* host copy of positions, cells and cell ranges, then the same neighbor-cell walk as the passes */
+  sphdem_dev H = *D;
+  H.x = (double *)malloc(24 * (size_t)n);
+  H.cell = (int32_t *)malloc(4 * (size_t)n);
+  H.cstart = (int32_t *)malloc(4 * (size_t)D->ncells);
+  H.cend = (int32_t *)malloc(4 * (size_t)D->ncells);
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
+  int rc = (H.x && H.cell && H.cstart && H.cend && ui) ? SPHDEM_OK : SPHDEM_ERR_ALLOC;
+  if (!rc) rc = down(c, H.x, D->x, 24 * (size_t)n);
+  if (!rc) rc = down(c, H.cell, D->cell, 4 * (size_t)n);
+  if (!rc) rc = down(c, H.cstart, D->cstart, 4 * (size_t)D->ncells);
+  if (!rc) rc = down(c, H.cend, D->cend, 4 * (size_t)D->ncells);
+  if (!rc) rc = down(c, ui, D->uidx, 4 * (size_t)n);
+  for (int64_t a = 0; !rc && a < n; a++) {
+    int32_t cells[27];
+    double r[3];
+    int nn = neighbor_cells(&H, H.cell[a], cells);
+    for (int k = 0; k < nn; k++)
+      for (int32_t b = H.cstart[cells[k]]; b < H.cend[cells[k]]; b++) {
+        if (ui[b] <= ui[a]) continue;
+        if (separation(&H, H.x + 3 * a, H.x + 3 * b, r) >= H.support2) continue;
+        if (np < maxpairs) { pairs[2 * np] = ui[a]; pairs[2 * np + 1] = ui[b]; }
+        np++;
+      }
+  }
+  free(H.x); free(H.cell); free(H.cstart); free(H.cend); free(ui);
+  return rc ? -rc : np;
+}

@@ -1,0 +1,144 @@
+/* sphdem.h - the one public C API of the sphdem core (SPH fluid on CPU or CUDA). */
+#ifndef SPHDEM_H
+#define SPHDEM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define SPHDEM_VERSION "0.1.0"
+
+/* Error codes: defined once here; sphdem_strerror() gives their generic text,
+ * sphdem_last_error() the specific message of the last failed call. */
+#define SPHDEM_ERROR_LIST(X)                                                   \
+  X(SPHDEM_OK, 0, "no error")                                                  \
+  X(SPHDEM_ERR_ARG, 1, "invalid argument")                                     \
+  X(SPHDEM_ERR_ALLOC, 2, "out of memory")                                      \
+  X(SPHDEM_ERR_NO_GPU, 3, "no usable GPU")                                     \
+  X(SPHDEM_ERR_CUDA, 4, "CUDA runtime error")                                  \
+  X(SPHDEM_ERR_STATE, 5, "call not valid in the current state")               \
+  X(SPHDEM_ERR_UNSTABLE, 6, "time step exceeds the stable SPH time step")     \
+  X(SPHDEM_ERR_NAN, 7, "non-finite value in the fluid state")                  \
+  X(SPHDEM_ERR_LOST, 8, "fluid particle left the domain")                      \
+  X(SPHDEM_ERR_DENSITY, 9, "density error beyond the allowed bound")
+
+enum sphdem_status {
+#define SPHDEM_ENUM_(name, val, msg) name = val,
+  SPHDEM_ERROR_LIST(SPHDEM_ENUM_)
+#undef SPHDEM_ENUM_
+  SPHDEM_NSTATUS
+};
+
+typedef enum { SPHDEM_DEVICE_AUTO = 0, SPHDEM_DEVICE_CPU = 1, SPHDEM_DEVICE_GPU = 2 } sphdem_device;
+typedef enum { SPHDEM_VISC_NONE = 0, SPHDEM_VISC_MORRIS = 1, SPHDEM_VISC_ARTIFICIAL = 2 } sphdem_visc;
+
+/* Physical and numerical parameters (He 2018 §2.1). Plain struct, passed by value to both backends.
+ * Every optional term is off when its coefficient is 0. */
+typedef struct {
+  int dim;              /* 2 or 3; in 2D the z components are ignored and kept at their input value */
+  double h;             /* smoothing length; kernel support is 2h (eq 5) */
+  double dx;            /* initial particle spacing Δp (eq 11, default repulsion distance) */
+  double rho0;          /* reference density */
+  double c0;            /* artificial sound speed: B = c0^2 rho0 / gamma (eqs 7-8) */
+  double gamma;         /* Tait exponent (7) */
+  double gravity[3];    /* body acceleration g (eq 9, eq 14) */
+  int visc;             /* sphdem_visc */
+  double mu;            /* dynamic viscosity for Morris (eq 10) */
+  double alpha;         /* Monaghan artificial viscosity coefficient */
+  double tensile_eps;   /* Monaghan tensile correction coefficient, eq 11 (paper: 0.01); 0 = off */
+  double tensile_n;     /* exponent of eq 11 (paper: 4) */
+  double xsph_eps;      /* XSPH coefficient, eq 12 (paper: 0.3); 0 = off */
+  double rep_D;         /* Monaghan wall repulsion strength (m^2/s^2); 0 = off */
+  double rep_r0;        /* repulsion cut-off distance (default dx) */
+  double skin;          /* gap added to the 2h cell size; resort when a particle moved skin/2 */
+  double cfl;           /* CFL number for the stable time step (0.25) */
+  double rho_err_max;   /* blow-up bound on max |rho/rho0 - 1| (0.2) */
+  double boxlo[3], boxhi[3];
+  int periodic[3];
+} sphdem_params;
+
+/* Global statistics, reduced on the device. */
+typedef struct {
+  int64_t nfluid, nwall;
+  double vmax;          /* max |v| of fluid particles */
+  double amax;          /* max |a| of fluid particles */
+  double rho_err;       /* max |rho/rho0 - 1| */
+  double ke;            /* fluid kinetic energy 1/2 sum m v^2 */
+  double dt_cfl, dt_visc, dt_force, dt_stable; /* stable time step and its three limits */
+  int64_t nnan;         /* particles with a non-finite x, v or rho */
+  int64_t nlost;        /* fluid particles outside a non-periodic box side */
+} sphdem_stats;
+
+/* Wall-clock time spent per phase (seconds, accumulated since create or reset). */
+enum { SPHDEM_T_SORT = 0, SPHDEM_T_WALL, SPHDEM_T_RATES, SPHDEM_T_INTEGRATE,
+       SPHDEM_T_TRANSFER, SPHDEM_T_REDUCE, SPHDEM_NTIMERS };
+
+/* Per-particle rate state carried by the engine between runs and through restarts,
+ * SPHDEM_NSTATE doubles per particle: drho, ax, ay, az, ux, uy, uz (XSPH correction). */
+#define SPHDEM_NSTATE 7
+
+typedef struct sphdem_ctx_s *sphdem_ctx;
+
+/* Fill p with the documented defaults (dim 3, gamma 7, Tait, no optional term). */
+void sphdem_params_default(sphdem_params *p);
+/* Check p; on error return SPHDEM_ERR_ARG and write a message naming the parameter to msg. */
+int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen);
+
+/* Create a context. dev AUTO picks the GPU when one is usable, else the CPU; the reason for a
+ * fallback is kept in sphdem_backend_note(). On failure *out is NULL and msg (if given) says why. */
+int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, char *msg, size_t msglen);
+int sphdem_destroy(sphdem_ctx *ctx);
+
+const char *sphdem_strerror(int code);
+const char *sphdem_last_error(sphdem_ctx ctx);
+int sphdem_backend(sphdem_ctx ctx);          /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
+const char *sphdem_backend_note(sphdem_ctx ctx); /* "" or one line: why AUTO fell back, GPU name */
+int sphdem_gpu_available(void);              /* 1 if the CUDA backend is built and a device is usable */
+
+/* Change parameters that may vary between runs (box, gravity, coefficients); not dim or h. */
+int sphdem_set_params(sphdem_ctx ctx, const sphdem_params *p);
+int sphdem_get_params(sphdem_ctx ctx, sphdem_params *p);
+
+/* Upload the fluid particles. tag[i] > 0 is a unique id (engine atom tag). Arrays are in the
+ * caller's order; x, v are 3n interleaved; state is n*SPHDEM_NSTATE or NULL (rates zero).
+ * If n and the set of tags equal the resident ones, data are replaced in place and the device
+ * order is kept (so a download/upload round trip changes nothing); otherwise the fluid is rebuilt. */
+int sphdem_set_fluid(sphdem_ctx ctx, int n, const int64_t *tag, const double *x, const double *v,
+                     const double *rho, const double *mass, const double *state);
+/* Upload wall (dummy) particles: positions, prescribed velocity, acceleration (NULL = 0), mass. */
+int sphdem_set_walls(sphdem_ctx ctx, int n, const double *x, const double *v, const double *a,
+                     const double *mass);
+/* Download the fluid in the order of the last sphdem_set_fluid call. Any pointer may be NULL. */
+int sphdem_get_fluid(sphdem_ctx ctx, double *x, double *v, double *rho, double *p, double *state);
+
+/* Time stepping (velocity Verlet, kick-drift-kick; forces see the half-step velocity). */
+int sphdem_kick(sphdem_ctx ctx, double dt_half);   /* v += dt/2 a; rho += dt/2 drho */
+int sphdem_drift(sphdem_ctx ctx, double dt);       /* x += dt (v + XSPH); periodic wrap */
+int sphdem_compute_rates(sphdem_ctx ctx);          /* resort if needed; wall state (eqs 13-15); drho, a, XSPH */
+/* Statistics; returns SPHDEM_ERR_NAN / _LOST / _DENSITY (with a message naming the likely cause)
+ * when the state is broken, SPHDEM_OK otherwise. s is filled in either case. dt is the time step
+ * in use: when dt > s->dt_stable it returns SPHDEM_ERR_UNSTABLE. Pass dt = 0 to skip that check. */
+int sphdem_stats_get(sphdem_ctx ctx, double dt, sphdem_stats *s);
+
+/* Number of resorts so far; bytes of device memory held; bytes per fluid particle. */
+int64_t sphdem_nsorts(sphdem_ctx ctx);
+size_t sphdem_device_bytes(sphdem_ctx ctx);
+void sphdem_timers(sphdem_ctx ctx, double t[SPHDEM_NTIMERS]);
+void sphdem_timers_reset(sphdem_ctx ctx);
+
+/* Closed forms shared with the engine shims and tests. */
+double sphdem_tait_B(const sphdem_params *p);
+/* Hydrostatically consistent initial density at depth (zsurf - z) (Tait inverted). */
+double sphdem_hydrostatic_rho(const sphdem_params *p, double depth);
+
+/* Testing hooks: neighbor pairs within 2h found by the cell search (i<j, indices in upload order),
+ * written to pairs (2*maxpairs); returns the pair count or a negative error code. */
+int64_t sphdem_debug_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,127 @@
+/* sphdem_internal.h - core data shared by the context code and both backends (not public). */
+#ifndef SPHDEM_INTERNAL_H
+#define SPHDEM_INTERNAL_H
+
+#include "sphdem.h"
+
+#ifdef __CUDACC__
+#define SPHDEM_HD __host__ __device__ static inline
+#else
+#define SPHDEM_HD static inline
+#endif
+
+/* Cap on the number of cells of the search grid; beyond it cells grow (still >= 2h + skin). */
+#define SPHDEM_MAX_CELLS (1 << 26)
+
+/* Everything a pass needs, passed by value to kernels and by pointer to CPU loops.
+ * Arrays are in device (cell-sorted) order; vectors are interleaved xyz. */
+typedef struct {
+  sphdem_params P;
+  /* derived constants */
+  double B;          /* Tait pressure constant (eq 8 form: c0^2 rho0 / gamma) */
+  double alphaD;     /* Wendland normalisation (eq 5) for the dimension */
+  double h, inv_h, support2;
+  double w_dx_inv;   /* 1 / W(dx) for eq 11 */
+  int gamma_is_7, tensile_n_is_4;
+  /* search grid */
+  double glo[3], cs[3], cs_inv[3], L[3];
+  int nc[3];
+  int64_t ncells;
+  /* fluid */
+  int64_t nf;
+  double *x, *v, *rho, *mass, *drho, *a, *u, *p, *x0;
+  double *rhop, *ve;   /* density and velocity predicted to the force time (velocity Verlet) */
+  double pred_dth;     /* half step used by the prediction; 0 when state is at a full step */
+  int64_t *tag;
+  int32_t *uidx, *cell, *cstart, *cend;
+  /* walls (dummy particles, Adami) */
+  int64_t nw;
+  double *wx, *wv, *wa, *wmass, *wp, *wrho, *wvx;
+  int64_t *wtag;
+  int32_t *wcell, *wcstart, *wcend;
+} sphdem_dev;
+
+/* Reduction record: stats of fluid (or bounding box of walls). */
+typedef struct {
+  double v2max, a2max, rhoerr, ke, disp2max;
+  double lo[3], hi[3];
+  int64_t nnan, nlost;
+} sphdem_red;
+
+/* Which arrays a sort permutes. */
+enum { SPHDEM_SET_FLUID = 0, SPHDEM_SET_WALL = 1 };
+
+/* Backend operations. Each returns SPHDEM_OK or an error code (message set in ctx). */
+struct sphdem_ctx_s;
+typedef struct {
+  const char *name;
+  int (*alloc)(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
+  void (*free)(struct sphdem_ctx_s *c, void *ptr);
+  int (*h2d)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
+  int (*d2h)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
+  int (*memset0)(struct sphdem_ctx_s *c, void *ptr, size_t bytes);
+  int (*d2d)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
+  /* cell of each particle of the set, then c->perm (new slot -> old slot) ordering by (cell, tag);
+   * leaves the cell array permuted (sorted) */
+  int (*sort_perm)(struct sphdem_ctx_s *c, int set);
+  /* arr[i] = arr[perm[i]] for n elements of elem_bytes (multiple of 4), through scratch */
+  int (*gather)(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t n);
+  /* cell start/end tables of the set from its sorted cell array */
+  int (*cell_ranges)(struct sphdem_ctx_s *c, int set);
+  int (*pressure)(struct sphdem_ctx_s *c);
+  int (*wall_state)(struct sphdem_ctx_s *c);
+  int (*rates)(struct sphdem_ctx_s *c);
+  int (*kick)(struct sphdem_ctx_s *c, double dth);
+  int (*drift)(struct sphdem_ctx_s *c, double dt);
+  int (*reduce)(struct sphdem_ctx_s *c, int set, sphdem_red *out);
+  int (*sync)(struct sphdem_ctx_s *c);
+} sphdem_ops;
+
+struct sphdem_ctx_s {
+  sphdem_dev D;
+  const sphdem_ops *ops;
+  int backend;                  /* SPHDEM_DEVICE_CPU / _GPU */
+  char note[256];
+  char err[1024];
+  size_t bytes;                 /* device bytes held */
+  int64_t cap_f, cap_w;         /* allocated capacities */
+  int64_t cap_cells;
+  int need_sort, need_wall_sort;
+  int64_t nsorts;
+  int have_rates;
+  int half_kicked;              /* between the two half kicks of a step */
+  double timers[SPHDEM_NTIMERS];
+  /* scratch device buffers used by sorts/gathers (capacity max(cap_f, cap_w)) */
+  int64_t cap_scratch;
+  int32_t *perm;
+  double *scratch_d;            /* 3 * cap doubles */
+  int64_t *scratch_i;           /* cap int64 (keys on the GPU, tags on the CPU) */
+  /* host staging (in the caller's order / device order) */
+  int64_t cap_host;
+  double *hbuf;                 /* 3 * cap */
+  int64_t *htag;                /* device-order tags mirror */
+  int32_t *huidx;
+  int host_tags_valid;
+  int64_t *hmap;                /* tag -> caller index scratch */
+  int64_t hmap_len;
+  void *backend_data;
+};
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+/* Set the context error message (printf-style); returns code. */
+int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
+
+extern const sphdem_ops sphdem_cpu_ops;
+#ifdef SPHDEM_WITH_CUDA
+extern const sphdem_ops sphdem_cuda_ops;
+int sphdem_cuda_probe(char *msg, size_t msglen);
+int sphdem_cuda_init(struct sphdem_ctx_s *c);
+void sphdem_cuda_fini(struct sphdem_ctx_s *c);
+#endif
+#ifdef __cplusplus
+}
+#endif
+
+#endif
