@@ -1,0 +1,532 @@
+/* fix_sph_fluid.cpp - fix sph/fluid: parses keywords into sphdem_params, keeps the fluid atoms on the
+ * device between steps (DESIGN.md §3), downloads them only when the engine reads them. No physics here. */
+#include "fix_sph_fluid.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "group.h"
+#include "memory.h"
+#include "modify.h"
+#include "output.h"
+#include "sphdem_compat.h"
+#include "update.h"
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+const char *const SYNTAX =
+    "fix ID group sph/fluid rho0 V h V c0 V [dx V] [gamma V] [gravity gx gy gz] "
+    "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [repulsion D [R0]] "
+    "[wall GROUP-ID] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
+    "[hydrostatic ZSURF]";
+const char *const KEYWORDS =
+    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, repulsion, wall, skin, cfl, rho_err_max, "
+    "device, sync, check, hydrostatic";
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+/* ---------------------------------------------------------------------------------------------- */
+
+FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
+    : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), ctx_(nullptr), wall_igroup_(-1),
+      wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), zsurf_(0.0),
+      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false),
+      sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
+  std::memset(&stats_, 0, sizeof stats_);
+  parse_args(narg, arg);
+
+  time_integrate = 1;
+  force_reneighbor = 1;
+  next_reneighbor = -1;
+  nevery = 1;
+  peratom_flag = 1;
+  size_peratom_cols = 2;
+  peratom_freq = 1;
+  vector_flag = 1;
+  size_vector = 4;
+  global_freq = 1;
+  extvector = 0;
+  restart_peratom = 1;
+  create_attribute = 1;
+
+  grow_arrays(atom->nmax);
+  atom->add_callback(0);
+  atom->add_callback(1);
+}
+
+FixSPHFluid::~FixSPHFluid() {
+  atom->delete_callback(id, 0);
+  atom->delete_callback(id, 1);
+  memory->destroy(sa_);
+  sphdem_destroy(&ctx_);
+}
+
+int FixSPHFluid::setmask() {
+  return INITIAL_INTEGRATE | POST_FORCE | FINAL_INTEGRATE | END_OF_STEP | PRE_EXCHANGE | PRE_NEIGHBOR |
+         POST_RUN;
+}
+
+void FixSPHFluid::fail(const std::string &msg) {
+  sphdem_compat::error_all(error, FLERR, std::string("Fix sph/fluid: ") + msg);
+}
+
+/* Every non-OK core code ends the run with the core's message. */
+void FixSPHFluid::check(int rc, const char *what) {
+  if (rc == SPHDEM_OK) return;
+  fail(std::string(what) + ": " + sphdem_last_error(ctx_) + " (" + sphdem_strerror(rc) + ")");
+}
+
+/* ---- arguments --------------------------------------------------------------------------------- */
+
+double FixSPHFluid::parse_number(const char *kw, const char *s, const char *usage) {
+  double v;
+  if (!sphdem_compat::to_double(s, &v))
+    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
+  return v;
+}
+
+void FixSPHFluid::parse_args(int narg, char **arg) {
+  sphdem_params_default(&prm_);
+  prm_.dim = domain->dimension;
+  if (domain->triclinic) fail("triclinic boxes are not supported");
+  bool have_rho0 = false, have_h = false, have_c0 = false, have_dx = false, have_skin = false;
+  bool have_r0 = false;
+
+  int iarg = 3;
+  /* a keyword needs n values after it */
+  auto need = [&](int n, const char *usage) {
+    if (iarg + n >= narg) fail(std::string("missing value(s) for ") + arg[iarg] + " (usage: " + usage + ")");
+  };
+  /* an optional trailing number after the required values */
+  auto optional_number = [&](int pos, double *out) {
+    return pos < narg && sphdem_compat::to_double(arg[pos], out);
+  };
+
+  while (iarg < narg) {
+    const std::string kw = arg[iarg];
+    if (kw == "rho0" || kw == "h" || kw == "c0" || kw == "dx" || kw == "gamma" || kw == "skin" ||
+        kw == "cfl" || kw == "rho_err_max" || kw == "xsph" || kw == "hydrostatic") {
+      const std::string usage = kw + (kw == "hydrostatic" ? " ZSURF" : kw == "xsph" ? " EPS" : " V");
+      need(1, usage.c_str());
+      double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
+      if (kw == "rho0") prm_.rho0 = v, have_rho0 = true;
+      else if (kw == "h") prm_.h = v, have_h = true;
+      else if (kw == "c0") prm_.c0 = v, have_c0 = true;
+      else if (kw == "dx") prm_.dx = v, have_dx = true;
+      else if (kw == "gamma") prm_.gamma = v;
+      else if (kw == "skin") prm_.skin = v, have_skin = true;
+      else if (kw == "cfl") prm_.cfl = v;
+      else if (kw == "rho_err_max") prm_.rho_err_max = v;
+      else if (kw == "xsph") prm_.xsph_eps = v;
+      else hydrostatic_ = true, zsurf_ = v;
+      iarg += 2;
+    } else if (kw == "gravity") {
+      const char *usage = "gravity gx gy gz";
+      need(3, usage);
+      for (int d = 0; d < 3; d++) prm_.gravity[d] = parse_number("gravity", arg[iarg + 1 + d], usage);
+      iarg += 4;
+    } else if (kw == "visc") {
+      const char *usage = "visc none | morris MU | artificial ALPHA";
+      if (iarg + 1 >= narg) fail("visc must be none, morris MU or artificial ALPHA");
+      const std::string model = arg[iarg + 1];
+      if (model == "none") {
+        prm_.visc = SPHDEM_VISC_NONE;
+        iarg += 2;
+      } else if (model == "morris" || model == "artificial") {
+        need(2, usage);
+        double v = parse_number(model == "morris" ? "visc morris" : "visc artificial", arg[iarg + 2], usage);
+        if (model == "morris") prm_.visc = SPHDEM_VISC_MORRIS, prm_.mu = v;
+        else prm_.visc = SPHDEM_VISC_ARTIFICIAL, prm_.alpha = v;
+        iarg += 3;
+      } else {
+        fail("visc must be none, morris MU or artificial ALPHA (got '" + model + "')");
+      }
+    } else if (kw == "tensile") {
+      const char *usage = "tensile EPS [N]";
+      need(1, usage);
+      prm_.tensile_eps = parse_number("tensile", arg[iarg + 1], usage);
+      iarg += 2;
+      double n;
+      if (optional_number(iarg, &n)) prm_.tensile_n = n, iarg++;
+    } else if (kw == "repulsion") {
+      const char *usage = "repulsion D [R0]";
+      need(1, usage);
+      prm_.rep_D = parse_number("repulsion", arg[iarg + 1], usage);
+      iarg += 2;
+      double r0;
+      if (optional_number(iarg, &r0)) prm_.rep_r0 = r0, have_r0 = true, iarg++;
+    } else if (kw == "wall") {
+      need(1, "wall GROUP-ID");
+      wall_group_ = arg[iarg + 1];
+      wall_igroup_ = sphdem_compat::find_group(group, arg[iarg + 1]);
+      if (wall_igroup_ < 0) fail("wall group '" + wall_group_ + "' does not exist (usage: wall GROUP-ID)");
+      wall_groupbit_ = group->bitmask[wall_igroup_];
+      iarg += 2;
+    } else if (kw == "device") {
+      if (iarg + 1 >= narg) fail("device must be auto, cpu or gpu");
+      const std::string d = arg[iarg + 1];
+      if (d == "auto") device_ = SPHDEM_DEVICE_AUTO;
+      else if (d == "cpu") device_ = SPHDEM_DEVICE_CPU;
+      else if (d == "gpu") device_ = SPHDEM_DEVICE_GPU;
+      else fail("device must be auto, cpu or gpu (got '" + d + "')");
+      iarg += 2;
+    } else if (kw == "sync" || kw == "check") {
+      const std::string usage = kw + " N";
+      need(1, usage.c_str());
+      long n;
+      if (!sphdem_compat::to_int(arg[iarg + 1], &n) || n < 0)
+        fail(kw + " expects an integer N >= 0, got '" + arg[iarg + 1] + "' (usage: " + usage + ")");
+      (kw == "sync" ? sync_every_ : check_every_) = n;
+      iarg += 2;
+    } else {
+      fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
+    }
+  }
+
+  if (!have_rho0 || !have_h || !have_c0) {
+    std::string missing;
+    if (!have_rho0) missing += " rho0";
+    if (!have_h) missing += " h";
+    if (!have_c0) missing += " c0";
+    fail("missing required keyword(s):" + missing + " (syntax: " + SYNTAX + ")");
+  }
+  if (!have_dx) prm_.dx = prm_.h / 1.3;
+  if (!have_skin) prm_.skin = 0.3 * prm_.dx;
+  if (prm_.rep_D > 0 && !have_r0) prm_.rep_r0 = prm_.dx;
+  if (hydrostatic_ && prm_.gravity[0] == 0 && prm_.gravity[1] == 0 && prm_.gravity[2] == 0)
+    fail("hydrostatic ZSURF needs a non-zero gravity (gravity gx gy gz)");
+  if (wall_igroup_ == igroup) fail("the wall group must differ from the fluid group");
+
+  box_to_params();
+  char msg[512];
+  if (sphdem_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+}
+
+void FixSPHFluid::box_to_params() {
+  for (int d = 0; d < 3; d++) {
+    prm_.boxlo[d] = domain->boxlo[d];
+    prm_.boxhi[d] = domain->boxhi[d];
+    prm_.periodic[d] = domain->periodicity[d];
+  }
+}
+
+/* ---- run set-up ---------------------------------------------------------------------------------- */
+
+void FixSPHFluid::init() {
+  if (comm->nprocs > 1)
+    fail("running on more than one MPI rank is not supported yet (use mpirun -np 1)");
+  if (!atom->rmass_flag && !atom->mass)
+    fail("the atom style must define a per-atom mass (rmass) or per-type masses");
+  if (update->dt <= 0) fail("the timestep must be > 0");
+
+  const int nlocal = atom->nlocal;
+  const int *mask = atom->mask;
+  int overlap = 0;
+  for (int i = 0; i < nlocal && wall_groupbit_; i++)
+    if ((mask[i] & groupbit) && (mask[i] & wall_groupbit_)) overlap = 1;
+  int any = 0;
+  MPI_Allreduce(&overlap, &any, 1, MPI_INT, MPI_MAX, world);
+  if (any)
+    fail(std::string("the wall group ") + wall_group_ + " overlaps the fluid group " + group->names[igroup] +
+         "; an atom is either fluid or wall");
+
+  /* another integrator on fluid atoms is an error; one on wall atoms means the walls move */
+  walls_move_ = false;
+  for (int k = 0; k < modify->nfix; k++) {
+    Fix *f = modify->fix[k];
+    if (f == this || !f->time_integrate) continue;
+    int hit[2] = {0, 0}, all[2];
+    for (int i = 0; i < nlocal; i++) {
+      if (!(mask[i] & f->groupbit)) continue;
+      if (mask[i] & groupbit) hit[0] = 1;
+      if (mask[i] & wall_groupbit_) hit[1] = 1;
+    }
+    MPI_Allreduce(hit, all, 2, MPI_INT, MPI_MAX, world);
+    if (all[0])
+      fail(std::string("integrates its own group; fix ") + f->id + " (style " + f->style +
+           ") also integrates atoms of group " + group->names[f->igroup]);
+    if (all[1]) walls_move_ = true;
+  }
+}
+
+void FixSPHFluid::setup_pre_neighbor() {
+  /* setup() follows in the same run set-up and rebuilds the mapping and uploads everything */
+  mapping_dirty_ = true;
+}
+
+void FixSPHFluid::setup(int) {
+  box_to_params();
+  if (!ctx_) {
+    char msg[512] = "";
+    int rc = sphdem_create(&ctx_, &prm_, device_, msg, sizeof msg);
+    if (rc != SPHDEM_OK) fail(std::string(msg) + " (" + sphdem_strerror(rc) + ")");
+  } else {
+    check(sphdem_set_params(ctx_, &prm_), "set_params");
+  }
+
+  build_map();
+  upload_walls(false);
+  upload_fluid();          /* computes the rates when the per-atom state was not valid */
+  host_current_ = false;
+  download();              /* host rho, p and state columns now match the device */
+
+  sphdem_stats s;
+  int rc = sphdem_stats_get(ctx_, update->dt, &s);
+  if (rc != SPHDEM_OK) fail(sphdem_last_error(ctx_));
+  stats_ = s;
+  stats_step_ = update->ntimestep;
+
+  if (comm->me == 0 && !announced_) {
+    const char *note = sphdem_backend_note(ctx_);
+    const size_t n = fidx_.size();
+    char line[768];
+    snprintf(line, sizeof line,
+             "Fix sph/fluid: %s backend%s%s%s; %zu fluid + %zu wall particles; %.0f device bytes per fluid "
+             "particle; stable dt %g (timestep %g)\n",
+             sphdem_backend(ctx_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU", *note ? " (" : "", note,
+             *note ? ")" : "", n, widx_.size(), n ? (double)sphdem_device_bytes(ctx_) / (double)n : 0.0,
+             s.dt_stable, update->dt);
+    sphdem_compat::logmesg(lmp, line);
+    announced_ = true;
+  }
+  run_step0_ = update->ntimestep;
+  run_t0_ = wall_seconds();
+}
+
+/* ---- mapping and transfers -------------------------------------------------------------------------- */
+
+void FixSPHFluid::build_map() {
+  const int nlocal = atom->nlocal;
+  const int *mask = atom->mask;
+  fidx_.clear();
+  widx_.clear();
+  for (int i = 0; i < nlocal; i++) {
+    if (mask[i] & groupbit) fidx_.push_back(i);
+    else if (mask[i] & wall_groupbit_) widx_.push_back(i);
+  }
+  mapping_dirty_ = false;
+}
+
+static double atom_mass(Atom *atom, int i) { return atom->rmass ? atom->rmass[i] : atom->mass[atom->type[i]]; }
+
+/* Upload the fluid from the host. rho and state come from the per-atom array where it is valid
+ * (an earlier run or a restart); otherwise rho is rho0 (or hydrostatic) and the rates are computed. */
+void FixSPHFluid::upload_fluid() {
+  const size_t n = fidx_.size();
+  double **x = atom->x, **v = atom->v;
+  ftag_.resize(n);
+  fx_.resize(3 * n);
+  fv_.resize(3 * n);
+  frho_.resize(n);
+  fmass_.resize(n);
+  fstate_.resize(SPHDEM_NSTATE * n);
+
+  int axis = 0;
+  for (int d = 1; d < 3; d++)
+    if (std::fabs(prm_.gravity[d]) > std::fabs(prm_.gravity[axis])) axis = d;
+  const double down_sign = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* depth grows against gravity */
+
+  bool all_valid = true;
+  for (size_t k = 0; k < n; k++) {
+    const int i = fidx_[k];
+    ftag_[k] = (int64_t)atom->tag[i];
+    for (int d = 0; d < 3; d++) fx_[3 * k + d] = x[i][d], fv_[3 * k + d] = v[i][d];
+    fmass_[k] = atom_mass(atom, i);
+    if (sa_[i][C_VALID] > 0) {
+      frho_[k] = sa_[i][C_RHO];
+      for (int s = 0; s < SPHDEM_NSTATE; s++) fstate_[SPHDEM_NSTATE * k + s] = sa_[i][C_STATE + s];
+    } else {
+      all_valid = false;
+      const double depth = down_sign * (zsurf_ - x[i][axis]);
+      frho_[k] = hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, std::max(depth, 0.0)) : prm_.rho0;
+    }
+  }
+  check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
+                         all_valid ? fstate_.data() : nullptr),
+        "set_fluid");
+  if (!all_valid) {
+    check(sphdem_compute_rates(ctx_), "compute_rates");
+    host_current_ = false;
+  }
+}
+
+/* Upload the wall particles (host-authoritative). Each step for moving walls: acceleration is the
+ * finite difference of the wall velocity over dt, the previous velocity kept in the per-atom array. */
+void FixSPHFluid::upload_walls(bool each_step) {
+  const size_t n = widx_.size();
+  double **x = atom->x, **v = atom->v;
+  wx_.resize(3 * n);
+  wv_.resize(3 * n);
+  wa_.resize(3 * n);
+  wmass_.resize(n);
+  const double inv_dt = 1.0 / update->dt;
+  for (size_t k = 0; k < n; k++) {
+    const int i = widx_[k];
+    wmass_[k] = atom_mass(atom, i);
+    for (int d = 0; d < 3; d++) {
+      wx_[3 * k + d] = x[i][d];
+      wv_[3 * k + d] = v[i][d];
+      wa_[3 * k + d] = each_step ? (v[i][d] - sa_[i][C_WALLV + d]) * inv_dt : 0.0;
+      sa_[i][C_WALLV + d] = v[i][d];
+    }
+  }
+  check(sphdem_set_walls(ctx_, (int)n, wx_.data(), wv_.data(), wa_.data(), wmass_.data()), "set_walls");
+}
+
+/* Device -> host: x, v and the per-atom columns of the fluid, in the order of the last upload. */
+void FixSPHFluid::download() {
+  if (host_current_ || !ctx_) return;
+  const size_t n = fidx_.size();
+  fx_.resize(3 * n);
+  fv_.resize(3 * n);
+  frho_.resize(n);
+  fp_.resize(n);
+  fstate_.resize(SPHDEM_NSTATE * n);
+  check(sphdem_get_fluid(ctx_, fx_.data(), fv_.data(), frho_.data(), fp_.data(), fstate_.data()), "get_fluid");
+  double **x = atom->x, **v = atom->v;
+  for (size_t k = 0; k < n; k++) {
+    const int i = fidx_[k];
+    for (int d = 0; d < 3; d++) x[i][d] = fx_[3 * k + d], v[i][d] = fv_[3 * k + d];
+    sa_[i][C_RHO] = frho_[k];
+    sa_[i][C_P] = fp_[k];
+    for (int s = 0; s < SPHDEM_NSTATE; s++) sa_[i][C_STATE + s] = fstate_[SPHDEM_NSTATE * k + s];
+    sa_[i][C_VALID] = 1.0;
+  }
+  host_current_ = true;
+}
+
+/* ---- time step ---------------------------------------------------------------------------------------- */
+
+void FixSPHFluid::initial_integrate(int) {
+  host_current_ = false;
+  check(sphdem_kick(ctx_, 0.5 * update->dt), "kick");
+  check(sphdem_drift(ctx_, update->dt), "drift");
+}
+
+void FixSPHFluid::post_force(int) {
+  if (walls_move_) upload_walls(true);
+  check(sphdem_compute_rates(ctx_), "compute_rates");
+  host_current_ = false;
+}
+
+void FixSPHFluid::final_integrate() {
+  check(sphdem_kick(ctx_, 0.5 * update->dt), "kick");
+  host_current_ = false;
+  const bigint step = update->ntimestep;
+  if ((check_every_ > 0 && step % check_every_ == 0) || step == update->laststep) {
+    int rc = sphdem_stats_get(ctx_, update->dt, &stats_);
+    stats_step_ = step;
+    if (rc != SPHDEM_OK) {
+      const std::string msg = sphdem_last_error(ctx_);
+      download(); /* keep the user's data on the host before stopping */
+      fail(msg);
+    }
+  }
+}
+
+bool FixSPHFluid::output_step() const {
+  const bigint step = update->ntimestep;
+  return step == output->next || (sync_every_ > 0 && step % sync_every_ == 0);
+}
+
+void FixSPHFluid::end_of_step() {
+  if (output_step()) download();
+}
+
+void FixSPHFluid::pre_exchange() { download(); }
+
+void FixSPHFluid::pre_neighbor() {
+  /* atoms were exchanged and maybe sorted: new local indices; the box may have changed */
+  box_to_params();
+  check(sphdem_set_params(ctx_, &prm_), "set_params");
+  build_map();
+  upload_fluid();
+  if (!walls_move_) upload_walls(false); /* moving walls are uploaded in post_force anyway */
+}
+
+void FixSPHFluid::post_run() { download(); }
+
+/* ---- output ------------------------------------------------------------------------------------------ */
+
+double FixSPHFluid::compute_vector(int n) {
+  if (!ctx_) return 0.0;
+  if (stats_step_ != update->ntimestep) {
+    sphdem_stats_get(ctx_, 0.0, &stats_); /* errors are reported by the periodic check */
+    stats_step_ = update->ntimestep;
+  }
+  switch (n) {
+    case 0: return stats_.dt_stable;
+    case 1: return stats_.rho_err;
+    case 2: return stats_.ke;
+    case 3: {
+      const double dt_wall = wall_seconds() - run_t0_;
+      const double steps = (double)(update->ntimestep - run_step0_);
+      return dt_wall > 0 ? steps * (double)stats_.nfluid / dt_wall : 0.0;
+    }
+  }
+  return 0.0;
+}
+
+double FixSPHFluid::memory_usage() {
+  return (double)atom->nmax * NCOL * sizeof(double) +
+         (double)(fx_.capacity() + fv_.capacity() + frho_.capacity() + fp_.capacity() + fmass_.capacity() +
+                  fstate_.capacity() + wx_.capacity() + wv_.capacity() + wa_.capacity() + wmass_.capacity()) *
+             sizeof(double);
+}
+
+/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
+
+void FixSPHFluid::grow_arrays(int nmax) {
+  memory->grow(sa_, nmax, NCOL, "sph/fluid:sa");
+  for (int i = std::min(nmax_, nmax); i < nmax; i++)
+    for (int c = 0; c < NCOL; c++) sa_[i][c] = 0.0;
+  nmax_ = nmax;
+  array_atom = sa_;
+}
+
+void FixSPHFluid::copy_arrays(int i, int j, int) {
+  for (int c = 0; c < NCOL; c++) sa_[j][c] = sa_[i][c];
+}
+
+void FixSPHFluid::set_arrays(int i) {
+  for (int c = 0; c < NCOL; c++) sa_[i][c] = 0.0;
+}
+
+int FixSPHFluid::pack_exchange(int i, double *buf) {
+  for (int c = 0; c < NCOL; c++) buf[c] = sa_[i][c];
+  return NCOL;
+}
+
+int FixSPHFluid::unpack_exchange(int nlocal, double *buf) {
+  for (int c = 0; c < NCOL; c++) sa_[nlocal][c] = buf[c];
+  return NCOL;
+}
+
+int FixSPHFluid::pack_restart(int i, double *buf) {
+  buf[0] = NCOL + 1;
+  for (int c = 0; c < NCOL; c++) buf[c + 1] = sa_[i][c];
+  return NCOL + 1;
+}
+
+void FixSPHFluid::unpack_restart(int nlocal, int nth) {
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
+  m++;
+  for (int c = 0; c < NCOL; c++) sa_[nlocal][c] = extra[nlocal][m++];
+}
+
+int FixSPHFluid::size_restart(int) { return NCOL + 1; }
+
+int FixSPHFluid::maxsize_restart() { return NCOL + 1; }

@@ -1,0 +1,92 @@
+/* fix_sph_fluid.h - fix sph/fluid: the engine side of the sphdem SPH fluid (parse, map atoms, call sphdem.h). */
+#ifdef FIX_CLASS
+FixStyle(sph/fluid,FixSPHFluid)
+#else
+
+#ifndef SPHDEM_FIX_SPH_FLUID_H
+#define SPHDEM_FIX_SPH_FLUID_H
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "fix.h"
+#include "sphdem.h"
+
+namespace LAMMPS_NS {
+
+class FixSPHFluid : public Fix {
+ public:
+  FixSPHFluid(class LAMMPS *, int, char **);
+  ~FixSPHFluid() override;
+  int setmask() override;
+  void init() override;
+  void setup_pre_neighbor() override;
+  void setup(int) override;
+  void initial_integrate(int) override;
+  void post_force(int) override;
+  void final_integrate() override;
+  void end_of_step() override;
+  void pre_exchange() override;
+  void pre_neighbor() override;
+  void post_run() override;
+  double compute_vector(int) override;
+  double memory_usage() override;
+
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+
+ private:
+  /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, then state kept for restarts */
+  enum { C_RHO = 0, C_P = 1, C_STATE = 2, C_WALLV = C_STATE + SPHDEM_NSTATE, C_VALID = C_WALLV + 3, NCOL };
+
+  sphdem_params prm_;
+  sphdem_device device_;
+  sphdem_ctx ctx_;
+  int wall_igroup_, wall_groupbit_;
+  std::string wall_group_;
+  long sync_every_, check_every_;
+  bool hydrostatic_;
+  double zsurf_;
+  bool walls_move_;
+  bool host_current_;   /* host x, v, rho, p, state of the fluid equal the device copy */
+  bool mapping_dirty_;
+  bool announced_;
+
+  double **sa_;         /* per-atom array, NCOL columns */
+  int nmax_;            /* rows allocated in sa_ */
+
+  /* local indices of fluid and wall atoms in upload order, and the staging buffers */
+  std::vector<int> fidx_, widx_;
+  std::vector<int64_t> ftag_;
+  std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_;
+  std::vector<double> wx_, wv_, wa_, wmass_;
+
+  sphdem_stats stats_;
+  bigint stats_step_;
+  bigint run_step0_;
+  double run_t0_;
+
+  [[noreturn]] void fail(const std::string &msg);
+  void check(int rc, const char *what);
+  double parse_number(const char *kw, const char *s, const char *usage);
+  void parse_args(int, char **);
+  void box_to_params();
+  void build_map();
+  void upload_fluid();
+  void upload_walls(bool each_step);
+  void download();
+  bool output_step() const;
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
+#endif

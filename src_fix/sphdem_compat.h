@@ -1,0 +1,160 @@
+/* sphdem_compat.h - every LAMMPS vs LIGGGHTS API difference the sphdem shims meet (ENGINES.md).
+ * The shim sources are compiled twice, with -DSPHDEM_ENGINE_LAMMPS or -DSPHDEM_ENGINE_LIGGGHTS;
+ * nothing outside this header may test those macros. */
+#ifndef SPHDEM_COMPAT_H
+#define SPHDEM_COMPAT_H
+
+#if defined(SPHDEM_ENGINE_LAMMPS) == defined(SPHDEM_ENGINE_LIGGGHTS)
+#error "define exactly one of SPHDEM_ENGINE_LAMMPS and SPHDEM_ENGINE_LIGGGHTS"
+#endif
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+
+/* The fmt stand-in (src_fix/fmt_standin) only declares what the LAMMPS headers name. */
+#include "error.h"
+#include "fix.h"
+#include "force.h"
+#include "group.h"
+#include "lammps.h"
+#include "modify.h"
+#include "pointers.h"
+#ifdef SPHDEM_ENGINE_LAMMPS
+#include "utils.h"
+#endif
+
+namespace sphdem_compat {
+
+#ifdef SPHDEM_ENGINE_LAMMPS
+constexpr const char *engine_name = "LAMMPS";
+#else
+constexpr const char *engine_name = "LIGGGHTS";
+#endif
+
+/* Errors. LAMMPS: only the std::string overloads exist without fmt (a string literal would pick
+ * the fmt template). LIGGGHTS: const char * only, and Error::all is not marked noreturn. */
+[[noreturn]] inline void error_all(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  e->all(std::string(file), line, msg);
+#else
+  e->all(file, line, msg.c_str());
+  std::exit(1); /* not reached: LIGGGHTS' Error::all ends the run */
+#endif
+}
+
+[[noreturn]] inline void error_one(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  e->one(std::string(file), line, msg);
+#else
+  e->one(file, line, msg.c_str());
+  std::exit(1);
+#endif
+}
+
+inline void warning(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  e->warning(std::string(file), line, msg);
+#else
+  e->warning(file, line, msg.c_str());
+#endif
+}
+
+/* One message to screen and log file (call on rank 0). */
+inline void logmesg(LAMMPS_NS::LAMMPS *lmp, const std::string &msg) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  LAMMPS_NS::utils::logmesg(lmp, msg);
+#else
+  if (lmp->screen) fputs(msg.c_str(), lmp->screen);
+  if (lmp->logfile) fputs(msg.c_str(), lmp->logfile);
+#endif
+}
+
+/* The engine's own number parser (ends the run with the engine's generic message on bad input). */
+inline double numeric(LAMMPS_NS::LAMMPS *lmp, const char *file, int line, const char *s) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  return LAMMPS_NS::utils::numeric(file, line, s, false, lmp);
+#else
+  return lmp->force->numeric(file, line, s);
+#endif
+}
+
+/* Strict parser for keyword values, so the caller can name the keyword in its message:
+ * true when all of s is one finite number. */
+inline bool to_double(const char *s, double *out) {
+  if (!s || !*s) return false;
+  char *end = nullptr;
+  errno = 0;
+  double v = std::strtod(s, &end);
+  if (errno != 0 || *end != '\0' || !std::isfinite(v)) return false;
+  *out = v;
+  return true;
+}
+
+inline bool to_int(const char *s, long *out) {
+  if (!s || !*s) return false;
+  char *end = nullptr;
+  errno = 0;
+  long v = std::strtol(s, &end, 10);
+  if (errno != 0 || *end != '\0') return false;
+  *out = v;
+  return true;
+}
+
+inline int find_group(LAMMPS_NS::Group *g, const char *name) { return g->find(name); }
+
+/* Style registration. Modify::fix_map is public in LAMMPS and private in LIGGGHTS; there the
+ * pointer-to-member comes from an explicit instantiation, where access checks do not apply
+ * ([temp.explicit]). The creator signature is the same in both engines. */
+typedef LAMMPS_NS::Fix *(*FixCreator)(LAMMPS_NS::LAMMPS *, int, char **);
+typedef std::map<std::string, FixCreator> FixCreatorMap;
+
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+namespace detail {
+struct ModifyFixMapTag {
+  typedef FixCreatorMap *LAMMPS_NS::Modify::*type;
+  friend type member_of(ModifyFixMapTag);
+};
+template <typename Tag, typename Tag::type M> struct Expose {
+  friend typename Tag::type member_of(Tag) { return M; }
+};
+template struct Expose<ModifyFixMapTag, &LAMMPS_NS::Modify::fix_map>;
+}  // namespace detail
+#endif
+
+inline FixCreatorMap *fix_map(LAMMPS_NS::Modify *modify) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  return modify->fix_map;
+#else
+  return modify->*member_of(detail::ModifyFixMapTag());
+#endif
+}
+
+template <typename T> LAMMPS_NS::Fix *fix_creator(LAMMPS_NS::LAMMPS *lmp, int narg, char **arg) {
+  return new T(lmp, narg, arg);
+}
+
+}  // namespace sphdem_compat
+
+/* Fix methods whose signatures differ. Declare them in a class body with these macros and
+ * implement the engine-neutral sphdem_* methods they forward to. */
+#ifdef SPHDEM_ENGINE_LAMMPS
+#define SPHDEM_RESTART_FILE_ARG const char *
+#define SPHDEM_FORWARD_COMM_METHODS                                                            \
+  int pack_forward_comm(int n, int *list, double *buf, int pbc_flag, int *pbc) override {      \
+    return sphdem_pack_forward(n, list, buf, pbc_flag, pbc);                                   \
+  }                                                                                            \
+  void unpack_forward_comm(int n, int first, double *buf) override { sphdem_unpack_forward(n, first, buf); }
+#else
+#define SPHDEM_RESTART_FILE_ARG char *
+#define SPHDEM_FORWARD_COMM_METHODS                                                            \
+  int pack_comm(int n, int *list, double *buf, int pbc_flag, int *pbc) override {              \
+    return sphdem_pack_forward(n, list, buf, pbc_flag, pbc);                                   \
+  }                                                                                            \
+  void unpack_comm(int n, int first, double *buf) override { sphdem_unpack_forward(n, first, buf); }
+#endif
+
+#endif

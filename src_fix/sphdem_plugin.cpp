@@ -1,0 +1,42 @@
+/* sphdem_plugin.cpp - lammpsplugin_init entry of sphdemplugin.so for LAMMPS builds with the PLUGIN
+ * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package and ships no
+ * lammpsplugin.h, so the documented plugin record is declared here. */
+#include "fix_sph_fluid.h"
+#include "lammps.h"
+#include "sphdem.h"
+
+extern "C" {
+typedef void *(lammpsplugin_factory1)(void *);
+typedef void *(lammpsplugin_factory2)(void *, int, char **);
+typedef struct {
+  const char *version;
+  const char *style;
+  const char *name;
+  const char *info;
+  const char *author;
+  union {
+    lammpsplugin_factory1 *v1;
+    lammpsplugin_factory2 *v2;
+  } creator;
+  void *handle;
+} lammpsplugin_t;
+typedef void (*lammpsplugin_regfunc)(lammpsplugin_t *, void *);
+}
+
+static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
+  return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+}
+
+/* One registration per style; add later sphdem styles here as in sphdem_register.cpp. */
+extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
+  lammpsplugin_regfunc register_plugin = (lammpsplugin_regfunc)regfunc;
+  lammpsplugin_t plugin;
+  plugin.version = static_cast<LAMMPS_NS::LAMMPS *>(lmp)->version; /* built for this LAMMPS */
+  plugin.style = "fix";
+  plugin.name = "sph/fluid";
+  plugin.info = "sphdem " SPHDEM_VERSION " SPH fluid on CPU or GPU";
+  plugin.author = "sphdem developers";
+  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_fluid_creator;
+  plugin.handle = handle;
+  (*register_plugin)(&plugin, lmp);
+}

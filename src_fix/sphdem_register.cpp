@@ -1,0 +1,15 @@
+/* sphdem_register.cpp - the one place that lists the sphdem styles; add later styles here
+ * (fix sph/couple, pair gran/gpu, compute sph/probe). */
+#include "sphdem_register.h"
+
+#include "fix_sph_fluid.h"
+#include "lammps.h"
+#include "modify.h"
+#include "sphdem_compat.h"
+
+using namespace LAMMPS_NS;
+
+void sphdem_register_styles(LAMMPS *lmp) {
+  sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
+  fixes["sph/fluid"] = &sphdem_compat::fix_creator<FixSPHFluid>;
+}
