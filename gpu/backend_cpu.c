@@ -5,6 +5,8 @@
 #include "sph_bodies.h"
 #include "sphdem_internal.h"
 
+#define TRY_CPU(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
+
 static int cpu_alloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
   *ptr = malloc(bytes);
   if (!*ptr) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of host memory", bytes);
@@ -96,7 +98,47 @@ static int cpu_wall_state(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
+/* CSR neighbour lists within 2h + skin, rebuilt after each sort: the rates pass then checks ~3x
+ * (2D) to ~6x (3D) fewer candidates than the 3^dim-cell walk. */
+static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_t eb) {
+  if (n <= *cap) return SPHDEM_OK;
+  int64_t m = n + n / 4 + 16;
+  void *q = realloc(*p, (size_t)m * eb);
+  if (!q) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate a neighbour list of %lld entries", (long long)m);
+  c->bytes += (size_t)(m - *cap) * eb;
+  *p = q;
+  *cap = m;
+  return SPHDEM_OK;
+}
+
+static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
+  sphdem_dev *D = &c->D;
+  int64_t n = D->nf, *st;
+  if (set == 0) {
+    int64_t cap = c->nls_cap;
+    if (grow(c, (void **)&D->nl_start, &cap, n + 1, sizeof(int64_t))) return SPHDEM_ERR_ALLOC;
+    int64_t cap2 = c->nls_cap;
+    if (grow(c, (void **)&D->wl_start, &cap2, n + 1, sizeof(int64_t))) return SPHDEM_ERR_ALLOC;
+    c->nls_cap = cap;
+  }
+  st = set == 0 ? D->nl_start : D->wl_start;
+  st[0] = 0;
+#pragma omp parallel for schedule(static)
+  for (int64_t a = 0; a < n; a++) st[a + 1] = D->nw > 0 || set == 0 ? list_body(D, a, set, NULL) : 0;
+  for (int64_t a = 0; a < n; a++) st[a + 1] += st[a];
+  int32_t **lst = set == 0 ? &D->nl : &D->wl;
+  int64_t *cap = set == 0 ? &c->nl_cap : &c->wl_cap;
+  if (grow(c, (void **)lst, cap, st[n] + 1, sizeof(int32_t))) return SPHDEM_ERR_ALLOC;
+  int32_t *l = *lst;
+#pragma omp parallel for schedule(static)
+  for (int64_t a = 0; a < n; a++)
+    if (st[a + 1] > st[a]) list_body(D, a, set, l + st[a]);
+  return SPHDEM_OK;
+}
+
 static int cpu_rates(struct sphdem_ctx_s *c) {
+  if (c->nl_dirty) { TRY_CPU(cpu_build_list(c, 0)); c->nl_dirty = 0; c->wl_dirty = 1; }
+  if (c->wl_dirty) { TRY_CPU(cpu_build_list(c, 1)); c->wl_dirty = 0; }
   const sphdem_dev *D = &c->D;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t a = 0; a < D->nf; a++) rates_body(D, a);

@@ -91,6 +91,7 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   CHECK(p->tensile_eps >= 0, "tensile eps must be >= 0 (got %g)", p->tensile_eps);
   CHECK(p->tensile_eps == 0 || p->tensile_n > 0, "tensile exponent n must be > 0 (got %g)", p->tensile_n);
   CHECK(p->xsph_eps >= 0 && p->xsph_eps <= 1, "xsph eps must be in [0, 1] (got %g)", p->xsph_eps);
+  CHECK(p->delta >= 0 && p->delta <= 1, "delta (density diffusion) must be in [0, 1] (got %g)", p->delta);
   CHECK(p->rep_D >= 0, "repulsion D must be >= 0 (got %g)", p->rep_D);
   CHECK(p->rep_D == 0 || p->rep_r0 > 0, "repulsion r0 must be > 0 (got %g)", p->rep_r0);
   CHECK(p->skin >= 0, "skin must be >= 0 (got %g)", p->skin);
@@ -124,6 +125,7 @@ static void derive(sphdem_dev *D) {
   D->h = p->h;
   D->inv_h = 1.0 / p->h;
   D->support2 = 4.0 * p->h * p->h;
+  D->eta2 = 0.01 * p->h * p->h;
   D->alphaD = wendland_alpha(p->dim, p->h);
   D->w_dx_inv = 1.0 / wendland_w(D->alphaD, p->dx / p->h);
   D->gamma_is_7 = p->gamma == 7.0;
@@ -169,7 +171,7 @@ static void free_fluid(sphdem_ctx c) {
   if (!n) return;
   DFREE(c, D->x, 24 * n); DFREE(c, D->v, 24 * n); DFREE(c, D->rho, 8 * n); DFREE(c, D->mass, 8 * n);
   DFREE(c, D->drho, 8 * n); DFREE(c, D->a, 24 * n); DFREE(c, D->u, 24 * n); DFREE(c, D->p, 8 * n);
-  DFREE(c, D->x0, 24 * n); DFREE(c, D->rhop, 8 * n); DFREE(c, D->ve, 24 * n); DFREE(c, D->tag, 8 * n); DFREE(c, D->uidx, 4 * n); DFREE(c, D->cell, 4 * n);
+  DFREE(c, D->x0, 24 * n); DFREE(c, D->rhop, 8 * n); DFREE(c, D->ve, 24 * n); DFREE(c, D->pr2, 8 * n); DFREE(c, D->tag, 8 * n); DFREE(c, D->uidx, 4 * n); DFREE(c, D->cell, 4 * n);
   c->cap_f = 0;
 }
 
@@ -222,6 +224,7 @@ static int ensure_fluid(sphdem_ctx c, int64_t n) {
   TRY(dalloc(c, (void **)&D->u, 24 * m)); TRY(dalloc(c, (void **)&D->p, 8 * m));
   TRY(dalloc(c, (void **)&D->x0, 24 * m)); TRY(dalloc(c, (void **)&D->tag, 8 * m));
   TRY(dalloc(c, (void **)&D->rhop, 8 * m)); TRY(dalloc(c, (void **)&D->ve, 24 * m));
+  TRY(dalloc(c, (void **)&D->pr2, 8 * m));
   TRY(dalloc(c, (void **)&D->uidx, 4 * m)); TRY(dalloc(c, (void **)&D->cell, 4 * m));
   c->cap_f = (int64_t)m;
   return ensure_scratch(c, (int64_t)m);
@@ -333,6 +336,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
+  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); }
   free(c);
   *pc = NULL;
   return SPHDEM_OK;
@@ -409,6 +413,8 @@ static int sort_set(sphdem_ctx c, int set) {
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
   }
+  c->wl_dirty = 1;
+  if (set == SPHDEM_SET_FLUID) c->nl_dirty = 1;
   return c->ops->cell_ranges(c, set);
 }
 

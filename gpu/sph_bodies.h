@@ -108,6 +108,7 @@ SPHDEM_HD void predict_body(const sphdem_dev *D, int64_t i) {
   double rp = D->rho[i] + D->pred_dth * D->drho[i];
   D->rhop[i] = rp;
   D->p[i] = tait_pressure(D, rp);
+  D->pr2[i] = D->p[i] / (rp * rp);
   for (int d = 0; d < 3; d++) D->ve[3 * i + d] = D->v[3 * i + d] + D->pred_dth * D->a[3 * i + d];
 }
 
@@ -144,84 +145,138 @@ SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
 
 /* Pairwise momentum terms shared by fluid-fluid and fluid-wall pairs: pressure (eq 9) with the
  * tensile correction (eq 11) and the viscous term (eq 10 Morris, or Monaghan artificial).
- * vab_visc is the velocity difference seen by viscosity. Adds to acc. */
-SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pa, double rhoa, double pb,
-                             double rhob, double W, double F, const double *r, double r2,
-                             const double *vab_visc, double *acc) {
-  double ia = 1.0 / (rhoa * rhoa), ib = 1.0 / (rhob * rhob);
-  double pterm = pa * ia + pb * ib;
+ * pra/prb are P/rho^2 of a and b, ie = 1/(r^2 + 0.01 h^2), vab the velocity difference seen by
+ * viscosity. Adds to acc. */
+SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double rhoa, double prb,
+                             double rhob, double W, double F, const double *r, double r2, double ie,
+                             const double *vab, double *acc) {
+  double pterm = pra + prb;
   if (D->P.tensile_eps > 0.0) {
     /* eq 11, with |P| so that the correction is repulsive for negative pressures too */
     double f = W * D->w_dx_inv, fn;
     if (D->tensile_n_is_4) { fn = f * f; fn *= fn; } else fn = pow(f, D->P.tensile_n);
-    pterm += D->P.tensile_eps * (fabs(pa) * ia + fabs(pb) * ib) * fn;
+    pterm += D->P.tensile_eps * (fabs(pra) + fabs(prb)) * fn;
   }
   double s = -mb * pterm * F; /* -m_b (...) grad W, grad W = F r */
   if (D->P.visc == SPHDEM_VISC_MORRIS) {
     /* eq 10: m_b (mu_a + mu_b) r.gradW / (rho_a rho_b (r^2 + 0.01 h^2)) v_ab */
-    double k = mb * 2.0 * D->P.mu * F * r2 / (rhoa * rhob * (r2 + 0.01 * D->h * D->h));
-    for (int d = 0; d < 3; d++) acc[d] += k * vab_visc[d];
+    double k = mb * 2.0 * D->P.mu * F * r2 * ie / (rhoa * rhob);
+    for (int d = 0; d < 3; d++) acc[d] += k * vab[d];
   } else if (D->P.visc == SPHDEM_VISC_ARTIFICIAL) {
     double vr = 0.0;
-    for (int d = 0; d < 3; d++) vr += vab_visc[d] * r[d];
+    for (int d = 0; d < 3; d++) vr += vab[d] * r[d];
     if (vr < 0.0) {
-      double muab = D->h * vr / (r2 + 0.01 * D->h * D->h);
-      double Pi = -D->P.alpha * D->P.c0 * muab / (0.5 * (rhoa + rhob));
-      s -= mb * Pi * F;
+      double muab = D->h * vr * ie;
+      s += mb * D->P.alpha * D->P.c0 * muab * F * 2.0 / (rhoa + rhob); /* -m_b Pi_ab grad W */
     }
   }
   for (int d = 0; d < 3; d++) acc[d] += s * r[d];
 }
 
-/* Rates of fluid particle a: continuity (eq 6), momentum (eq 9-11), XSPH (eq 12),
- * fluid-wall terms with the Adami wall state and the Monaghan repulsive force. */
-SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
-  const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
-  double rhoa = D->rhop[a], pa = D->p[a];
-  double drho = 0.0, acc[3], u[3] = {0, 0, 0}, r[3], vab[3];
-  for (int d = 0; d < 3; d++) acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0;
-  int32_t cells[27];
-  int nn = neighbor_cells(D, D->cell[a], cells);
-  for (int k = 0; k < nn; k++) {
-    int32_t c = cells[k];
-    for (int32_t b = D->cstart[c]; b < D->cend[c]; b++) {
-      if (b == a) continue;
-      double r2 = separation(D, xa, D->x + 3 * b, r);
-      if (r2 >= D->support2) continue;
-      double q = sqrt(r2) * D->inv_h;
-      double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-      double mb = D->mass[b], rhob = D->rhop[b], vdotr = 0.0;
-      for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; }
-      drho += mb * vdotr * F;                                            /* eq 6 */
-      pair_momentum(D, mb, pa, rhoa, D->p[b], rhob, W, F, r, r2, vab, acc);
-      if (D->P.xsph_eps > 0.0) {
-        double k2 = -D->P.xsph_eps * mb / (0.5 * (rhoa + rhob)) * W;    /* eq 12 */
-        for (int d = 0; d < 3; d++) u[d] += k2 * vab[d];
-      }
-    }
-    if (D->nw == 0) continue;
-    for (int32_t w = D->wcstart[c]; w < D->wcend[c]; w++) {
-      double r2 = separation(D, xa, D->wx + 3 * w, r);
-      if (r2 >= D->support2) continue;
-      double rr = sqrt(r2), q = rr * D->inv_h;
-      double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-      double mb = D->wmass[w], vdotr = 0.0, vv[3];
-      for (int d = 0; d < 3; d++) {
-        vdotr += (va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
-        vv[d] = va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
-      }
-      drho += mb * vdotr * F;
-      pair_momentum(D, mb, pa, rhoa, D->wp[w], D->wrho[w], W, F, r, r2, vv, acc);
-      if (D->P.rep_D > 0.0 && rr < D->P.rep_r0 && rr > 0.0) {
-        /* Monaghan 1994 repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 */
-        double s = D->P.rep_r0 / rr, s2 = s * s, s4 = s2 * s2, s12 = s4 * s4 * s4;
-        double k3 = D->P.rep_D * (s12 - s4) / r2;
-        for (int d = 0; d < 3; d++) acc[d] += k3 * r[d];
-      }
-    }
+/* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
+ * delta h c0 sum_b psi_ab . grad_a W V_b, psi_ab = 2 (rho_b - rho_a - rho^H_ab) r_ba / (r^2 + 0.01 h^2).
+ * rho^H_ab is the hydrostatic part of rho_b - rho_a (Fourtakas et al. 2019), linearised in the
+ * Tait law: rho^H_ab = -rho0 g.r_ab / c0^2 (relative error O(rho0 g dz / B)). */
+SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob, double mb, double F,
+                                   const double *r, double r2, double ie) {
+  double drh = rhob - rhoa;
+  if (D->P.delta_hydro) {
+    double gr = 0.0;
+    for (int d = 0; d < D->P.dim; d++) gr += D->P.gravity[d] * r[d];
+    drh += D->P.rho0 * gr / (D->P.c0 * D->P.c0);
   }
-  D->drho[a] = drho;
-  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = acc[d]; D->u[3 * a + d] = u[d]; }
+  return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie * mb / rhob;
+}
+
+/* Accumulators of one fluid particle's rates. */
+typedef struct {
+  const double *xa, *va;
+  double rhoa, pra, drho, acc[3], u[3];
+} rates_acc;
+
+/* Fluid neighbour b of a: continuity (eq 6), delta-SPH, momentum (eqs 9-11), XSPH (eq 12). */
+SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
+  double r[3], vab[3];
+  double r2 = separation(D, R->xa, D->x + 3 * b, r);
+  if (r2 >= D->support2 || r2 == 0.0) return;
+  double q = sqrt(r2) * D->inv_h;
+  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
+  double mb = D->mass[b], rhob = D->rhop[b], vdotr = 0.0, ie = 1.0 / (r2 + D->eta2);
+  for (int d = 0; d < 3; d++) { vab[d] = R->va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; }
+  R->drho += mb * vdotr * F;                                           /* eq 6 */
+  if (D->P.delta > 0.0) R->drho += density_diffusion(D, R->rhoa, rhob, mb, F, r, r2, ie);
+  pair_momentum(D, mb, R->pra, R->rhoa, D->pr2[b], rhob, W, F, r, r2, ie, vab, R->acc);
+  if (D->P.xsph_eps > 0.0) {
+    double k2 = -D->P.xsph_eps * mb / (0.5 * (R->rhoa + rhob)) * W;    /* eq 12 */
+    for (int d = 0; d < 3; d++) R->u[d] += k2 * vab[d];
+  }
+}
+
+/* Wall neighbour w of a: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan repulsion. */
+SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
+  double r[3], vv[3];
+  double r2 = separation(D, R->xa, D->wx + 3 * w, r);
+  if (r2 >= D->support2 || r2 == 0.0) return;
+  double rr = sqrt(r2), q = rr * D->inv_h;
+  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
+  /* wall particles keep their volume V_w = m_w / rho0 (Adami 2012); their density follows eq 15 */
+  double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0;
+  for (int d = 0; d < 3; d++) {
+    vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
+    vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
+  }
+  R->drho += mb * vdotr * F;
+  double rw = D->wrho[w];
+  pair_momentum(D, mb, R->pra, R->rhoa, D->wp[w] / (rw * rw), rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv, R->acc);
+  if (D->P.rep_D > 0.0 && rr < D->P.rep_r0) {
+    /* Monaghan 1994 repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 */
+    double s = D->P.rep_r0 / rr, s2 = s * s, s4 = s2 * s2, s12 = s4 * s4 * s4;
+    double k3 = D->P.rep_D * (s12 - s4) / r2;
+    for (int d = 0; d < 3; d++) R->acc[d] += k3 * r[d];
+  }
+}
+
+/* Rates of fluid particle a. Neighbours come from the CSR lists when they exist (CPU backend) or
+ * from the cell walk; both visit fluid neighbours then wall neighbours in the same cell order, so
+ * the sums are identical. */
+SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
+  rates_acc R;
+  R.xa = D->x + 3 * a; R.va = D->ve + 3 * a;
+  R.rhoa = D->rhop[a]; R.pra = D->pr2[a]; R.drho = 0.0;
+  for (int d = 0; d < 3; d++) { R.acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R.u[d] = 0.0; }
+  if (D->nl_start) {
+    for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) rates_fluid_pair(D, &R, D->nl[k]);
+    if (D->nw > 0)
+      for (int64_t k = D->wl_start[a]; k < D->wl_start[a + 1]; k++) rates_wall_pair(D, &R, D->wl[k]);
+  } else {
+    int32_t cells[27];
+    int nn = neighbor_cells(D, D->cell[a], cells);
+    for (int k = 0; k < nn; k++)
+      for (int32_t b = D->cstart[cells[k]]; b < D->cend[cells[k]]; b++) rates_fluid_pair(D, &R, b);
+    if (D->nw > 0)
+      for (int k = 0; k < nn; k++)
+        for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) rates_wall_pair(D, &R, w);
+  }
+  D->drho[a] = R.drho;
+  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = R.acc[d]; D->u[3 * a + d] = R.u[d]; }
+}
+
+/* Neighbour-list build (CPU backend): candidates within 2h + skin of fluid particle a in the
+ * fluid (set 0) or wall (set 1) cells, in cell-walk order. out NULL: count only. */
+SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int32_t *out) {
+  const double *xa = D->x + 3 * a, *xs = set == 0 ? D->x : D->wx;
+  const int32_t *cs = set == 0 ? D->cstart : D->wcstart, *ce = set == 0 ? D->cend : D->wcend;
+  double rc = 2.0 * D->h + D->P.skin, rc2 = rc * rc, r[3];
+  int32_t cells[27], n = 0;
+  int nn = neighbor_cells(D, D->cell[a], cells);
+  for (int k = 0; k < nn; k++)
+    for (int32_t b = cs[cells[k]]; b < ce[cells[k]]; b++) {
+      if (set == 0 && b == a) continue;
+      if (separation(D, xa, xs + 3 * b, r) >= rc2) continue;
+      if (out) out[n] = b;
+      n++;
+    }
+  return n;
 }
 
 SPHDEM_HD void kick_body(const sphdem_dev *D, int64_t i, double dth) {

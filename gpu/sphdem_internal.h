@@ -20,7 +20,7 @@ typedef struct {
   /* derived constants */
   double B;          /* Tait pressure constant (eq 8 form: c0^2 rho0 / gamma) */
   double alphaD;     /* Wendland normalisation (eq 5) for the dimension */
-  double h, inv_h, support2;
+  double h, inv_h, support2, eta2; /* eta2 = 0.01 h^2 */
   double w_dx_inv;   /* 1 / W(dx) for eq 11 */
   int gamma_is_7, tensile_n_is_4;
   /* search grid */
@@ -31,6 +31,7 @@ typedef struct {
   int64_t nf;
   double *x, *v, *rho, *mass, *drho, *a, *u, *p, *x0;
   double *rhop, *ve;   /* density and velocity predicted to the force time (velocity Verlet) */
+  double *pr2;         /* P / rho^2 at the force time */
   double pred_dth;     /* half step used by the prediction; 0 when state is at a full step */
   int64_t *tag;
   int32_t *uidx, *cell, *cstart, *cend;
@@ -39,6 +40,9 @@ typedef struct {
   double *wx, *wv, *wa, *wmass, *wp, *wrho, *wvx;
   int64_t *wtag;
   int32_t *wcell, *wcstart, *wcend;
+  /* optional CSR neighbour lists (CPU backend): fluid-fluid and fluid-wall */
+  int64_t *nl_start, *wl_start;
+  int32_t *nl, *wl;
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -90,6 +94,8 @@ struct sphdem_ctx_s {
   int64_t nsorts;
   int have_rates;
   int half_kicked;              /* between the two half kicks of a step */
+  int nl_dirty, wl_dirty;       /* neighbour lists must be rebuilt (after a fluid / wall sort) */
+  int64_t nl_cap, wl_cap, nls_cap;
   double timers[SPHDEM_NTIMERS];
   /* scratch device buffers used by sorts/gathers (capacity max(cap_f, cap_w)) */
   int64_t cap_scratch;

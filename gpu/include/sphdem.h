@@ -51,6 +51,8 @@ typedef struct {
   double tensile_eps;   /* Monaghan tensile correction coefficient, eq 11 (paper: 0.01); 0 = off */
   double tensile_n;     /* exponent of eq 11 (paper: 4) */
   double xsph_eps;      /* XSPH coefficient, eq 12 (paper: 0.3); 0 = off */
+  double delta;         /* delta-SPH density diffusion coefficient (Molteni & Colagrossi 2009; 0.1 typical); 0 = off */
+  int delta_hydro;      /* 1: subtract the hydrostatic density difference (Fourtakas et al. 2019), 0: plain */
   double rep_D;         /* Monaghan wall repulsion strength (m^2/s^2); 0 = off */
   double rep_r0;        /* repulsion cut-off distance (default dx) */
   double skin;          /* gap added to the 2h cell size; resort when a particle moved skin/2 */

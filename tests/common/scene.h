@@ -46,7 +46,8 @@ static void scene_push_wall(scene *s, const double *x, double mass) {
 }
 
 /* Open-top tank [0,L] x [0,W] x [0,Ht] (2D: [0,L] x [0,Ht], vertical axis = last axis) with nl wall
- * layers, fluid block [0,fl] x [0,W] x [0,fh] at spacing dx, hydrostatic initial density. */
+ * layers, fluid block [0,fl] x [0,W] x [0,fh] at spacing dx, hydrostatic initial density and mass
+ * rho dx^dim (so the SPH volume of each particle is its lattice volume). */
 static void scene_tank(scene *s, const sphdem_params *p, double L, double W, double Ht, double fl, double fh, int nl) {
   memset(s, 0, sizeof *s);
   double dx = p->dx, vol = p->dim == 3 ? dx * dx * dx : dx * dx;
@@ -64,7 +65,8 @@ static void scene_tank(scene *s, const sphdem_params *p, double L, double W, dou
         if (!inside) { scene_push_wall(s, x, p->rho0 * vol); continue; }
         if (i < fx && k < fz && (p->dim == 2 || j < fy)) {
           double depth = fh - x[up];
-          scene_push_fluid(s, x, sphdem_hydrostatic_rho(p, depth), p->rho0 * vol);
+          double r = sphdem_hydrostatic_rho(p, depth);
+          scene_push_fluid(s, x, r, r * vol); /* volume m/rho equals the lattice volume */
         }
       }
 }

@@ -1,0 +1,172 @@
+/* test_api.c - C API contract: argument errors name the parameter, blow-up detection, momentum
+ * conservation, and download/upload round trips that leave the evolution bit-identical. */
+#include <math.h>
+#include "scene.h"
+#include "testlib.h"
+
+static void base_params(sphdem_params *p, int dim) {
+  sphdem_params_default(p);
+  p->dim = dim; p->dx = 0.01; p->h = 0.013; p->rho0 = 1000; p->c0 = 10; p->skin = 0.003;
+  p->visc = SPHDEM_VISC_ARTIFICIAL; p->alpha = 0.05;
+}
+
+static int expect_arg_error(sphdem_params *p, const char *word) {
+  char msg[512];
+  int rc = sphdem_params_check(p, msg, sizeof msg);
+  int ok = rc == SPHDEM_ERR_ARG && strstr(msg, word) != NULL;
+  if (!ok) printf("  params_check message '%s' lacks '%s'\n", msg, word);
+  return ok;
+}
+
+/* periodic box of fluid on a lattice with random velocities */
+static void periodic_box(scene *s, sphdem_params *p, int n1) {
+  memset(s, 0, sizeof *s);
+  double L = n1 * p->dx;
+  for (int d = 0; d < p->dim; d++) { p->boxlo[d] = 0; p->boxhi[d] = L; p->periodic[d] = 1; }
+  srand(7);
+  for (int i = 0; i < n1; i++)
+    for (int j = 0; j < n1; j++)
+      for (int k = 0; k < (p->dim == 3 ? n1 : 1); k++) {
+        double x[3] = {(i + 0.5) * p->dx, (j + 0.5) * p->dx, p->dim == 3 ? (k + 0.5) * p->dx : 0};
+        scene_push_fluid(s, x, 1000, 1000 * pow(p->dx, p->dim));
+        for (int d = 0; d < p->dim; d++) s->v[3 * (s->nf - 1) + d] = 0.5 * (rand() / (double)RAND_MAX - 0.5);
+      }
+}
+
+static void momentum(sphdem_ctx c, int n, const double *mass, double *P) {
+  double *v = (double *)malloc(24 * (size_t)n);
+  sphdem_get_fluid(c, NULL, v, NULL, NULL, NULL);
+  P[0] = P[1] = P[2] = 0;
+  for (int i = 0; i < n; i++)
+    for (int d = 0; d < 3; d++) P[d] += mass[i] * v[3 * i + d];
+  free(v);
+}
+
+int main(void) {
+  sphdem_device dev = test_device();
+  sphdem_params p;
+  char msg[512];
+
+  /* ---- argument checks name the parameter */
+  base_params(&p, 2); p.h = -1; TEST_ASSERT(expect_arg_error(&p, "h (smoothing length)"), "h checked");
+  base_params(&p, 2); p.dim = 4; TEST_ASSERT(expect_arg_error(&p, "dim must be 2 or 3"), "dim checked");
+  base_params(&p, 2); p.visc = SPHDEM_VISC_MORRIS; p.mu = 0; TEST_ASSERT(expect_arg_error(&p, "morris"), "mu checked");
+  base_params(&p, 2); p.xsph_eps = 2; TEST_ASSERT(expect_arg_error(&p, "xsph"), "xsph checked");
+  base_params(&p, 2); p.periodic[0] = 1; p.boxlo[0] = 0; p.boxhi[0] = 0.05;
+  TEST_ASSERT(expect_arg_error(&p, "periodic box length"), "small periodic box rejected");
+  base_params(&p, 2);
+  sphdem_ctx c = NULL;
+  p.c0 = 0;
+  TEST_ASSERT(sphdem_create(&c, &p, dev, msg, sizeof msg) == SPHDEM_ERR_ARG && c == NULL && strstr(msg, "c0"),
+              "create refuses c0 = 0 with a message naming c0 ('%s')", msg);
+  base_params(&p, 2);
+  if (!sphdem_gpu_available()) {
+    int rc = sphdem_create(&c, &p, SPHDEM_DEVICE_GPU, msg, sizeof msg);
+    TEST_ASSERT(rc == SPHDEM_ERR_NO_GPU && c == NULL && strlen(msg) > 10, "device gpu without a GPU: clear error ('%s')", msg);
+    TEST_ASSERT(sphdem_create(&c, &p, SPHDEM_DEVICE_AUTO, msg, sizeof msg) == SPHDEM_OK &&
+                sphdem_backend(c) == SPHDEM_DEVICE_CPU && strstr(sphdem_backend_note(c), "CPU"),
+                "device auto falls back to the CPU with a note ('%s')", c ? sphdem_backend_note(c) : "");
+    sphdem_destroy(&c);
+  }
+  TEST_ASSERT(strcmp(sphdem_strerror(SPHDEM_ERR_NAN), "non-finite value in the fluid state") == 0, "strerror");
+
+  /* ---- kick before any rates is a state error, not a crash */
+  scene s;
+  periodic_box(&s, &p, 12);
+  SPHDEM_CHECK_RC(c, sphdem_create(&c, &p, dev, msg, sizeof msg));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  TEST_ASSERT(sphdem_kick(c, 1e-4) == SPHDEM_ERR_STATE && strstr(sphdem_last_error(c), "compute_rates"),
+              "kick before rates: %s", sphdem_last_error(c));
+  /* ---- momentum is conserved to round-off by the pairwise-antisymmetric forces */
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  double P0[3], P1[3];
+  momentum(c, s.nf, s.mass, P0);
+  double dt = 0.2 * p.h / p.c0, scale = 0;
+  for (int i = 0; i < s.nf; i++) scale += s.mass[i] * 0.25;
+  for (int n = 0; n < 200; n++) SPHDEM_CHECK_RC(c, scene_step(c, dt));
+  momentum(c, s.nf, s.mass, P1);
+  double dP = fabs(P1[0] - P0[0]) + fabs(P1[1] - P0[1]);
+  TEST_ASSERT(dP < 1e-12 * scale, "momentum drift %.3e relative to sum m|v| %.3e", dP, scale);
+  printf("  periodic box, 200 steps: momentum change %.2e (scale %.2e), sorts %lld\n", dP, scale,
+         (long long)sphdem_nsorts(c));
+
+  /* ---- stability check: time step above the stable one is reported with the limit */
+  sphdem_stats st;
+  int rc = sphdem_stats_get(c, 10 * dt, &st);
+  TEST_ASSERT(rc == SPHDEM_ERR_UNSTABLE && strstr(sphdem_last_error(c), "Set the timestep to"),
+              "too large dt reported: %s", sphdem_last_error(c));
+  TEST_ASSERT(sphdem_stats_get(c, dt, &st) == SPHDEM_OK && st.dt_stable > dt && st.nfluid == s.nf, "stable dt ok");
+
+  /* ---- round trip mid-run (download, shuffle caller order, in-place upload) changes nothing */
+  sphdem_ctx c2;
+  SPHDEM_CHECK_RC(c2, sphdem_create(&c2, &p, dev, msg, sizeof msg));
+  SPHDEM_CHECK_RC(c2, sphdem_set_fluid(c2, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c2, sphdem_compute_rates(c2));
+  sphdem_ctx c3;
+  SPHDEM_CHECK_RC(c3, sphdem_create(&c3, &p, dev, msg, sizeof msg));
+  SPHDEM_CHECK_RC(c3, sphdem_set_fluid(c3, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c3, sphdem_compute_rates(c3));
+  int n = s.nf;
+  double *x = malloc(24 * n), *v = malloc(24 * n), *rho = malloc(8 * n), *st7 = malloc(8 * SPHDEM_NSTATE * n);
+  double *x2 = malloc(24 * n), *x3 = malloc(24 * n), *m = malloc(8 * n);
+  int64_t *tg = malloc(8 * n);
+  for (int k = 0; k < 120; k++) {
+    SPHDEM_CHECK_RC(c2, scene_step(c2, dt));
+    SPHDEM_CHECK_RC(c3, sphdem_kick(c3, 0.5 * dt));
+    SPHDEM_CHECK_RC(c3, sphdem_drift(c3, dt));
+    if (k % 7 == 3) { /* as the engine does between the half steps: download, reorder, upload */
+      SPHDEM_CHECK_RC(c3, sphdem_get_fluid(c3, x, v, rho, NULL, st7));
+      int shift = k % n;
+      double *xs = malloc(24 * n), *vs = malloc(24 * n), *rs = malloc(8 * n), *ss = malloc(8 * SPHDEM_NSTATE * n);
+      for (int i = 0; i < n; i++) {
+        int j = (i + shift) % n; /* caller index i holds particle j */
+        tg[i] = s.tag[j]; m[i] = s.mass[j]; rs[i] = rho[j];
+        memcpy(xs + 3 * i, x + 3 * j, 24); memcpy(vs + 3 * i, v + 3 * j, 24);
+        memcpy(ss + SPHDEM_NSTATE * i, st7 + SPHDEM_NSTATE * j, 8 * SPHDEM_NSTATE);
+      }
+      SPHDEM_CHECK_RC(c3, sphdem_set_fluid(c3, n, tg, xs, vs, rs, m, ss));
+      /* download again in the new caller order and restore the original order for the test */
+      SPHDEM_CHECK_RC(c3, sphdem_get_fluid(c3, xs, NULL, NULL, NULL, NULL));
+      for (int i = 0; i < n; i++) memcpy(x + 3 * ((i + shift) % n), xs + 3 * i, 24);
+      SPHDEM_CHECK_RC(c3, sphdem_set_fluid(c3, n, s.tag, x, v, rho, s.mass, st7));
+      free(xs); free(vs); free(rs); free(ss);
+    }
+    SPHDEM_CHECK_RC(c3, sphdem_compute_rates(c3));
+    SPHDEM_CHECK_RC(c3, sphdem_kick(c3, 0.5 * dt));
+  }
+  SPHDEM_CHECK_RC(c2, sphdem_get_fluid(c2, x2, NULL, NULL, NULL, NULL));
+  SPHDEM_CHECK_RC(c3, sphdem_get_fluid(c3, x3, NULL, NULL, NULL, NULL));
+  TEST_ASSERT(memcmp(x2, x3, 24 * n) == 0, "round trips between half steps leave the run bit-identical");
+
+  /* ---- blow-up detection: non-finite density, particle outside a wall-bounded box */
+  SPHDEM_CHECK_RC(c3, sphdem_get_fluid(c3, x, v, rho, NULL, st7));
+  rho[5] = NAN;
+  TEST_ASSERT(sphdem_set_fluid(c3, n, s.tag, x, v, rho, s.mass, st7) == SPHDEM_ERR_ARG, "NaN density refused at upload");
+  rho[5] = 1000;
+  v[3 * 5] = NAN;
+  SPHDEM_CHECK_RC(c3, sphdem_set_fluid(c3, n, s.tag, x, v, rho, s.mass, st7));
+  rc = sphdem_stats_get(c3, dt, &st);
+  TEST_ASSERT(rc == SPHDEM_ERR_NAN && st.nnan == 1 && strstr(sphdem_last_error(c3), "blew up"),
+              "NaN velocity detected: %s", sphdem_last_error(c3));
+  sphdem_params q = p;
+  q.periodic[0] = 0; q.boxlo[0] = 0.0; q.boxhi[0] = 0.05;
+  sphdem_ctx c4;
+  SPHDEM_CHECK_RC(c4, sphdem_create(&c4, &q, dev, msg, sizeof msg));
+  SPHDEM_CHECK_RC(c4, sphdem_set_fluid(c4, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  rc = sphdem_stats_get(c4, 0, &st);
+  TEST_ASSERT(rc == SPHDEM_ERR_LOST && st.nlost > 0 && strstr(sphdem_last_error(c4), "left the box"),
+              "particles outside the box detected: %s", sphdem_last_error(c4));
+  sphdem_destroy(&c4);
+  for (int i = 0; i < n; i++) rho[i] = 1300;
+  v[3 * 5] = 0;
+  SPHDEM_CHECK_RC(c3, sphdem_set_fluid(c3, n, s.tag, x, v, rho, s.mass, st7));
+  rc = sphdem_stats_get(c3, 0, &st);
+  TEST_ASSERT(rc == SPHDEM_ERR_DENSITY && strstr(sphdem_last_error(c3), "rho_err_max"),
+              "density blow-up detected: %s", sphdem_last_error(c3));
+
+  free(x); free(v); free(rho); free(st7); free(x2); free(x3); free(m); free(tg);
+  scene_free(&s);
+  sphdem_destroy(&c); sphdem_destroy(&c2); sphdem_destroy(&c3);
+  TEST_ASSERT(c == NULL, "destroy clears the handle");
+  return test_summary("api");
+}
