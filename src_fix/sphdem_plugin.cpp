@@ -1,27 +1,10 @@
 /* sphdem_plugin.cpp - lammpsplugin_init entry of sphdemplugin.so for LAMMPS builds with the PLUGIN
- * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package and ships no
- * lammpsplugin.h, so the documented plugin record is declared here. */
+ * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package; the plugin record
+ * is declared in lammpsplugin_decl.h. */
 #include "fix_sph_fluid.h"
 #include "lammps.h"
+#include "lammpsplugin_decl.h"
 #include "sphdem.h"
-
-extern "C" {
-typedef void *(lammpsplugin_factory1)(void *);
-typedef void *(lammpsplugin_factory2)(void *, int, char **);
-typedef struct {
-  const char *version;
-  const char *style;
-  const char *name;
-  const char *info;
-  const char *author;
-  union {
-    lammpsplugin_factory1 *v1;
-    lammpsplugin_factory2 *v2;
-  } creator;
-  void *handle;
-} lammpsplugin_t;
-typedef void (*lammpsplugin_regfunc)(lammpsplugin_t *, void *);
-}
 
 static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);

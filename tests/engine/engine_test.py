@@ -7,6 +7,7 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   sync    EXE ENGINE       'sync 1' == default (1e-12)
   mpi     EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   badkw   EXE ENGINE       bad input stops with a message naming the keyword and the choices
+  plugin  HOST PLUGIN LMP  sphdemplugin.so loaded through lammpsplugin_init == lmp_sphdem (1e-12)
 Differences are relative to the largest magnitude of each column (x, y, vx, vy, rho).
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -204,6 +205,16 @@ def test_badkw(exe, engine):
     return 1 if fails or not ok else 0
 
 
+def test_plugin(host, plugin, lmp):
+    must_run([lmp], "plugin/launcher", scene("lammps"))
+    out = must_run([host, plugin], "plugin/plugin", scene("lammps"))
+    if "registered fix sph/fluid" not in out:
+        print("FAIL: the plugin did not register fix sph/fluid")
+        return 1
+    a, b = final_dump("plugin/launcher"), final_dump("plugin/plugin")
+    return verdict(compare(a, b, "plugin"), 1e-12, "sphdemplugin.so vs lmp_sphdem")
+
+
 def main(argv):
     what = argv[1]
     if what == "same":
@@ -216,6 +227,8 @@ def main(argv):
         return test_mpi(argv[2], argv[3], argv[4])
     if what == "badkw":
         return test_badkw(argv[2], argv[3])
+    if what == "plugin":
+        return test_plugin(argv[2], argv[3], argv[4])
     print(__doc__)
     return 2
 
