@@ -254,8 +254,9 @@ void FixSPHFluid::init() {
     }
     MPI_Allreduce(hit, all, 2, MPI_INT, MPI_MAX, world);
     if (all[0])
-      fail(std::string("integrates its own group; fix ") + f->id + " (style " + f->style +
-           ") also integrates atoms of group " + group->names[f->igroup]);
+      sphdem_compat::error_all(error, FLERR,
+                               std::string("Fix sph/fluid integrates its own group; fix ") + f->id + " (style " +
+                                   f->style + ") also integrates atoms of group " + group->names[f->igroup]);
     if (all[1]) walls_move_ = true;
   }
 }

@@ -197,6 +197,13 @@ def test_badkw(exe, engine):
         if not ok:
             print(out[-1500:])
             fails += 1
+    # a second integrator on the fluid
+    rc, out = run([exe], "badkw_%s/nve" % engine, scene(engine, steps=1).replace("run 1", "fix 1 all nve\nrun 1"),
+                  timeout=60)
+    want = "Fix sph/fluid integrates its own group; fix 1 (style nve) also integrates atoms of group all"
+    ok = rc != 0 and want in out
+    print("%s fix nve on all -> exit %d, %s" % ("PASS" if ok else "FAIL", rc, "message found" if ok else out[-1500:]))
+    fails += 0 if ok else 1
     # a missing required keyword
     rc, out = run([exe], "badkw_%s/required" % engine, scene(engine).replace("c0 15 ", ""), timeout=60)
     want = "Fix sph/fluid: missing required keyword(s): c0"
