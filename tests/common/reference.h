@@ -5,12 +5,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifndef SPHDEM_DEFAULT_REFERENCE_DIR
+#define SPHDEM_DEFAULT_REFERENCE_DIR "../shared/reference"
+#endif
+
 /* Reads the two-column markdown table that follows the line starting with `heading`
  * (e.g. "a = 2.25 in:") in $SPHDEM_REFERENCE_DIR/README.md. Returns the row count (0 on failure). */
 static int reference_table(const char *heading, double *c1, double *c2, int maxrows) {
   const char *dir = getenv("SPHDEM_REFERENCE_DIR");
   char path[1024], line[512];
-  snprintf(path, sizeof path, "%s/README.md", dir ? dir : "../shared/reference");
+  snprintf(path, sizeof path, "%s/README.md", dir ? dir : SPHDEM_DEFAULT_REFERENCE_DIR);
   FILE *f = fopen(path, "r");
   if (!f) { fprintf(stderr, "cannot open reference data %s\n", path); return 0; }
   int found = 0, n = 0;

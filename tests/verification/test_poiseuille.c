@@ -1,0 +1,75 @@
+/* test_poiseuille.c - plane Poiseuille start-up (Morris, Fox & Zhu 1997): Morris viscosity (He 2018
+ * eq 10) with no-slip Adami walls (eq 13) against the series solution of ../shared/reference. */
+#include <math.h>
+#include "scene.h"
+#include "testlib.h"
+
+static double u_exact(double y, double t, double F, double nu, double L) {
+  double u = F / (2 * nu) * y * (L - y);
+  for (int n = 0; n < 200; n++) {
+    double k = 2 * n + 1;
+    u -= 4 * F * L * L / (nu * M_PI * M_PI * M_PI * k * k * k) * sin(k * M_PI * y / L) *
+         exp(-k * k * M_PI * M_PI * nu * t / (L * L));
+  }
+  return u;
+}
+
+int main(int argc, char **argv) {
+  int res = argc > 1 ? atoi(argv[1]) : 30;
+  double L = 1e-3, nu = 1e-6, rho0 = 1000, F = 1e-4, umax = F * L * L / (8 * nu);
+  sphdem_params p;
+  sphdem_params_default(&p);
+  p.dim = 2; p.dx = L / res; p.h = (getenv("HDX") ? atof(getenv("HDX")) : 1.5) * p.dx; p.rho0 = rho0; p.c0 = 10 * umax * 10;
+  p.gravity[0] = F; p.skin = 0.3 * p.dx;
+  p.visc = SPHDEM_VISC_MORRIS; p.mu = nu * rho0;
+  double Lx = 20 * p.dx;
+  p.periodic[0] = 1; p.boxlo[0] = 0; p.boxhi[0] = Lx; p.boxlo[1] = -L; p.boxhi[1] = 2 * L;
+  scene s;
+  memset(&s, 0, sizeof s);
+  double vol = p.dx * p.dx;
+  for (int j = -3; j < res + 3; j++)
+    for (int i = 0; i < 20; i++) {
+      double x[3] = {(i + 0.5) * p.dx, (j + 0.5) * p.dx, 0};
+      if (j < 0 || j >= res) scene_push_wall(&s, x, rho0 * vol);
+      else scene_push_fluid(&s, x, rho0, rho0 * vol);
+    }
+  sphdem_ctx c;
+  char msg[256];
+  TEST_ASSERT(sphdem_create(&c, &p, test_device(), msg, sizeof msg) == SPHDEM_OK, "create: %s", msg);
+  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_stats st;
+  SPHDEM_CHECK_RC(c, sphdem_stats_get(c, 0, &st));
+  double dt = 0.8 * st.dt_stable;
+  double times[] = {0.0225, 0.045, 0.1125, 0.225, 1.0};
+  int nt = 5, k = 0;
+  double t = 0, *x = malloc(24 * (size_t)s.nf), *v = malloc(24 * (size_t)s.nf), worst_late = 0;
+  FILE *out = fopen("poiseuille_profiles.csv", "w");
+  fprintf(out, "t,y,u_sim,u_exact\n");
+  printf("  %d fluid particles, dt %.3g s (viscous limit); L2 error relative to u_max:\n", s.nf, dt);
+  while (k < nt) {
+    SPHDEM_CHECK_RC(c, scene_step(c, dt));
+    t += dt;
+    if (t + 0.5 * dt < times[k]) continue;
+    SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &st));
+    SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, x, v, NULL, NULL, NULL));
+    double e2 = 0;
+    for (int i = 0; i < s.nf; i++) {
+      double ue = u_exact(x[3 * i + 1], t, F, nu, L), d = v[3 * i] - ue;
+      e2 += d * d;
+      if (x[3 * i] < p.dx) fprintf(out, "%.5f,%.6e,%.6e,%.6e\n", t, x[3 * i + 1], v[3 * i], ue);
+    }
+    double l2 = sqrt(e2 / s.nf) / umax;
+    printf("    t = %.4f s: %.2f%%\n", t, 100 * l2);
+    if (t > 0.1 && l2 > worst_late) worst_late = l2;
+    TEST_ASSERT(l2 < 0.05, "profile at t = %.4f within 5%% of u_max in L2 (got %.2f%%)", t, 100 * l2);
+    k++;
+  }
+  fclose(out);
+  TEST_ASSERT(worst_late < 0.02, "developed profile (t > 0.1 s) within 2%% of u_max in L2 (got %.2f%%)", 100 * worst_late);
+  free(x); free(v);
+  scene_free(&s);
+  sphdem_destroy(&c);
+  return test_summary("poiseuille");
+}
