@@ -24,11 +24,12 @@ using namespace FixConst;
 namespace {
 const char *const SYNTAX =
     "fix ID group sph/fluid rho0 V h V c0 V [dx V] [gamma V] [gravity gx gy gz] "
-    "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [repulsion D [R0]] "
+    "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
+    "[repulsion D [R0]] "
     "[wall GROUP-ID] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
     "[hydrostatic ZSURF]";
 const char *const KEYWORDS =
-    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, repulsion, wall, skin, cfl, rho_err_max, "
+    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, skin, cfl, rho_err_max, "
     "device, sync, check, hydrostatic";
 
 double wall_seconds() {
@@ -40,7 +41,7 @@ double wall_seconds() {
 
 FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), ctx_(nullptr), wall_igroup_(-1),
-      wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), zsurf_(0.0),
+      wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), mass_scaled_(false), zsurf_(0.0),
       walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false),
       sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
   std::memset(&stats_, 0, sizeof stats_);
@@ -159,6 +160,14 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       iarg += 2;
       double n;
       if (optional_number(iarg, &n)) prm_.tensile_n = n, iarg++;
+    } else if (kw == "delta") {
+      const char *usage = "delta D [hydrostatic|plain]";
+      need(1, usage);
+      prm_.delta = parse_number("delta", arg[iarg + 1], usage);
+      prm_.delta_hydro = 1;
+      iarg += 2;
+      if (iarg < narg && (std::string(arg[iarg]) == "hydrostatic" || std::string(arg[iarg]) == "plain"))
+        prm_.delta_hydro = std::string(arg[iarg]) == "hydrostatic", iarg++;
     } else if (kw == "repulsion") {
       const char *usage = "repulsion D [R0]";
       need(1, usage);
@@ -338,7 +347,7 @@ void FixSPHFluid::upload_fluid() {
     if (std::fabs(prm_.gravity[d]) > std::fabs(prm_.gravity[axis])) axis = d;
   const double down_sign = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* depth grows against gravity */
 
-  bool all_valid = true;
+  bool all_valid = true, scaled_any = false;
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
     ftag_[k] = (int64_t)atom->tag[i];
@@ -351,8 +360,15 @@ void FixSPHFluid::upload_fluid() {
       all_valid = false;
       const double depth = down_sign * (zsurf_ - x[i][axis]);
       frho_[k] = hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, std::max(depth, 0.0)) : prm_.rho0;
+      /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
+      if (hydrostatic_ && !mass_scaled_ && atom->rmass) {
+        atom->rmass[i] *= frho_[k] / prm_.rho0;
+        fmass_[k] = atom->rmass[i];
+        scaled_any = true;
+      }
     }
   }
+  if (scaled_any) mass_scaled_ = true;
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");

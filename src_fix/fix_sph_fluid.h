@@ -54,6 +54,7 @@ class FixSPHFluid : public Fix {
   std::string wall_group_;
   long sync_every_, check_every_;
   bool hydrostatic_;
+  bool mass_scaled_; /* hydrostatic init scaled per-atom masses by rho/rho0 */
   double zsurf_;
   bool walls_move_;
   bool host_current_;   /* host x, v, rho, p, state of the fluid equal the device copy */
