@@ -87,6 +87,19 @@ static void scene_free(scene *s) {
     }                                                                                          \
   } while (0)
 
+/* Context on device dev with the scene's walls and fluid uploaded and the first rates computed;
+ * exits with the core's message on failure (test and benchmark drivers only). */
+static sphdem_ctx scene_start(const sphdem_params *p, const scene *s, sphdem_device dev) {
+  sphdem_ctx c;
+  char msg[512];
+  int rc = sphdem_create(&c, p, dev, msg, sizeof msg);
+  if (rc != SPHDEM_OK) { fprintf(stderr, "sphdem_create: %s (%s)\n", sphdem_strerror(rc), msg); exit(1); }
+  if (s->nw > 0) SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s->nw, s->wx, s->wv, NULL, s->wmass));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s->nf, s->tag, s->x, s->v, s->rho, s->mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  return c;
+}
+
 /* One velocity-Verlet step in the order the engine hooks use. */
 static int scene_step(sphdem_ctx c, double dt) {
   int rc = sphdem_kick(c, 0.5 * dt);

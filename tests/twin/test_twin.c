@@ -14,12 +14,7 @@ static void run(int dim, sphdem_device dev, int nsteps, double *xout, int *nf) {
   p.rep_D = 5 * g * a; p.rep_r0 = p.dx;
   scene s;
   scene_tank(&s, &p, 3 * a, 0.5 * a, 3 * a, a, 2 * a, 3);
-  sphdem_ctx c;
-  char msg[256];
-  if (sphdem_create(&c, &p, dev, msg, sizeof msg) != SPHDEM_OK) { printf("create failed: %s\n", msg); exit(1); }
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_ctx c = scene_start(&p, &s, dev);
   double dt = 0.2 * p.h / (1.2 * p.c0);
   for (int n = 0; n < nsteps; n++) SPHDEM_CHECK_RC(c, scene_step(c, dt));
   SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, xout, NULL, NULL, NULL, NULL));

@@ -18,12 +18,7 @@ int main(int argc, char **argv) {
   p.boxlo[0] = -0.05; p.boxhi[0] = 5 * a + 0.05; p.boxlo[1] = -0.05; p.boxhi[1] = 0.6;
   scene s;
   scene_tank(&s, &p, 5 * a, 0, 4 * a, a, 2 * a, 3);
-  sphdem_ctx c;
-  char msg[256];
-  TEST_ASSERT(sphdem_create(&c, &p, test_device(), msg, sizeof msg) == SPHDEM_OK, "create: %s", msg);
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_ctx c = scene_start(&p, &s, test_device());
   double dt = 0.2 * p.h / (1.2 * p.c0), tscale = sqrt(2 * g / a);
   int nsteps = (int)(3.1 / tscale / dt), every = 20;
   double *x = (double *)malloc(24 * (size_t)s.nf);

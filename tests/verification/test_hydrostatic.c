@@ -15,12 +15,7 @@ int main(int argc, char **argv) {
   p.boxlo[0] = -0.05; p.boxhi[0] = W + 0.05; p.boxlo[1] = -0.05; p.boxhi[1] = 2 * H;
   scene s;
   scene_tank(&s, &p, W, 0, 1.5 * H, W, H, 3);
-  sphdem_ctx c;
-  char msg[256];
-  TEST_ASSERT(sphdem_create(&c, &p, test_device(), msg, sizeof msg) == SPHDEM_OK, "create: %s", msg);
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_ctx c = scene_start(&p, &s, test_device());
   double dt = 0.2 * p.h / (1.2 * p.c0), t_end = argc > 1 ? atof(argv[1]) : 0.6, t_avg = t_end - 0.2;
   int nsteps = (int)(t_end / dt), nrows = (int)lround(H / p.dx), nsamp = 0;
   double *x = malloc(24 * (size_t)s.nf), *pr = malloc(8 * (size_t)s.nf);

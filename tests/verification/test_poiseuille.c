@@ -33,12 +33,7 @@ int main(int argc, char **argv) {
       if (j < 0 || j >= res) scene_push_wall(&s, x, rho0 * vol);
       else scene_push_fluid(&s, x, rho0, rho0 * vol);
     }
-  sphdem_ctx c;
-  char msg[256];
-  TEST_ASSERT(sphdem_create(&c, &p, test_device(), msg, sizeof msg) == SPHDEM_OK, "create: %s", msg);
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_ctx c = scene_start(&p, &s, test_device());
   sphdem_stats st;
   SPHDEM_CHECK_RC(c, sphdem_stats_get(c, 0, &st));
   double dt = 0.8 * st.dt_stable;
