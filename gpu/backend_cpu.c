@@ -175,6 +175,13 @@ static int cpu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   return SPHDEM_OK;
 }
 
+static int cpu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, double *out) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < npts; k++) probe_body(D, pts, out, k);
+  return SPHDEM_OK;
+}
+
 const sphdem_ops sphdem_cpu_ops = {
   .name = "cpu",
   .alloc = cpu_alloc,
@@ -193,4 +200,5 @@ const sphdem_ops sphdem_cpu_ops = {
   .drift = cpu_drift,
   .reduce = cpu_reduce,
   .sync = cpu_sync,
+  .probe = cpu_probe,
 };

@@ -73,6 +73,11 @@ __global__ void k_drift(sphdem_dev D, double dt) {
   if (i < D.nf) drift_body(&D, i, dt);
 }
 
+__global__ void k_probe(sphdem_dev D, const double *pts, double *out, int64_t n) {
+  int64_t k = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (k < n) probe_body(&D, pts, out, k);
+}
+
 /* Block-wise reduction with the shared red_combine; the host combines the block results. */
 __global__ void k_reduce(sphdem_dev D, int set, sphdem_red *out) {
   __shared__ sphdem_red sh[SPHDEM_BLOCK];
@@ -200,11 +205,17 @@ static int cu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   return SPHDEM_OK;
 }
 
+static int cu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, double *out) {
+  k_probe<<<nblocks(npts), SPHDEM_BLOCK>>>(c->D, pts, out, npts);
+  LAUNCHED(c, "probe kernel");
+  return SPHDEM_OK;
+}
+
 extern "C" {
 
 const sphdem_ops sphdem_cuda_ops = {
   "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
-  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync,
+  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync, cu_probe,
 };
 
 /* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */

@@ -708,6 +708,26 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   return SPHDEM_OK;
 }
 
+int sphdem_probe(sphdem_ctx c, int npts, const double *pts, double *out) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (npts < 0 || (npts > 0 && (!pts || !out))) return sphdem_fail(c, SPHDEM_ERR_ARG, "probe: bad point list");
+  if (npts == 0) return SPHDEM_OK;
+  sphdem_dev *D = &c->D;
+  if (D->nf == 0) { memset(out, 0, sizeof(double) * SPHDEM_NPROBE * (size_t)npts); return SPHDEM_OK; }
+  if (c->need_sort) TRY(sort_all(c));
+  double *dp = NULL, *dout = NULL;
+  size_t bp = 24 * (size_t)npts, bo = 8 * SPHDEM_NPROBE * (size_t)npts;
+  int rc = dalloc(c, (void **)&dp, bp);
+  if (!rc) rc = dalloc(c, (void **)&dout, bo);
+  if (!rc) rc = up(c, dp, pts, bp);
+  if (!rc) rc = c->ops->probe(c, npts, dp, dout);
+  if (!rc) rc = c->ops->sync(c);
+  if (!rc) rc = down(c, out, dout, bo);
+  DFREE(c, dp, bp);
+  DFREE(c, dout, bo);
+  return rc;
+}
+
 /* ---- testing hook ---------------------------------------------------------------------------------- */
 
 int64_t sphdem_debug_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs) {

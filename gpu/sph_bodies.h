@@ -261,6 +261,28 @@ SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
   for (int d = 0; d < 3; d++) { D->a[3 * a + d] = R.acc[d]; D->u[3 * a + d] = R.u[d]; }
 }
 
+/* Kernel interpolation at probe point k (He 2018 eq 4, Shepard-normalised). */
+SPHDEM_HD void probe_body(const sphdem_dev *D, const double *pts, double *out, int64_t k) {
+  const double *xp = pts + 3 * k;
+  double s = 0.0, sp = 0.0, sr = 0.0, sv[3] = {0, 0, 0}, r[3];
+  int32_t cells[27];
+  int nn = neighbor_cells(D, cell_of(D, xp), cells);
+  for (int c = 0; c < nn; c++)
+    for (int32_t b = D->cstart[cells[c]]; b < D->cend[cells[c]]; b++) {
+      double r2 = separation(D, xp, D->x + 3 * b, r);
+      if (r2 >= D->support2) continue;
+      double rho = D->rho[b], w = D->mass[b] / rho * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
+      s += w;
+      sp += w * tait_pressure(D, rho);
+      sr += w * rho;
+      for (int d = 0; d < 3; d++) sv[d] += w * D->v[3 * b + d];
+    }
+  double *o = out + SPHDEM_NPROBE * k, inv = s > 0.0 ? 1.0 / s : 0.0;
+  o[0] = sp * inv; o[1] = sr * inv;
+  for (int d = 0; d < 3; d++) o[2 + d] = sv[d] * inv;
+  o[5] = s;
+}
+
 /* Neighbour-list build (CPU backend): candidates within 2h + skin of fluid particle a in the
  * fluid (set 0) or wall (set 1) cells, in cell-walk order. out NULL: count only. */
 SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int32_t *out) {

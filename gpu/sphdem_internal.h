@@ -79,6 +79,7 @@ typedef struct {
   int (*drift)(struct sphdem_ctx_s *c, double dt);
   int (*reduce)(struct sphdem_ctx_s *c, int set, sphdem_red *out);
   int (*sync)(struct sphdem_ctx_s *c);
+  int (*probe)(struct sphdem_ctx_s *c, int64_t npts, const double *dpts, double *dout);
 } sphdem_ops;
 
 struct sphdem_ctx_s {

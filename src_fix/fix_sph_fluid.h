@@ -32,6 +32,7 @@ class FixSPHFluid : public Fix {
   void post_run() override;
   double compute_vector(int) override;
   double memory_usage() override;
+  sphdem_ctx context() const { return ctx_; } /* for compute sph/probe; null before setup */
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;

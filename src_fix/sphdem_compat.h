@@ -16,6 +16,7 @@
 #include <string>
 
 /* The fmt stand-in (src_fix/fmt_standin) only declares what the LAMMPS headers name. */
+#include "compute.h"
 #include "error.h"
 #include "fix.h"
 #include "force.h"
@@ -135,6 +136,37 @@ inline FixCreatorMap *fix_map(LAMMPS_NS::Modify *modify) {
 
 template <typename T> LAMMPS_NS::Fix *fix_creator(LAMMPS_NS::LAMMPS *lmp, int narg, char **arg) {
   return new T(lmp, narg, arg);
+}
+
+/* Computes: LIGGGHTS constructs them as T(lmp, int &iarg, narg, arg) through a creator taking iarg
+ * (the first own argument); LAMMPS as T(lmp, narg, arg). Modify::compute_map is private in LIGGGHTS. */
+#ifdef SPHDEM_ENGINE_LAMMPS
+typedef LAMMPS_NS::Compute *(*ComputeCreator)(LAMMPS_NS::LAMMPS *, int, char **);
+template <typename T> LAMMPS_NS::Compute *compute_creator(LAMMPS_NS::LAMMPS *lmp, int narg, char **arg) {
+  return new T(lmp, narg, arg);
+}
+#else
+typedef LAMMPS_NS::Compute *(*ComputeCreator)(LAMMPS_NS::LAMMPS *, int, int, char **);
+template <typename T>
+LAMMPS_NS::Compute *compute_creator(LAMMPS_NS::LAMMPS *lmp, int iarg, int narg, char **arg) {
+  return new T(lmp, iarg, narg, arg);
+}
+namespace detail {
+struct ModifyComputeMapTag {
+  typedef std::map<std::string, ComputeCreator> *LAMMPS_NS::Modify::*type;
+  friend type member_of(ModifyComputeMapTag);
+};
+template struct Expose<ModifyComputeMapTag, &LAMMPS_NS::Modify::compute_map>;
+}  // namespace detail
+#endif
+typedef std::map<std::string, ComputeCreator> ComputeCreatorMap;
+
+inline ComputeCreatorMap *compute_map(LAMMPS_NS::Modify *modify) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  return modify->compute_map;
+#else
+  return modify->*member_of(detail::ModifyComputeMapTag());
+#endif
 }
 
 }  // namespace sphdem_compat

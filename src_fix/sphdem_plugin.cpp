@@ -1,6 +1,7 @@
 /* sphdem_plugin.cpp - lammpsplugin_init entry of sphdemplugin.so for LAMMPS builds with the PLUGIN
  * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package; the plugin record
  * is declared in lammpsplugin_decl.h. */
+#include "compute_sph_probe.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
 #include "lammpsplugin_decl.h"
@@ -8,6 +9,10 @@
 
 static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+}
+
+static void *sph_probe_creator(void *lmp, int argc, char **argv) {
+  return new LAMMPS_NS::ComputeSPHProbe(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
 }
 
 /* One registration per style; add later sphdem styles here as in sphdem_register.cpp. */
@@ -21,5 +26,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   plugin.author = "sphdem developers";
   plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_fluid_creator;
   plugin.handle = handle;
+  (*register_plugin)(&plugin, lmp);
+  plugin.style = "compute";
+  plugin.name = "sph/probe";
+  plugin.info = "sphdem " SPHDEM_VERSION " fluid fields at fixed points";
+  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_probe_creator;
   (*register_plugin)(&plugin, lmp);
 }

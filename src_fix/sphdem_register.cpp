@@ -2,6 +2,7 @@
  * (fix sph/couple, pair gran/gpu, compute sph/probe). */
 #include "sphdem_register.h"
 
+#include "compute_sph_probe.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
 #include "modify.h"
@@ -12,4 +13,6 @@ using namespace LAMMPS_NS;
 void sphdem_register_styles(LAMMPS *lmp) {
   sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
   fixes["sph/fluid"] = &sphdem_compat::fix_creator<FixSPHFluid>;
+  sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
+  computes["sph/probe"] = &sphdem_compat::compute_creator<ComputeSPHProbe>;
 }

@@ -125,6 +125,13 @@ int sphdem_compute_rates(sphdem_ctx ctx);          /* resort if needed; wall sta
  * in use: when dt > s->dt_stable it returns SPHDEM_ERR_UNSTABLE. Pass dt = 0 to skip that check. */
 int sphdem_stats_get(sphdem_ctx ctx, double dt, sphdem_stats *s);
 
+/* Fluid fields at npts points (xyz interleaved), interpolated with the kernel and Shepard-normalised
+ * (He 2018 eq 4: sum_b A_b m_b/rho_b W / sum_b m_b/rho_b W). out gets SPHDEM_NPROBE values per point:
+ * pressure, density, vx, vy, vz and the Shepard sum (0 where no fluid particle is within 2h; the
+ * other values are then 0). Reads the device state as it is (call at full steps). */
+#define SPHDEM_NPROBE 6
+int sphdem_probe(sphdem_ctx ctx, int npts, const double *pts, double *out);
+
 /* Number of resorts so far; bytes of device memory held; bytes per fluid particle. */
 int64_t sphdem_nsorts(sphdem_ctx ctx);
 size_t sphdem_device_bytes(sphdem_ctx ctx);

@@ -89,7 +89,7 @@ static void scene_free(scene *s) {
 
 /* Context on device dev with the scene's walls and fluid uploaded and the first rates computed;
  * exits with the core's message on failure (test and benchmark drivers only). */
-static sphdem_ctx scene_start(const sphdem_params *p, const scene *s, sphdem_device dev) {
+static inline sphdem_ctx scene_start(const sphdem_params *p, const scene *s, sphdem_device dev) {
   sphdem_ctx c;
   char msg[512];
   int rc = sphdem_create(&c, p, dev, msg, sizeof msg);

@@ -8,6 +8,8 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   mpi     EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   badkw   EXE ENGINE       bad input stops with a message naming the keyword and the choices
   plugin  HOST PLUGIN LMP  sphdemplugin.so loaded through lammpsplugin_init == lmp_sphdem (1e-12)
+  probe   EXE ENGINE       compute sph/probe on the hydrostatic start: p = rho0 g depth (2 %), and a
+                           probe naming a fix that is not sph/fluid stops with a clear message
 Differences are relative to the largest magnitude of each column (x, y, vx, vy, rho).
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -222,6 +224,55 @@ def test_plugin(host, plugin, lmp):
     return verdict(compare(a, b, "plugin"), 1e-12, "sphdemplugin.so vs lmp_sphdem")
 
 
+def thermo_rows(log_text):
+    """Numeric rows of the thermo table that follows the last 'Step' header."""
+    rows, on = [], False
+    for line in log_text.splitlines():
+        words = line.split()
+        if words[:1] == ["Step"]:
+            rows, on = [], True
+            continue
+        if on:
+            try:
+                rows.append([float(w) for w in words])
+            except ValueError:
+                on = False
+    return rows
+
+
+def test_probe(exe, engine):
+    wd = "probe_" + engine
+    probe = ("compute p all sph/probe water 0.09 0.1 0 0.09 0.05 0\n"
+             "thermo_style custom step c_p[1][1] c_p[2][1] c_p[1][2] c_p[1][6]\nrun 0\n")
+    script = HEAD + CREATE + NEIGH + FIX.format(extra="") + probe
+    out = must_run([exe], wd, script)
+    rows = thermo_rows(out)
+    if not rows or len(rows[-1]) < 5:
+        print("FAIL: no probe values in the thermo output")
+        return 1
+    step, p1, p2, rho1, shep = rows[-1][:5]
+    worst = 0.0
+    for p, depth in ((p1, 0.1), (p2, 0.15)):
+        exact = 1000 * 9.81 * depth
+        err = abs(p - exact) / exact
+        print("probe depth %.2f m: p = %.2f Pa, rho0 g depth = %.2f Pa (%.2f%%)" % (depth, p, exact, 100 * err))
+        worst = max(worst, err)
+    B = 15.0 ** 2 * 1000 / 7  # Tait B of the scene (c0 15)
+    rho_exact = 1000 * (1 + 1000 * 9.81 * 0.1 / B) ** (1 / 7)
+    print("density at probe 1: %.4f, hydrostatic %.4f; Shepard sum %.4f" % (rho1, rho_exact, shep))
+    if worst > 0.02 or not (0.9 < shep < 1.1) or abs(rho1 - rho_exact) > 1e-3 * rho_exact:
+        print("FAIL: probe values off")
+        return 1
+    bad = HEAD + CREATE + NEIGH + FIX.format(extra="") + "fix nothing walls setforce 0 0 0\n" + \
+        "compute p all sph/probe nothing 0.09 0.1 0\nthermo_style custom step c_p[1][1]\nrun 0\n"
+    rc, text = run([exe], wd + "_bad", bad)
+    if rc == 0 or "is not a fix sph/fluid" not in text:
+        print("FAIL: a probe on a fix that is not sph/fluid did not stop with a clear message")
+        return 1
+    print("PASS: probe values and error message")
+    return 0
+
+
 def main(argv):
     what = argv[1]
     if what == "same":
@@ -234,6 +285,8 @@ def main(argv):
         return test_mpi(argv[2], argv[3], argv[4])
     if what == "badkw":
         return test_badkw(argv[2], argv[3])
+    if what == "probe":
+        return test_probe(argv[2], argv[3])
     if what == "plugin":
         return test_plugin(argv[2], argv[3], argv[4])
     print(__doc__)

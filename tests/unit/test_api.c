@@ -70,6 +70,34 @@ int main(void) {
   }
   TEST_ASSERT(strcmp(sphdem_strerror(SPHDEM_ERR_NAN), "non-finite value in the fluid state") == 0, "strerror");
 
+  /* ---- probes: Shepard interpolation reproduces a uniform field; no fluid in reach gives weight 0 */
+  {
+    scene u;
+    periodic_box(&u, &p, 12);
+    sphdem_ctx cp;
+    SPHDEM_CHECK_RC(cp, sphdem_create(&cp, &p, dev, msg, sizeof msg));
+    for (int i = 0; i < u.nf; i++) u.v[3 * i] = 0.3, u.v[3 * i + 1] = -0.1;
+    SPHDEM_CHECK_RC(cp, sphdem_set_fluid(cp, u.nf, u.tag, u.x, u.v, u.rho, u.mass, NULL));
+    double pts[6] = {0.031, 0.077, 0, 0.0005, 0.119, 0}, out[2 * SPHDEM_NPROBE];
+    SPHDEM_CHECK_RC(cp, sphdem_probe(cp, 2, pts, out));
+    int ok = 1;
+    for (int k = 0; k < 2; k++)
+      ok &= fabs(out[6 * k + 1] - 1000) < 1e-9 && fabs(out[6 * k]) < 1e-6 && fabs(out[6 * k + 2] - 0.3) < 1e-12 &&
+            fabs(out[6 * k + 3] + 0.1) < 1e-12 && fabs(out[6 * k + 5] - 1.0) < 0.05;
+    TEST_ASSERT(ok, "probe of a uniform field: rho %.12g p %.3g vx %.12g vy %.12g shepard %.4f", out[1], out[0], out[2],
+                out[3], out[5]);
+    sphdem_params q = p;
+    q.periodic[1] = 0; q.boxlo[1] = -1; q.boxhi[1] = 1;
+    SPHDEM_CHECK_RC(cp, sphdem_destroy(&cp));
+    SPHDEM_CHECK_RC(cp, sphdem_create(&cp, &q, dev, msg, sizeof msg));
+    SPHDEM_CHECK_RC(cp, sphdem_set_fluid(cp, u.nf, u.tag, u.x, u.v, u.rho, u.mass, NULL));
+    double far[3] = {0.05, 0.9, 0};
+    SPHDEM_CHECK_RC(cp, sphdem_probe(cp, 1, far, out));
+    TEST_ASSERT(out[5] == 0 && out[0] == 0 && out[1] == 0, "probe far from the fluid: zero weight and values");
+    sphdem_destroy(&cp);
+    scene_free(&u);
+  }
+
   /* ---- kick before any rates is a state error, not a crash */
   scene s;
   periodic_box(&s, &p, 12);

@@ -52,6 +52,16 @@ int main(int argc, char **argv) {
          "(%.2f%%); profile max deviation %.2f%% of rho0 g H\n", s.nf, nsamp, t_avg, t_end, pb, pbe, 100 * eb, 100 * worst);
   TEST_ASSERT(eb < 0.01, "bottom pressure within 1%% of hydrostatic (got %.2f%%)", 100 * eb);
   TEST_ASSERT(worst < 0.02, "pressure profile within 2%% of rho0 g H everywhere (got %.2f%%)", 100 * worst);
+  /* probes on the centre line (kernel interpolation, as compute sph/probe reports) */
+  double pts[9] = {W / 2, 0.25 * H, 0, W / 2, 0.5 * H, 0, W / 2, 0.75 * H, 0}, pv[3 * SPHDEM_NPROBE], wp = 0;
+  SPHDEM_CHECK_RC(c, sphdem_probe(c, 3, pts, pv));
+  for (int k = 0; k < 3; k++) {
+    double pe = p.rho0 * g * (H - pts[3 * k + 1]), e = fabs(pv[SPHDEM_NPROBE * k] - pe) / pref;
+    printf("  probe z = %.3f m: p = %.1f Pa, hydrostatic %.1f Pa (%.2f%% of rho0 g H)\n", pts[3 * k + 1],
+           pv[SPHDEM_NPROBE * k], pe, 100 * e);
+    if (e > wp) wp = e;
+  }
+  TEST_ASSERT(wp < 0.02, "probed pressure within 2%% of rho0 g H at the final instant (got %.2f%%)", 100 * wp);
   sphdem_stats st;
   SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &st));
   double vrms = sqrt(2 * st.ke / (p.rho0 * W * H));
