@@ -8,6 +8,8 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   mpi     EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   badkw   EXE ENGINE       bad input stops with a message naming the keyword and the choices
   plugin  HOST PLUGIN LMP  sphdemplugin.so loaded through lammpsplugin_init == lmp_sphdem (1e-12)
+  couette EXE ENGINE       lid moved by 'fix move linear' (moving walls detected, uploaded each step):
+                           velocity profile vs the Couette start-up series (L2 < 2 % of V0)
   probe   EXE ENGINE       compute sph/probe on the hydrostatic start: p = rho0 g depth (2 %), and a
                            probe naming a fix that is not sph/fluid stops with a clear message
 Differences are relative to the largest magnitude of each column (x, y, vx, vy, rho).
@@ -240,6 +242,68 @@ def thermo_rows(log_text):
     return rows
 
 
+COUETTE = """# Couette start-up: periodic channel, lid moved by fix move
+dimension 2
+units si
+atom_style sphere
+boundary p f p
+atom_modify map array sort 50 {dx}
+lattice sq {dx} origin 0.5 0.5 0.0
+region box block 0 {lx} {ylo} {yhi} {zlo} {zhi} units box
+create_box 3 box
+region fl block 0 {lx} 0 {L} {zlo} {zhi} units box
+region wb block 0 {lx} {ylo} 0 {zlo} {zhi} units box
+region wt block 0 {lx} {L} {yhi} {zlo} {zhi} units box
+create_atoms 1 region fl
+create_atoms 2 region wb
+create_atoms 3 region wt
+group fluid type 1
+group walls type 2 3
+group lid type 3
+set group all diameter {dx}
+set group all mass {m}
+pair_style none
+neighbor {dx} bin
+neigh_modify every 20 delay 0 check no
+fix water fluid sph/fluid rho0 1000 h {h} dx {dx} c0 {c0} visc morris 1e-3 wall walls
+fix lid lid move linear {V0} 0 0 units box
+timestep {dt}
+thermo 100
+dump d fluid custom {n} final.* id x y vx vy f_water[1]
+{fmt}
+run {n}
+"""
+
+
+def couette_exact(y, t, V0=1.25e-5, nu=1e-6, L=1e-3):
+    import math
+    u = V0 * y / L
+    for n in range(1, 400):
+        u += 2 * V0 / (n * math.pi) * (-1) ** n * math.sin(n * math.pi * y / L) * \
+            math.exp(-nu * n * n * math.pi ** 2 * t / L ** 2)
+    return u
+
+
+def test_couette(exe, engine):
+    L, res, V0, dt, n = 1e-3, 30, 1.25e-5, 2.5e-4, 450
+    dx = L / res
+    script = COUETTE.format(dx=repr(dx), lx=repr(20 * dx), ylo=repr(-4 * dx), yhi=repr(L + 4 * dx),
+                            zlo=repr(-0.5 * dx), zhi=repr(0.5 * dx), L=repr(L), m=repr(1000 * dx * dx),
+                            h=repr(1.5 * dx), c0=repr(100 * V0), V0=repr(V0), dt=repr(dt), n=n,
+                            fmt=DUMPFMT[engine])
+    wd = "couette_" + engine
+    must_run([exe], wd, script)
+    rows = list(read_dump(os.path.join(wd, "final.%d" % n)).values())  # x y vx vy rho
+    if len(rows) != 20 * res:
+        print("FAIL: expected %d fluid atoms in the dump, got %d" % (20 * res, len(rows)))
+        return 1
+    t = n * dt
+    e2 = sum((r[2] - couette_exact(r[1], t)) ** 2 for r in rows)
+    l2 = (e2 / len(rows)) ** 0.5 / V0
+    print("Couette at t = %.4f s through %s: L2 error %.3f%% of V0 (bound 2%%)" % (t, engine, 100 * l2))
+    return verdict(l2, 0.02, "Couette profile")
+
+
 def test_probe(exe, engine):
     wd = "probe_" + engine
     probe = ("compute p all sph/probe water 0.09 0.1 0 0.09 0.05 0\n"
@@ -285,6 +349,8 @@ def main(argv):
         return test_mpi(argv[2], argv[3], argv[4])
     if what == "badkw":
         return test_badkw(argv[2], argv[3])
+    if what == "couette":
+        return test_couette(argv[2], argv[3])
     if what == "probe":
         return test_probe(argv[2], argv[3])
     if what == "plugin":
