@@ -2,6 +2,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "sph_bodies.h"
 #include "sphdem_internal.h"
 
@@ -114,6 +118,7 @@ static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_
 static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
   int64_t n = D->nf, *st;
+  int half = set == 0 && c->cpu_sym;
   if (set == 0) {
     int64_t cap = c->nls_cap;
     if (grow(c, (void **)&D->nl_start, &cap, n + 1, sizeof(int64_t))) return SPHDEM_ERR_ALLOC;
@@ -124,7 +129,7 @@ static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   st = set == 0 ? D->nl_start : D->wl_start;
   st[0] = 0;
 #pragma omp parallel for schedule(static)
-  for (int64_t a = 0; a < n; a++) st[a + 1] = D->nw > 0 || set == 0 ? list_body(D, a, set, NULL) : 0;
+  for (int64_t a = 0; a < n; a++) st[a + 1] = D->nw > 0 || set == 0 ? list_body(D, a, set, half, NULL) : 0;
   for (int64_t a = 0; a < n; a++) st[a + 1] += st[a];
   int32_t **lst = set == 0 ? &D->nl : &D->wl;
   int64_t *cap = set == 0 ? &c->nl_cap : &c->wl_cap;
@@ -132,13 +137,71 @@ static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   int32_t *l = *lst;
 #pragma omp parallel for schedule(static)
   for (int64_t a = 0; a < n; a++)
-    if (st[a + 1] > st[a]) list_body(D, a, set, l + st[a]);
+    if (st[a + 1] > st[a]) list_body(D, a, set, half, l + st[a]);
+  return SPHDEM_OK;
+}
+
+/* Fluid pairs evaluated once from the half lists: a's share is summed in registers, b's share goes
+ * to the thread's own accumulator array; then each particle adds the thread arrays (in thread
+ * order, static schedule: deterministic for a given thread count) and its wall neighbours. */
+static int cpu_rates_sym(struct sphdem_ctx_s *c) {
+  const sphdem_dev *D = &c->D;
+  int64_t n = D->nf;
+  int nt = 1;
+#ifdef _OPENMP
+  nt = omp_get_max_threads();
+#endif
+  TRY_CPU(grow(c, (void **)&c->symbuf, &c->symbuf_cap, (int64_t)nt * n * 7, sizeof(double)));
+  double *buf = c->symbuf;
+#pragma omp parallel num_threads(nt)
+  {
+    int t = 0;
+#ifdef _OPENMP
+    t = omp_get_thread_num();
+#endif
+    double *B = buf + (size_t)t * (size_t)n * 7;
+    memset(B, 0, sizeof(double) * 7 * (size_t)n);
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (int64_t a = 0; a < n; a++) {
+      const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
+      double rhoa = D->rhop[a], pra = D->pr2[a], ma = D->mass[a], da = 0.0, aa[3] = {0, 0, 0}, ua[3] = {0, 0, 0};
+      for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) {
+        int32_t b = D->nl[k];
+        fluid_pair_rec P;
+        if (!fluid_pair_terms(D, xa, va, rhoa, pra, b, &P)) continue;
+        double mb = D->mass[b], *Bb = B + 7 * (size_t)b;
+        da += mb * (P.cont + P.dda);
+        Bb[0] += ma * (P.cont + P.ddb);
+        for (int d = 0; d < 3; d++) {
+          aa[d] += mb * P.A[d]; ua[d] += mb * P.U[d];
+          Bb[1 + d] -= ma * P.A[d]; Bb[4 + d] -= ma * P.U[d];
+        }
+      }
+      double *Ba = B + 7 * (size_t)a;
+      Ba[0] += da;
+      for (int d = 0; d < 3; d++) { Ba[1 + d] += aa[d]; Ba[4 + d] += ua[d]; }
+    }
+#pragma omp for schedule(static)
+    for (int64_t a = 0; a < n; a++) {
+      rates_acc R;
+      rates_init(D, a, &R);
+      for (int s = 0; s < nt; s++) {
+        const double *Bs = buf + ((size_t)s * (size_t)n + (size_t)a) * 7;
+        R.drho += Bs[0];
+        for (int d = 0; d < 3; d++) { R.acc[d] += Bs[1 + d]; R.u[d] += Bs[4 + d]; }
+      }
+      rates_walls(D, a, &R, NULL, 0);
+      rates_store(D, a, &R);
+    }
+  }
   return SPHDEM_OK;
 }
 
 static int cpu_rates(struct sphdem_ctx_s *c) {
   if (c->nl_dirty) { TRY_CPU(cpu_build_list(c, 0)); c->nl_dirty = 0; c->wl_dirty = 1; }
   if (c->wl_dirty) { TRY_CPU(cpu_build_list(c, 1)); c->wl_dirty = 0; }
+  if (c->cpu_sym) return cpu_rates_sym(c);
   const sphdem_dev *D = &c->D;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t a = 0; a < D->nf; a++) rates_body(D, a);

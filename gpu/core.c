@@ -321,6 +321,9 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
 #endif
   }
   c->need_sort = 1;
+  /* CPU backend: pair symmetry halves the fluid-pair work; SPHDEM_CPU_GATHER=1 selects the GPU's
+   * gather formulation instead (the twin self-test compares the two) */
+  c->cpu_sym = getenv("SPHDEM_CPU_GATHER") == NULL;
   *out = c;
   return SPHDEM_OK;
 }
@@ -336,7 +339,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
-  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); }
+  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->symbuf); }
   free(c);
   *pc = NULL;
   return SPHDEM_OK;

@@ -194,22 +194,42 @@ typedef struct {
   double rhoa, pra, drho, acc[3], u[3];
 } rates_acc;
 
-/* Fluid neighbour b of a: continuity (eq 6), delta-SPH, momentum (eqs 9-11), XSPH (eq 12). */
-SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
+/* The fluid pair (a, b) per unit mass of the partner. Every term is symmetric or antisymmetric in
+ * a and b, so one evaluation serves both: a gains m_b (cont + dda) density rate, m_b A acceleration
+ * and m_b U XSPH velocity; b gains m_a (cont + ddb), -m_a A and -m_a U. */
+typedef struct {
+  double cont, dda, ddb, A[3], U[3];
+} fluid_pair_rec;
+
+/* Continuity (eq 6), delta-SPH, momentum (eqs 9-11) and XSPH (eq 12) of the pair; 0 if out of reach. */
+SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
+                               double pra, int32_t b, fluid_pair_rec *P) {
   double r[3], vab[3];
-  double r2 = separation(D, R->xa, D->x + 3 * b, r);
-  if (r2 >= D->support2 || r2 == 0.0) return;
+  double r2 = separation(D, xa, D->x + 3 * b, r);
+  if (r2 >= D->support2 || r2 == 0.0) return 0;
   double q = sqrt(r2) * D->inv_h;
   double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-  double mb = D->mass[b], rhob = D->rhop[b], vdotr = 0.0, ie = 1.0 / (r2 + D->eta2);
-  for (int d = 0; d < 3; d++) { vab[d] = R->va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; }
-  R->drho += mb * vdotr * F;                                           /* eq 6 */
-  if (D->P.delta > 0.0) R->drho += density_diffusion(D, R->rhoa, rhob, mb, F, r, r2, ie);
-  pair_momentum(D, mb, R->pra, R->rhoa, D->pr2[b], rhob, W, F, r, r2, ie, vab, R->acc);
-  if (D->P.xsph_eps > 0.0) {
-    double k2 = -D->P.xsph_eps * mb / (0.5 * (R->rhoa + rhob)) * W;    /* eq 12 */
-    for (int d = 0; d < 3; d++) R->u[d] += k2 * vab[d];
+  double rhob = D->rhop[b], vdotr = 0.0, ie = 1.0 / (r2 + D->eta2);
+  for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; P->A[d] = 0.0; }
+  P->cont = vdotr * F;                                                 /* eq 6 */
+  P->dda = P->ddb = 0.0;
+  if (D->P.delta > 0.0) {
+    P->dda = density_diffusion(D, rhoa, rhob, 1.0, F, r, r2, ie);
+    P->ddb = -P->dda * rhob / rhoa;
   }
+  pair_momentum(D, 1.0, pra, rhoa, D->pr2[b], rhob, W, F, r, r2, ie, vab, P->A);
+  double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0; /* eq 12 */
+  for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
+  return 1;
+}
+
+/* Fluid neighbour b of a, gathered into a's rates. */
+SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
+  fluid_pair_rec P;
+  if (!fluid_pair_terms(D, R->xa, R->va, R->rhoa, R->pra, b, &P)) return;
+  double mb = D->mass[b];
+  R->drho += mb * (P.cont + P.dda);
+  for (int d = 0; d < 3; d++) { R->acc[d] += mb * P.A[d]; R->u[d] += mb * P.U[d]; }
 }
 
 /* Wall neighbour w of a: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan repulsion. */
@@ -236,29 +256,45 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   }
 }
 
-/* Rates of fluid particle a. Neighbours come from the CSR lists when they exist (CPU backend) or
- * from the cell walk; both visit fluid neighbours then wall neighbours in the same cell order, so
- * the sums are identical. */
+SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
+  R->xa = D->x + 3 * a; R->va = D->ve + 3 * a;
+  R->rhoa = D->rhop[a]; R->pra = D->pr2[a]; R->drho = 0.0;
+  for (int d = 0; d < 3; d++) { R->acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R->u[d] = 0.0; }
+}
+
+/* Wall neighbours of a, from the wall list (CPU) or the cell walk. */
+SPHDEM_HD void rates_walls(const sphdem_dev *D, int64_t a, rates_acc *R, const int32_t *cells, int nn) {
+  if (D->nw == 0) return;
+  if (D->wl_start) {
+    for (int64_t k = D->wl_start[a]; k < D->wl_start[a + 1]; k++) rates_wall_pair(D, R, D->wl[k]);
+  } else {
+    for (int k = 0; k < nn; k++)
+      for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) rates_wall_pair(D, R, w);
+  }
+}
+
+SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
+  D->drho[a] = R->drho;
+  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = R->acc[d]; D->u[3 * a + d] = R->u[d]; }
+}
+
+/* Rates of fluid particle a, gathered from all its neighbours. Neighbours come from the full CSR
+ * lists when they exist or from the cell walk; both visit fluid then wall neighbours in the same cell
+ * order, so the sums are identical. */
 SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
   rates_acc R;
-  R.xa = D->x + 3 * a; R.va = D->ve + 3 * a;
-  R.rhoa = D->rhop[a]; R.pra = D->pr2[a]; R.drho = 0.0;
-  for (int d = 0; d < 3; d++) { R.acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R.u[d] = 0.0; }
+  rates_init(D, a, &R);
+  int32_t cells[27];
+  int nn = 0;
   if (D->nl_start) {
     for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) rates_fluid_pair(D, &R, D->nl[k]);
-    if (D->nw > 0)
-      for (int64_t k = D->wl_start[a]; k < D->wl_start[a + 1]; k++) rates_wall_pair(D, &R, D->wl[k]);
   } else {
-    int32_t cells[27];
-    int nn = neighbor_cells(D, D->cell[a], cells);
+    nn = neighbor_cells(D, D->cell[a], cells);
     for (int k = 0; k < nn; k++)
       for (int32_t b = D->cstart[cells[k]]; b < D->cend[cells[k]]; b++) rates_fluid_pair(D, &R, b);
-    if (D->nw > 0)
-      for (int k = 0; k < nn; k++)
-        for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) rates_wall_pair(D, &R, w);
   }
-  D->drho[a] = R.drho;
-  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = R.acc[d]; D->u[3 * a + d] = R.u[d]; }
+  rates_walls(D, a, &R, cells, nn);
+  rates_store(D, a, &R);
 }
 
 /* Kernel interpolation at probe point k (He 2018 eq 4, Shepard-normalised). */
@@ -284,8 +320,9 @@ SPHDEM_HD void probe_body(const sphdem_dev *D, const double *pts, double *out, i
 }
 
 /* Neighbour-list build (CPU backend): candidates within 2h + skin of fluid particle a in the
- * fluid (set 0) or wall (set 1) cells, in cell-walk order. out NULL: count only. */
-SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int32_t *out) {
+ * fluid (set 0) or wall (set 1) cells, in cell-walk order; half: fluid neighbours b > a only (each
+ * pair once, for the symmetric CPU pass). out NULL: count only. */
+SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int half, int32_t *out) {
   const double *xa = D->x + 3 * a, *xs = set == 0 ? D->x : D->wx;
   const int32_t *cs = set == 0 ? D->cstart : D->wcstart, *ce = set == 0 ? D->cend : D->wcend;
   double rc = 2.0 * D->h + D->P.skin, rc2 = rc * rc, r[3];
@@ -293,7 +330,7 @@ SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int32_t *ou
   int nn = neighbor_cells(D, D->cell[a], cells);
   for (int k = 0; k < nn; k++)
     for (int32_t b = cs[cells[k]]; b < ce[cells[k]]; b++) {
-      if (set == 0 && b == a) continue;
+      if (set == 0 && (half ? b <= a : b == a)) continue;
       if (separation(D, xa, xs + 3 * b, r) >= rc2) continue;
       if (out) out[n] = b;
       n++;

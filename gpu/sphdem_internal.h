@@ -86,7 +86,7 @@ struct sphdem_ctx_s {
   sphdem_dev D;
   const sphdem_ops *ops;
   int backend;                  /* SPHDEM_DEVICE_CPU / _GPU */
-  char note[256];
+  char note[600];
   char err[1024];
   size_t bytes;                 /* device bytes held */
   int64_t cap_f, cap_w;         /* allocated capacities */
@@ -96,6 +96,9 @@ struct sphdem_ctx_s {
   int have_rates;
   int half_kicked;              /* between the two half kicks of a step */
   int nl_dirty, wl_dirty;       /* neighbour lists must be rebuilt (after a fluid / wall sort) */
+  int cpu_sym;                  /* CPU: fluid pairs once from half lists (1) or gathered like the GPU (0) */
+  double *symbuf;               /* CPU symmetric pass: per-thread rate accumulators */
+  int64_t symbuf_cap;
   int64_t nl_cap, wl_cap, nls_cap;
   double timers[SPHDEM_NTIMERS];
   /* scratch device buffers used by sorts/gathers (capacity max(cap_f, cap_w)) */

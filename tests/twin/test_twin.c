@@ -1,3 +1,4 @@
+#define _POSIX_C_SOURCE 200809L
 /* test_twin.c - CPU and CUDA backends on the same input: 2D and 3D dam breaks with every term on,
  * positions after 100 steps agree to 1e-9 relative (double precision). Exit 77 (skipped) without a GPU. */
 #include <math.h>
@@ -26,7 +27,9 @@ static void run(int dim, sphdem_device dev, int nsteps, double *xout, int *nf) {
 }
 
 int main(void) {
-  /* SPHDEM_TWIN_SELFTEST=1 compares the CPU backend with itself, to exercise this test without a GPU */
+  /* SPHDEM_TWIN_SELFTEST=1 compares the CPU backend with itself, to exercise this test without a GPU;
+   * with SPHDEM_CPU_GATHER=1 in the second run's environment it compares the CPU's symmetric pair pass
+   * with the gather pass that the GPU uses (see run()) */
   int self = getenv("SPHDEM_TWIN_SELFTEST") != NULL;
   sphdem_device other = self ? SPHDEM_DEVICE_CPU : SPHDEM_DEVICE_GPU;
   if (!self && !sphdem_gpu_available()) {
@@ -36,8 +39,11 @@ int main(void) {
   for (int dim = 2; dim <= 3; dim++) {
     static double xc[3 * 200000], xg[3 * 200000];
     int nc = 0, ng = 0;
+    unsetenv("SPHDEM_CPU_GATHER");
     run(dim, SPHDEM_DEVICE_CPU, 100, xc, &nc);
+    if (self) setenv("SPHDEM_CPU_GATHER", "1", 1);
     run(dim, other, 100, xg, &ng);
+    unsetenv("SPHDEM_CPU_GATHER");
     TEST_ASSERT(nc == ng, "same particle count");
     double worst = 0;
     for (int i = 0; i < 3 * nc; i++) {
