@@ -10,6 +10,8 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   plugin  HOST PLUGIN LMP  sphdemplugin.so loaded through lammpsplugin_init == lmp_sphdem (1e-12)
   couette EXE ENGINE       lid moved by 'fix move linear' (moving walls detected, uploaded each step):
                            velocity profile vs the Couette start-up series (L2 < 2 % of V0)
+  example EXE ENGINE INPUT STEPS  an example input with its 'run' shortened to STEPS: runs to the end,
+                           the fix reports its backend, the fluid moves or stays finite, no ERROR
   probe   EXE ENGINE       compute sph/probe on the hydrostatic start: p = rho0 g depth (2 %), and a
                            probe naming a fix that is not sph/fluid stops with a clear message
 Differences are relative to the largest magnitude of each column (x, y, vx, vy, rho).
@@ -304,6 +306,32 @@ def test_couette(exe, engine):
     return verdict(l2, 0.02, "Couette profile")
 
 
+def test_example(exe, engine, inp, steps):
+    import re
+    name = os.path.basename(os.path.dirname(os.path.abspath(inp)))
+    wd = "example_%s_%s" % (name, engine)
+    with open(inp) as f:
+        text = f.read()
+    short, nrun = re.subn(r"(?m)^run\s+\S+", "run %d" % int(steps), text)
+    if nrun == 0:
+        print("FAIL: no 'run' line in %s" % inp)
+        return 1
+    out = must_run([exe], wd, short)
+    if "ERROR" in out or "Fix sph/fluid:" not in out:
+        print("FAIL: %s did not report the fix set-up or printed an ERROR:\n%s" % (inp, out[-2000:]))
+        return 1
+    rows = thermo_rows(out)
+    if not rows or int(rows[-1][0]) < int(steps):
+        print("FAIL: %s: thermo output did not reach step %s" % (inp, steps))
+        return 1
+    bad = [r for r in rows if any(v != v or abs(v) == float("inf") for v in r)]
+    if bad:
+        print("FAIL: %s: non-finite thermo values %s" % (inp, bad[0]))
+        return 1
+    print("PASS: %s through %s, %d thermo rows, last %s" % (name, engine, len(rows), rows[-1]))
+    return 0
+
+
 def test_probe(exe, engine):
     wd = "probe_" + engine
     probe = ("compute p all sph/probe water 0.09 0.1 0 0.09 0.05 0\n"
@@ -351,6 +379,8 @@ def main(argv):
         return test_badkw(argv[2], argv[3])
     if what == "couette":
         return test_couette(argv[2], argv[3])
+    if what == "example":
+        return test_example(argv[2], argv[3], argv[4], argv[5])
     if what == "probe":
         return test_probe(argv[2], argv[3])
     if what == "plugin":
