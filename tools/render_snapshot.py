@@ -133,7 +133,7 @@ def main():
         # marker diameter ~ dx in data units (points: 72 per inch)
         s = (dx * axw * 72.0 / (xr[1] - xr[0])) ** 2
         if wall.any():
-            ax.scatter(xyz[wall, i], xyz[wall, j], s=s, c="0.6", marker="s", linewidths=0, label="wall")
+            ax.scatter(xyz[wall, i], xyz[wall, j], s=1.6 * s, c="0.6", marker="s", linewidths=0, label="wall")
         fidx = np.where(fluid)[0]
         if not is2d:  # nearest the viewer (smallest depth coordinate) drawn last
             fidx = fidx[np.argsort(-xyz[fidx, k])]
