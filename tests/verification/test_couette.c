@@ -4,7 +4,8 @@
 #include "scene.h"
 #include "testlib.h"
 
-static double u_exact(double y, double t, double V0, double nu, double L) {
+static double u_exact(double y, double t, const double *prm) {
+  double V0 = prm[0], nu = prm[1], L = prm[2];
   double u = V0 * y / L;
   for (int n = 1; n < 400; n++)
     u += 2 * V0 / (n * M_PI) * (n % 2 ? -1.0 : 1.0) * sin(n * M_PI * y / L) * exp(-nu * n * n * M_PI * M_PI * t / (L * L));
@@ -39,7 +40,6 @@ int main(int argc, char **argv) {
   double dt = 0.8 * st.dt_stable, t = 0, worst = 0;
   double times[] = {0.0225, 0.1125, 0.45};
   int k = 0;
-  double *x = malloc(24 * (size_t)s.nf), *v = malloc(24 * (size_t)s.nf);
   FILE *out = fopen("couette_profiles.csv", "w");
   fprintf(out, "t,y,u_sim,u_exact\n");
   printf("  %d fluid, %d wall particles (lid moving at %g m/s), dt %.3g s; L2 error relative to V0:\n", s.nf, s.nw,
@@ -55,21 +55,12 @@ int main(int argc, char **argv) {
     t += dt;
     if (t + 0.5 * dt < times[k]) continue;
     SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &st));
-    SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, x, v, NULL, NULL, NULL));
-    double e2 = 0;
-    for (int i = 0; i < s.nf; i++) {
-      double ue = u_exact(x[3 * i + 1], t, V0, nu, L), d = v[3 * i] - ue;
-      e2 += d * d;
-      if (x[3 * i] < p.dx) fprintf(out, "%.5f,%.6e,%.6e,%.6e\n", t, x[3 * i + 1], v[3 * i], ue);
-    }
-    double l2 = sqrt(e2 / s.nf) / V0;
-    printf("    t = %.4f s: %.2f%%\n", t, 100 * l2);
+    double prm[3] = {V0, nu, L}, l2 = scene_profile_l2(c, s.nf, t, V0, p.dx, out, u_exact, prm);
     if (l2 > worst) worst = l2;
     k++;
   }
   fclose(out);
   TEST_ASSERT(worst < 0.02, "Couette profiles within 2%% of V0 in L2 at all times (worst %.2f%%)", 100 * worst);
-  free(x); free(v);
   scene_free(&s);
   sphdem_destroy(&c);
   return test_summary("couette");

@@ -4,7 +4,8 @@
 #include "scene.h"
 #include "testlib.h"
 
-static double u_exact(double y, double t, double F, double nu, double L) {
+static double u_exact(double y, double t, const double *prm) {
+  double F = prm[0], nu = prm[1], L = prm[2];
   double u = F / (2 * nu) * y * (L - y);
   for (int n = 0; n < 200; n++) {
     double k = 2 * n + 1;
@@ -39,7 +40,7 @@ int main(int argc, char **argv) {
   double dt = 0.8 * st.dt_stable;
   double times[] = {0.0225, 0.045, 0.1125, 0.225, 1.0};
   int nt = 5, k = 0;
-  double t = 0, *x = malloc(24 * (size_t)s.nf), *v = malloc(24 * (size_t)s.nf), worst_late = 0;
+  double t = 0, worst_late = 0;
   FILE *out = fopen("poiseuille_profiles.csv", "w");
   fprintf(out, "t,y,u_sim,u_exact\n");
   printf("  %d fluid particles, dt %.3g s (viscous limit); L2 error relative to u_max:\n", s.nf, dt);
@@ -48,22 +49,13 @@ int main(int argc, char **argv) {
     t += dt;
     if (t + 0.5 * dt < times[k]) continue;
     SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &st));
-    SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, x, v, NULL, NULL, NULL));
-    double e2 = 0;
-    for (int i = 0; i < s.nf; i++) {
-      double ue = u_exact(x[3 * i + 1], t, F, nu, L), d = v[3 * i] - ue;
-      e2 += d * d;
-      if (x[3 * i] < p.dx) fprintf(out, "%.5f,%.6e,%.6e,%.6e\n", t, x[3 * i + 1], v[3 * i], ue);
-    }
-    double l2 = sqrt(e2 / s.nf) / umax;
-    printf("    t = %.4f s: %.2f%%\n", t, 100 * l2);
+    double prm[3] = {F, nu, L}, l2 = scene_profile_l2(c, s.nf, t, umax, p.dx, out, u_exact, prm);
     if (t > 0.1 && l2 > worst_late) worst_late = l2;
     TEST_ASSERT(l2 < 0.05, "profile at t = %.4f within 5%% of u_max in L2 (got %.2f%%)", t, 100 * l2);
     k++;
   }
   fclose(out);
   TEST_ASSERT(worst_late < 0.02, "developed profile (t > 0.1 s) within 2%% of u_max in L2 (got %.2f%%)", 100 * worst_late);
-  free(x); free(v);
   scene_free(&s);
   sphdem_destroy(&c);
   return test_summary("poiseuille");
