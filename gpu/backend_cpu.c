@@ -120,11 +120,8 @@ static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   int64_t n = D->nf, *st;
   int half = set == 0 && c->cpu_sym;
   if (set == 0) {
-    int64_t cap = c->nls_cap;
-    if (grow(c, (void **)&D->nl_start, &cap, n + 1, sizeof(int64_t))) return SPHDEM_ERR_ALLOC;
-    int64_t cap2 = c->nls_cap;
-    if (grow(c, (void **)&D->wl_start, &cap2, n + 1, sizeof(int64_t))) return SPHDEM_ERR_ALLOC;
-    c->nls_cap = cap;
+    TRY_CPU(grow(c, (void **)&D->nl_start, &c->nls_cap, n + 1, sizeof(int64_t)));
+    TRY_CPU(grow(c, (void **)&D->wl_start, &c->wls_cap, n + 1, sizeof(int64_t)));
   }
   st = set == 0 ? D->nl_start : D->wl_start;
   st[0] = 0;

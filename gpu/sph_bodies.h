@@ -174,10 +174,11 @@ SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double 
 }
 
 /* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
- * delta h c0 sum_b psi_ab . grad_a W V_b, psi_ab = 2 (rho_b - rho_a - rho^H_ab) r_ba / (r^2 + 0.01 h^2).
+ * delta h c0 sum_b psi_ab . grad_a W V_b, psi_ab = 2 (rho_b - rho_a - rho^H_ab) r_ba / (r^2 + 0.01 h^2);
+ * returned per unit mass of b (V_b = m_b / rho_b: the caller multiplies by m_b).
  * rho^H_ab is the hydrostatic part of rho_b - rho_a (Fourtakas et al. 2019), linearised in the
  * Tait law: rho^H_ab = -rho0 g.r_ab / c0^2 (relative error O(rho0 g dz / B)). */
-SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob, double mb, double F,
+SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob, double F,
                                    const double *r, double r2, double ie) {
   double drh = rhob - rhoa;
   if (D->P.delta_hydro) {
@@ -185,7 +186,7 @@ SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob
     for (int d = 0; d < D->P.dim; d++) gr += D->P.gravity[d] * r[d];
     drh += D->P.rho0 * gr / (D->P.c0 * D->P.c0);
   }
-  return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie * mb / rhob;
+  return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie / rhob;
 }
 
 /* Accumulators of one fluid particle's rates. */
@@ -214,7 +215,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   P->cont = vdotr * F;                                                 /* eq 6 */
   P->dda = P->ddb = 0.0;
   if (D->P.delta > 0.0) {
-    P->dda = density_diffusion(D, rhoa, rhob, 1.0, F, r, r2, ie);
+    P->dda = density_diffusion(D, rhoa, rhob, F, r, r2, ie);
     P->ddb = -P->dda * rhob / rhoa;
   }
   pair_momentum(D, 1.0, pra, rhoa, D->pr2[b], rhob, W, F, r, r2, ie, vab, P->A);
