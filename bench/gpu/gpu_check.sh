@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# gpu_check.sh - (bench/gpu/) GPU verification of the C core on a machine with an NVIDIA GPU (no engines needed):
+# every unit/verification test on the CUDA backend, the CPU-vs-CUDA twin test, compute-sanitizer
+# memcheck and racecheck on the twin test, and the 3D dam-break benchmark on the GPU.
+#   usage: scripts/gpu_check.sh BIN_DIR OUT_DIR [bench sizes...]
+# BIN_DIR holds the test binaries and bench_dambreak (built with -DSPHDEM_CUDA=ON), OUT_DIR gets
+# one log per step. Each step has its own time limit; a failing step does not stop the others.
+set -u
+BIN=${1:?bin dir}; OUT=${2:?out dir}; shift 2
+SIZES=${*:-1e5 1e6}
+export PATH=$PATH:/usr/local/cuda/bin
+export SPHDEM_REFERENCE_DIR=${SPHDEM_REFERENCE_DIR:-$BIN/reference}
+mkdir -p "$OUT"
+step() { # name limit command...
+  local name=$1 lim=$2; shift 2
+  local t0=$(date +%s.%N)
+  timeout "$lim" "$@" >"$OUT/$name.log" 2>&1; local rc=$?
+  printf "%-28s rc=%-3s %6.1fs  %s\n" "$name" "$rc" "$(awk -v a="$(date +%s.%N)" -v b="$t0" "BEGIN{print a-b}")" "$(tail -1 "$OUT/$name.log")"
+}
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
+export SPHDEM_TEST_DEVICE=gpu
+for t in unit_kernel unit_eos unit_neighbors unit_api verify_hydrostatic verify_poiseuille verify_couette verify_dambreak2d; do
+  (cd "$OUT" && step "$t" 300 "$BIN/$t")
+done
+unset SPHDEM_TEST_DEVICE
+(cd "$OUT" && step twin 300 "$BIN/twin_cpu_cuda")
+(cd "$OUT" && step memcheck 400 compute-sanitizer --tool memcheck --leak-check full "$BIN/twin_cpu_cuda")
+(cd "$OUT" && step racecheck 400 compute-sanitizer --tool racecheck "$BIN/twin_cpu_cuda")
+for n in $SIZES; do
+  step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
+  grep BENCH "$OUT/bench3d_gpu_$n.log"
+done
