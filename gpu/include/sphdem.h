@@ -147,6 +147,57 @@ double sphdem_hydrostatic_rho(const sphdem_params *p, double depth);
  * written to pairs (2*maxpairs); returns the pair count or a negative error code. */
 int64_t sphdem_debug_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
 
+/* ---- SPH-DEM coupling (He 2018 §2.3, unresolved, two-way) -------------------------------------
+ * The engine keeps the DEM (contacts, integration); each fluid step it uploads the grains, the
+ * core computes the porosity at fluid particles (eq 26), uses it as superficial density in
+ * continuity and the equation of state (eqs 6-7 with eps), the fluid force on each grain
+ * (eqs 27-32 and the other drag laws) and the reaction on the fluid (eq 33), all inside
+ * sphdem_compute_rates. Off (and free) until sphdem_couple_set enables it. */
+typedef enum {
+  SPHDEM_DRAG_NONE = 0,             /* pressure-gradient/viscous part only */
+  SPHDEM_DRAG_ERGUN_WENYU = 1,      /* He 2018 eqs 30-32 (Ergun below eps 0.8, Wen-Yu above) */
+  SPHDEM_DRAG_DIFELICE = 2,         /* Di Felice 1994 voidage function */
+  SPHDEM_DRAG_SCHILLER_NAUMANN = 3  /* single sphere, C_D of eq 32, no voidage correction */
+} sphdem_drag;
+
+typedef struct {
+  int enabled;          /* 0: coupling off (default) */
+  double hc;            /* coupling smoothing length h_c of eqs 26 and 33 (support 2 hc); default: the fluid h */
+  int drag;             /* sphdem_drag */
+  double mu;            /* fluid dynamic viscosity in the drag laws (Pa s) */
+  double eps_min;       /* floor of the porosity used in the fluid equations and drag (default 0.2) */
+  int superficial;      /* 1 (default): eps enters continuity and the EOS (eqs 6-7); 0: porosity only reported */
+  int torque;           /* 1: fluid torque on grains (rotational drag); 0 (default): none */
+  double dmax;          /* largest grain diameter expected (sizes the DEM cells); 0 = from the grains */
+} sphdem_couple_params;
+
+void sphdem_couple_params_default(sphdem_couple_params *c);
+/* Enable, change or disable the coupling; checks c and names the bad field in the message. */
+int sphdem_couple_set(sphdem_ctx ctx, const sphdem_couple_params *c);
+int sphdem_couple_get(sphdem_ctx ctx, sphdem_couple_params *c);
+/* Upload the grains: n grains, x and v 3n interleaved, radius n, omega 3n or NULL (needed only
+ * for torque). Called before each sphdem_compute_rates that should see them; n may change. */
+int sphdem_set_grains(sphdem_ctx ctx, int n, const double *x, const double *v, const double *radius,
+                      const double *omega);
+/* Fluid force on each grain from the last sphdem_compute_rates, in the order of the last
+ * sphdem_set_grains: total f (eq 27), its drag part fdrag (eq 30) and pressure-gradient/viscous
+ * part fpg (eqs 28-29), torque. 3n each; any pointer may be NULL. */
+int sphdem_get_grain_forces(sphdem_ctx ctx, double *f, double *fdrag, double *fpg, double *torque);
+/* Porosity eps at each fluid particle (eq 26, before the floor), in the order of sphdem_set_fluid. */
+int sphdem_get_porosity(sphdem_ctx ctx, double *eps);
+
+typedef struct {
+  double f_grains[3];   /* sum of the fluid forces on the grains */
+  double f_fluid[3];    /* sum of the reaction forces on the fluid (m_a * S_a); ~ -f_grains */
+  double eps_min;       /* smallest porosity at a fluid particle */
+  int64_t ngrains;
+} sphdem_couple_stats;
+int sphdem_couple_stats_get(sphdem_ctx ctx, sphdem_couple_stats *s);
+
+/* Testing hook: (fluid, grain) pairs within the coupling range found by the dual-grid search,
+ * indices in upload order, written to pairs (2*maxpairs); returns the count or a negative code. */
+int64_t sphdem_debug_couple_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
+
 #ifdef __cplusplus
 }
 #endif
