@@ -1,5 +1,6 @@
 /* couple.c - SPH-DEM coupling API (He 2018 §2.3). Placeholder: every call reports that the
  * coupling is not implemented yet; the implementation replaces this file. */
+#include <string.h>
 #include "sphdem_internal.h"
 
 void sphdem_couple_params_default(sphdem_couple_params *c) {
