@@ -29,14 +29,13 @@ static int cpu_sync(struct sphdem_ctx_s *c) { (void)c; return SPHDEM_OK; }
  * the same (cell, tag) order as the CUDA radix sort of sort_key(). */
 static int cpu_sort_perm(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  int fl = set == SPHDEM_SET_FLUID;
-  int64_t n = fl ? D->nf : D->nw;
-  const double *x = fl ? D->x : D->wx;
-  const int64_t *tag = fl ? D->tag : D->wtag;
-  int32_t *cell = fl ? D->cell : D->wcell;
-  int64_t nc = D->ncells;
+  int64_t n = set_count(D, set);
+  const double *x = set_x(D, set);
+  const int64_t *tag = set_tag(D, set);
+  int32_t *cell = set_cell(D, set);
+  int64_t nc = set_ncells(D, set);
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; i++) cell[i] = cell_of(D, x + 3 * i);
+  for (int64_t i = 0; i < n; i++) cell[i] = set_cell_of(D, set, x + 3 * i);
   int64_t *start = (int64_t *)calloc((size_t)nc + 1, sizeof(int64_t));
   if (!start) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the cell count table");
   for (int64_t i = 0; i < n; i++) start[cell[i] + 1]++;
@@ -77,12 +76,11 @@ static int cpu_gather(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t
 
 static int cpu_cell_ranges(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  int fl = set == SPHDEM_SET_FLUID;
-  int64_t n = fl ? D->nf : D->nw;
-  int32_t *cs = fl ? D->cstart : D->wcstart, *ce = fl ? D->cend : D->wcend;
-  const int32_t *cell = fl ? D->cell : D->wcell;
-  memset(cs, 0, sizeof(int32_t) * (size_t)D->ncells);
-  memset(ce, 0, sizeof(int32_t) * (size_t)D->ncells);
+  int64_t n = set_count(D, set);
+  int32_t *cs = set_cstart(D, set), *ce = set_cend(D, set);
+  const int32_t *cell = set_cell(D, set);
+  memset(cs, 0, sizeof(int32_t) * (size_t)set_ncells(D, set));
+  memset(ce, 0, sizeof(int32_t) * (size_t)set_ncells(D, set));
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; i++) cell_range_body(cell, n, i, cs, ce);
   return SPHDEM_OK;
@@ -261,4 +259,7 @@ const sphdem_ops sphdem_cpu_ops = {
   .reduce = cpu_reduce,
   .sync = cpu_sync,
   .probe = cpu_probe,
+  .couple_porosity = sphdem_cpu_couple_porosity,
+  .couple_grains = sphdem_cpu_couple_grains,
+  .couple_reaction = sphdem_cpu_couple_reaction,
 };

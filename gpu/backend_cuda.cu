@@ -25,11 +25,9 @@ static int cuda_check(struct sphdem_ctx_s *c, cudaError_t e, const char *what) {
 
 __global__ void k_cell(sphdem_dev D, int set, uint64_t *key, int32_t *perm) {
   int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  int fl = set == SPHDEM_SET_FLUID;
-  int64_t n = fl ? D.nf : D.nw;
-  if (i >= n) return;
-  int32_t c = cell_of(&D, (fl ? D.x : D.wx) + 3 * i);
-  key[i] = sort_key(c, fl ? D.tag[i] : D.wtag[i]);
+  if (i >= set_count(&D, set)) return;
+  int32_t c = set_cell_of(&D, set, set_x(&D, set) + 3 * i);
+  key[i] = sort_key(c, set_tag(&D, set)[i]);
   perm[i] = (int32_t)i;
 }
 
@@ -134,15 +132,14 @@ static int cu_sync(struct sphdem_ctx_s *c) {
 
 static int cu_sort_perm(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  int fl = set == SPHDEM_SET_FLUID;
-  int64_t n = fl ? D->nf : D->nw;
+  int64_t n = set_count(D, set);
   uint64_t *key = (uint64_t *)c->scratch_i;
   k_cell<<<nblocks(n), SPHDEM_BLOCK>>>(*D, set, key, c->perm);
   LAUNCHED(c, "cell index kernel");
   thrust::sort_by_key(thrust::device, thrust::device_ptr<uint64_t>(key), thrust::device_ptr<uint64_t>(key + n),
                       thrust::device_ptr<int32_t>(c->perm));
   LAUNCHED(c, "radix sort");
-  k_cell_from_key<<<nblocks(n), SPHDEM_BLOCK>>>(key, fl ? D->cell : D->wcell, n);
+  k_cell_from_key<<<nblocks(n), SPHDEM_BLOCK>>>(key, set_cell(D, set), n);
   LAUNCHED(c, "cell extraction kernel");
   return SPHDEM_OK;
 }
@@ -155,12 +152,11 @@ static int cu_gather(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t 
 
 static int cu_cell_ranges(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  int fl = set == SPHDEM_SET_FLUID;
-  int64_t n = fl ? D->nf : D->nw;
-  int32_t *cs = fl ? D->cstart : D->wcstart, *ce = fl ? D->cend : D->wcend;
-  CK(c, cudaMemset(cs, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
-  CK(c, cudaMemset(ce, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
-  k_cell_ranges<<<nblocks(n), SPHDEM_BLOCK>>>(fl ? D->cell : D->wcell, n, cs, ce);
+  int64_t n = set_count(D, set);
+  int32_t *cs = set_cstart(D, set), *ce = set_cend(D, set);
+  CK(c, cudaMemset(cs, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
+  CK(c, cudaMemset(ce, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
+  k_cell_ranges<<<nblocks(n), SPHDEM_BLOCK>>>(set_cell(D, set), n, cs, ce);
   LAUNCHED(c, "cell range kernel");
   return SPHDEM_OK;
 }
@@ -216,6 +212,7 @@ extern "C" {
 const sphdem_ops sphdem_cuda_ops = {
   "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
   cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync, cu_probe,
+  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction,
 };
 
 /* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */

@@ -213,6 +213,8 @@ static int ensure_scratch(sphdem_ctx c, int64_t n) {
   return SPHDEM_OK;
 }
 
+int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n) { return ensure_scratch(c, n); }
+
 static int ensure_fluid(sphdem_ctx c, int64_t n) {
   if (n <= c->cap_f && c->cap_f > 0) return SPHDEM_OK;
   free_fluid(c);
@@ -331,6 +333,7 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
 int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
+  sphdem_couple_release(c);
   free_fluid(c);
   free_walls(c);
   free_scratch(c);
@@ -411,6 +414,8 @@ static int sort_set(sphdem_ctx c, int set) {
     int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
     for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
     TRY(c->ops->d2d(c, D->x0, D->x, 24 * (size_t)n));
+    /* coupling: the porosity follows its particles (read by get_porosity, probe and get_fluid's pressure) */
+    if (D->eps && c->cap_cf >= n) TRY(c->ops->gather(c, D->eps, 8, n));
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
@@ -596,7 +601,17 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   }
   if (p) {
     TRY(down(c, h, D->rho, 8 * (size_t)n));
-    for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
+    if (D->couple_eos && D->eps && c->cap_cf >= n) {
+      /* superficial density: the EOS sees rho / eps (He 2018 eq 7); eps from the last compute_rates */
+      double *e = (double *)malloc(8 * (size_t)n);
+      if (!e) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld doubles", (long long)n);
+      int rc = down(c, e, D->eps, 8 * (size_t)n);
+      if (rc) { free(e); return rc; }
+      for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s] / fmax(e[s], D->eps_floor));
+      free(e);
+    } else {
+      for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
+    }
   }
   c->timers[SPHDEM_T_TRANSFER] += now() - t0;
   return SPHDEM_OK;
@@ -647,6 +662,8 @@ int sphdem_compute_rates(sphdem_ctx c) {
   }
   if (!c->half_kicked) c->D.pred_dth = 0.0;
   double t0 = now();
+  /* SPH-DEM coupling (couple.c): grain sort and porosity before the EOS; its time counts as rates */
+  if (D->couple) TRY(sphdem_couple_prepare(c));
   TRY(c->ops->pressure(c));
   TRY(c->ops->sync(c));
   double t1 = now();
@@ -654,6 +671,7 @@ int sphdem_compute_rates(sphdem_ctx c) {
   double t2 = now();
   TRY(c->ops->rates(c));
   TRY(c->ops->sync(c));
+  if (D->couple) TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
   double t3 = now();
   c->timers[SPHDEM_T_WALL] += t2 - t1;
   c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2);

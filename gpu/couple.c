@@ -1,21 +1,501 @@
-/* couple.c - SPH-DEM coupling API (He 2018 §2.3). Placeholder: every call reports that the
- * coupling is not implemented yet; the implementation replaces this file. */
+/* couple.c - SPH-DEM coupling (He 2018 §2.3-2.4.1), host side: parameters, grain upload, the grain
+ * (DEM, level 1) grid, the coupling steps of sphdem_compute_rates, downloads, stats and the pair hook.
+ *
+ * Flow inside sphdem_compute_rates when the coupling is on:
+ *   (fluid sort if due) -> grain sort on the grain grid -> porosity pass (eq 26, per fluid particle,
+ *   fluid->grain search) -> pressure pass (EOS with eps, eq 7) -> walls -> rates (eqs 6, 9-12) ->
+ *   grain pass (eqs 27-32, per grain, grain->fluid search) -> reaction pass (eq 33, per fluid particle)
+ *   -> grain forces downloaded to host memory (they stay until the next compute_rates).
+ * Every pass is a gather (no atomics), so results are deterministic and identical on both backends.
+ *
+ * How eps enters eqs 6-7: the fluid particle's density variable is the superficial density
+ * rho_bar = eps rho_f; continuity (eq 6) evolves rho_bar unchanged; the EOS (eq 7) gets the intrinsic
+ * density rho_bar / eps (eps floored at eps_min); the momentum equation (eq 9) keeps P / rho_bar^2 (the
+ * same density variable), so its pressure term is -grad P / rho_bar, and the kernel volumes m/rho_bar are
+ * mixture volumes. With superficial = 0 eps is computed and used in the drag laws only.
+ *
+ * Dual grid (§2.4.1): SPH cells are the fluid grid (>= 2h + skin, sorted when particles moved skin/2);
+ * grain cells are max(d_max, hc/2) (grains are re-binned at every upload, so they need no gap; the hc/2
+ * floor caps the fluid->grain search at 4 layers for tiny grains). Fluid->grain: ceil(2 hc / grain cell)
+ * layers; grain->fluid: ceil((2 hc + skin/2) / SPH cell) layers (1 when hc = h). The search range of
+ * both directions is the coupling support 2 hc (centre to centre), so the paper's ceil(2h/d) and
+ * ceil(d/2h) (for hc = h, d <= 2h) are the special cases. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "couple_bodies.h"
 #include "sphdem_internal.h"
+
+#define TRYC(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
+/* grain cells are at least hc/2, so the fluid->grain search spans at most this many layers */
+#define SPHDEM_COUPLE_MAX_LAYERS 4
 
 void sphdem_couple_params_default(sphdem_couple_params *c) {
   memset(c, 0, sizeof *c);
   c->eps_min = 0.2;
   c->superficial = 1;
 }
-#define SPHDEM_COUPLE_TODO_ return SPHDEM_ERR_STATE
-int sphdem_couple_set(sphdem_ctx ctx, const sphdem_couple_params *c) { (void)ctx; (void)c; SPHDEM_COUPLE_TODO_; }
-int sphdem_couple_get(sphdem_ctx ctx, sphdem_couple_params *c) { (void)ctx; (void)c; SPHDEM_COUPLE_TODO_; }
-int sphdem_set_grains(sphdem_ctx ctx, int n, const double *x, const double *v, const double *radius,
-                      const double *omega) { (void)ctx; (void)n; (void)x; (void)v; (void)radius; (void)omega; SPHDEM_COUPLE_TODO_; }
-int sphdem_get_grain_forces(sphdem_ctx ctx, double *f, double *fdrag, double *fpg, double *torque) {
-  (void)ctx; (void)f; (void)fdrag; (void)fpg; (void)torque; SPHDEM_COUPLE_TODO_; }
-int sphdem_get_porosity(sphdem_ctx ctx, double *eps) { (void)ctx; (void)eps; SPHDEM_COUPLE_TODO_; }
-int sphdem_couple_stats_get(sphdem_ctx ctx, sphdem_couple_stats *s) { (void)ctx; (void)s; SPHDEM_COUPLE_TODO_; }
-int64_t sphdem_debug_couple_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs) {
-  (void)ctx; (void)pairs; (void)maxpairs; return -SPHDEM_ERR_STATE; }
+
+static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, char *msg, size_t len) {
+#define CCHECK(cond, ...) do { if (!(cond)) { snprintf(msg, len, __VA_ARGS__); return SPHDEM_ERR_ARG; } } while (0)
+  CCHECK(cp->enabled == 0 || cp->enabled == 1, "enabled must be 0 or 1 (got %d)", cp->enabled);
+  if (!cp->enabled) return SPHDEM_OK;
+  CCHECK(cp->hc >= 0 && isfinite(cp->hc), "hc (coupling smoothing length) must be >= 0, 0 = the fluid h (got %g)", cp->hc);
+  CCHECK(cp->drag >= SPHDEM_DRAG_NONE && cp->drag <= SPHDEM_DRAG_SCHILLER_NAUMANN,
+         "drag must be none (0), ergun-wenyu (1), difelice (2) or schiller-naumann (3) (got %d)", cp->drag);
+  CCHECK(cp->torque == 0 || cp->torque == 1, "torque must be 0 or 1 (got %d)", cp->torque);
+  CCHECK((cp->drag == SPHDEM_DRAG_NONE && !cp->torque) || (cp->mu > 0 && isfinite(cp->mu)),
+         "mu (fluid viscosity of the drag law) must be > 0 (got %g)", cp->mu);
+  CCHECK(cp->eps_min > 0 && cp->eps_min < 1, "eps_min (porosity floor) must be in (0, 1) (got %g)", cp->eps_min);
+  CCHECK(cp->superficial == 0 || cp->superficial == 1, "superficial must be 0 or 1 (got %d)", cp->superficial);
+  CCHECK(cp->dmax >= 0 && isfinite(cp->dmax), "dmax (largest grain diameter) must be >= 0 (got %g)", cp->dmax);
+  double hc = cp->hc > 0 ? cp->hc : P->h;
+  for (int d = 0; d < P->dim; d++)
+    if (P->periodic[d]) {
+      double L = P->boxhi[d] - P->boxlo[d];
+      CCHECK(L >= 6.0 * hc, "hc %g too large for the periodic box: length %g on axis %c is below 3 (2 hc) = %g",
+             hc, L, "xyz"[d], 6.0 * hc);
+    }
+  return SPHDEM_OK;
+#undef CCHECK
+}
+
+/* ---- memory ------------------------------------------------------------------------------------ */
+
+static int calloc_dev(struct sphdem_ctx_s *c, void **p, size_t bytes) {
+  if (bytes == 0) bytes = 8;
+  int rc = c->ops->alloc(c, p, bytes);
+  if (rc == SPHDEM_OK) c->bytes += bytes;
+  return rc;
+}
+
+static void free_dev(struct sphdem_ctx_s *c, void **p, size_t bytes) {
+  if (!*p) return;
+  c->ops->free(c, *p);
+  c->bytes -= bytes ? bytes : 8;
+  *p = NULL;
+}
+
+static void free_grains(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  size_t n = (size_t)c->cap_g;
+  if (!n) return;
+  void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
+                  (void **)&D->gfpg, (void **)&D->gtq};
+  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) free_dev(c, p24[k], 24 * n);
+  free_dev(c, (void **)&D->grad, 8 * n);
+  free_dev(c, (void **)&D->gsig, 8 * n);
+  free_dev(c, (void **)&D->gtag, 8 * n);
+  free_dev(c, (void **)&D->gcell, 4 * n);
+  c->cap_g = 0;
+}
+
+static int ensure_grains(struct sphdem_ctx_s *c, int64_t n) {
+  if (n <= c->cap_g && c->cap_g > 0) return SPHDEM_OK;
+  free_grains(c);
+  sphdem_dev *D = &c->D;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
+                  (void **)&D->gfpg, (void **)&D->gtq};
+  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(calloc_dev(c, p24[k], 24 * m));
+  TRYC(calloc_dev(c, (void **)&D->grad, 8 * m));
+  TRYC(calloc_dev(c, (void **)&D->gsig, 8 * m));
+  TRYC(calloc_dev(c, (void **)&D->gtag, 8 * m));
+  TRYC(calloc_dev(c, (void **)&D->gcell, 4 * m));
+  c->cap_g = (int64_t)m;
+  return sphdem_ensure_scratch(c, (int64_t)m);
+}
+
+static int ensure_grain_cells(struct sphdem_ctx_s *c, int64_t n) {
+  if (n <= c->cap_gcells) return SPHDEM_OK;
+  free_dev(c, (void **)&c->D.gcstart, 4 * (size_t)c->cap_gcells);
+  free_dev(c, (void **)&c->D.gcend, 4 * (size_t)c->cap_gcells);
+  c->cap_gcells = 0;
+  TRYC(calloc_dev(c, (void **)&c->D.gcstart, 4 * (size_t)n));
+  TRYC(calloc_dev(c, (void **)&c->D.gcend, 4 * (size_t)n));
+  c->cap_gcells = n;
+  return SPHDEM_OK;
+}
+
+static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
+  if (n <= c->cap_cf && c->cap_cf > 0) return SPHDEM_OK;
+  free_dev(c, (void **)&c->D.eps, 8 * (size_t)c->cap_cf);
+  free_dev(c, (void **)&c->D.fr, 24 * (size_t)c->cap_cf);
+  c->cap_cf = 0;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  TRYC(calloc_dev(c, (void **)&c->D.eps, 8 * m));
+  TRYC(calloc_dev(c, (void **)&c->D.fr, 24 * m));
+  c->cap_cf = (int64_t)m;
+  return SPHDEM_OK;
+}
+
+void sphdem_couple_release(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  free_grains(c);
+  free_dev(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
+  free_dev(c, (void **)&D->gcend, 4 * (size_t)c->cap_gcells);
+  c->cap_gcells = 0;
+  free_dev(c, (void **)&D->eps, 8 * (size_t)c->cap_cf);
+  free_dev(c, (void **)&D->fr, 24 * (size_t)c->cap_cf);
+  c->cap_cf = 0;
+  free(c->hgf);
+  c->hgf = NULL;
+  c->cap_hgf = 0;
+  D->ng = 0;
+  D->couple = D->couple_eos = 0;
+  c->nforces = 0;
+  c->forces_valid = 0;
+  c->grains_dirty = 0;
+}
+
+/* ---- API ------------------------------------------------------------------------------------------ */
+
+int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!cp) return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: parameters missing");
+  char msg[512];
+  if (couple_check(cp, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: %s", msg);
+  c->cp = *cp;
+  sphdem_dev *D = &c->D;
+  if (!cp->enabled) { /* off and free */
+    sphdem_couple_release(c);
+    return SPHDEM_OK;
+  }
+  int was_on = D->couple;
+  D->couple = 1;
+  D->couple_eos = cp->superficial;
+  D->drag = cp->drag;
+  D->torque = cp->torque;
+  D->cmu = cp->mu;
+  D->eps_floor = cp->eps_min;
+  D->hc = cp->hc > 0 ? cp->hc : D->P.h;
+  D->inv_hc = 1.0 / D->hc;
+  D->alphaC = wendland_alpha(D->P.dim, D->hc);
+  D->support2c = 4.0 * D->hc * D->hc;
+  if (!was_on) { D->ng = 0; c->grains_dirty = 1; }
+  else c->grains_dirty = 1; /* dmax or hc may have changed the grain grid */
+  return SPHDEM_OK;
+}
+
+int sphdem_couple_get(sphdem_ctx c, sphdem_couple_params *cp) {
+  if (!c || !cp) return SPHDEM_ERR_ARG;
+  if (!c->D.couple) sphdem_couple_params_default(cp);
+  else *cp = c->cp;
+  return SPHDEM_OK;
+}
+
+int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, const double *radius,
+                      const double *omega) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: negative grain count %d", n);
+  if (n > 0 && (!x || !v || !radius))
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: x, v and radius are required");
+  int dim = c->D.P.dim;
+  for (int i = 0; i < n; i++) {
+    if (!(radius[i] > 0) || !isfinite(radius[i]))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has radius %g; must be > 0", i, radius[i]);
+    for (int d = 0; d < dim; d++)
+      if (!isfinite(x[3 * i + d]) || !isfinite(v[3 * i + d]))
+        return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has a non-finite position or velocity", i);
+  }
+  sphdem_dev *D = &c->D;
+  if (!D->couple) return SPHDEM_OK; /* ignored while the coupling is off */
+  TRYC(ensure_grains(c, n));
+  if (n > 0) {
+    int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
+    if (!tag) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_grains: cannot allocate %d tags", n);
+    for (int i = 0; i < n; i++) tag[i] = i + 1;
+    int rc = c->ops->h2d(c, D->gtag, tag, 8 * (size_t)n);
+    free(tag);
+    TRYC(rc);
+    TRYC(c->ops->h2d(c, D->gx, x, 24 * (size_t)n));
+    TRYC(c->ops->h2d(c, D->gv, v, 24 * (size_t)n));
+    TRYC(c->ops->h2d(c, D->grad, radius, 8 * (size_t)n));
+    if (omega) TRYC(c->ops->h2d(c, D->gom, omega, 24 * (size_t)n));
+    else TRYC(c->ops->memset0(c, D->gom, 24 * (size_t)n));
+  }
+  /* bounding box and largest diameter for the grain grid (host loop over the host arrays) */
+  c->gdmax = 0.0;
+  for (int d = 0; d < 3; d++) { c->gbb_lo[d] = 0.0; c->gbb_hi[d] = 0.0; }
+  for (int i = 0; i < n; i++) {
+    for (int d = 0; d < dim; d++) {
+      double xd = x[3 * i + d];
+      if (i == 0 || xd < c->gbb_lo[d]) c->gbb_lo[d] = xd;
+      if (i == 0 || xd > c->gbb_hi[d]) c->gbb_hi[d] = xd;
+    }
+    if (2.0 * radius[i] > c->gdmax) c->gdmax = 2.0 * radius[i];
+  }
+  D->ng = n;
+  c->grains_dirty = 1;
+  return SPHDEM_OK;
+}
+
+/* ---- grain grid and the coupling steps of compute_rates ------------------------------------------- */
+
+static int build_grain_grid(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  double dmax = c->cp.dmax > 0 ? c->cp.dmax : c->gdmax;
+  double cmin = fmax(dmax, 2.0 * D->hc / SPHDEM_COUPLE_MAX_LAYERS), scale = 1.0;
+  for (int iter = 0; iter < 64; iter++) {
+    int64_t total = 1;
+    for (int d = 0; d < 3; d++) {
+      if (d >= D->P.dim) { D->gnc[d] = 1; D->gglo[d] = 0.0; D->gcs[d] = 1.0; D->gcs_inv[d] = 1.0; continue; }
+      double lo, len, cs = cmin * scale;
+      if (D->P.periodic[d]) { lo = D->P.boxlo[d]; len = D->P.boxhi[d] - D->P.boxlo[d]; }
+      else { lo = c->gbb_lo[d]; len = c->gbb_hi[d] - c->gbb_lo[d]; }
+      int n = (int)fmin(floor(len / cs), 1e9);
+      if (n < 1) n = 1;
+      if (D->P.periodic[d]) cs = len / n;
+      else if (len > 0) cs = fmax(cs, len / n);
+      D->gnc[d] = n; D->gglo[d] = lo; D->gcs[d] = cs; D->gcs_inv[d] = 1.0 / cs;
+      total *= n;
+    }
+    D->gncells = total;
+    if (total <= SPHDEM_MAX_CELLS) return ensure_grain_cells(c, total);
+    scale *= 1.26;
+  }
+  return sphdem_fail(c, SPHDEM_ERR_ARG, "couple: grain search grid too large");
+}
+
+static int sort_grains(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  TRYC(build_grain_grid(c));
+  int64_t n = D->ng;
+  if (n > 0) {
+    TRYC(sphdem_ensure_scratch(c, n));
+    TRYC(c->ops->sort_perm(c, SPHDEM_SET_GRAIN));
+    void *arr[] = {D->gx, D->gv, D->gom, D->grad, D->gtag};
+    int eb[] = {24, 24, 24, 8, 8};
+    for (int k = 0; k < 5; k++) TRYC(c->ops->gather(c, arr[k], eb[k], n));
+    TRYC(c->ops->cell_ranges(c, SPHDEM_SET_GRAIN));
+  } else {
+    TRYC(c->ops->memset0(c, D->gcstart, 4 * (size_t)D->gncells));
+    TRYC(c->ops->memset0(c, D->gcend, 4 * (size_t)D->gncells));
+  }
+  c->grains_dirty = 0;
+  return SPHDEM_OK;
+}
+
+static void set_layers(sphdem_dev *D) {
+  for (int d = 0; d < 3; d++) {
+    if (d >= D->P.dim) { D->glay[d] = D->flay[d] = 0; continue; }
+    D->glay[d] = (int)ceil(2.0 * D->hc * D->gcs_inv[d]);
+    D->flay[d] = (int)ceil((2.0 * D->hc + 0.5 * D->P.skin) * D->cs_inv[d]);
+    if (D->glay[d] < 1) D->glay[d] = 1;
+    if (D->flay[d] < 1) D->flay[d] = 1;
+  }
+}
+
+int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  TRYC(ensure_couple_fluid(c, D->nf));
+  if (c->grains_dirty || D->gncells == 0) TRYC(sort_grains(c));
+  set_layers(D);
+  TRYC(c->ops->couple_porosity(c));
+  TRYC(c->ops->sync(c));
+  return SPHDEM_OK;
+}
+
+int sphdem_couple_finish(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  int64_t n = D->ng;
+  if (n > 0) {
+    TRYC(c->ops->couple_grains(c));
+    TRYC(c->ops->sync(c));
+    TRYC(c->ops->couple_reaction(c));
+  } else {
+    TRYC(c->ops->memset0(c, D->fr, 24 * (size_t)D->nf));
+  }
+  TRYC(c->ops->sync(c));
+  /* grain forces to host memory, in upload order */
+  if (12 * n > c->cap_hgf) {
+    free(c->hgf);
+    c->hgf = (double *)malloc(8 * (size_t)(12 * n));
+    c->cap_hgf = c->hgf ? 12 * n : 0;
+    if (!c->hgf) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host force buffers");
+  }
+  if (n > 0) {
+    int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
+    double *buf = (double *)malloc(24 * (size_t)n);
+    int rc = tag && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
+    if (!rc) rc = c->ops->d2h(c, tag, D->gtag, 8 * (size_t)n);
+    const double *src[4] = {D->gf, D->gfd, D->gfpg, D->gtq};
+    for (int k = 0; !rc && k < 4; k++) {
+      rc = c->ops->d2h(c, buf, src[k], 24 * (size_t)n);
+      for (int64_t s = 0; !rc && s < n; s++)
+        for (int d = 0; d < 3; d++) c->hgf[3 * (k * n + (tag[s] - 1)) + d] = buf[3 * s + d];
+    }
+    free(tag);
+    free(buf);
+    TRYC(rc);
+  }
+  c->nforces = n;
+  c->forces_valid = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_get_grain_forces(sphdem_ctx c, double *f, double *fdrag, double *fpg, double *torque) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!c->D.couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_grain_forces: the coupling is off");
+  if (!c->forces_valid)
+    return sphdem_fail(c, SPHDEM_ERR_STATE, "get_grain_forces: no forces yet (call sphdem_compute_rates "
+                                             "after sphdem_set_grains)");
+  int64_t n = c->nforces;
+  double *dst[4] = {f, fdrag, fpg, torque};
+  for (int k = 0; k < 4; k++)
+    if (dst[k] && n > 0) memcpy(dst[k], c->hgf + 3 * k * n, 24 * (size_t)n);
+  return SPHDEM_OK;
+}
+
+/* eps (nf) and optionally the reaction forces (3 nf) in upload order (host arrays of the caller). */
+static int download_fluid_coupling(struct sphdem_ctx_s *c, double *eps, double *fr) {
+  sphdem_dev *D = &c->D;
+  int64_t n = D->nf;
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
+  double *buf = (double *)malloc(24 * (size_t)n);
+  int rc = ui && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
+  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc && eps) {
+    rc = c->ops->d2h(c, buf, D->eps, 8 * (size_t)n);
+    for (int64_t s = 0; !rc && s < n; s++) eps[ui[s]] = buf[s];
+  }
+  if (!rc && fr) {
+    rc = c->ops->d2h(c, buf, D->fr, 24 * (size_t)n);
+    for (int64_t s = 0; !rc && s < n; s++)
+      for (int d = 0; d < 3; d++) fr[3 * (int64_t)ui[s] + d] = buf[3 * s + d];
+  }
+  free(ui);
+  free(buf);
+  return rc;
+}
+
+int sphdem_get_porosity(sphdem_ctx c, double *eps) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!c->D.couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_porosity: the coupling is off");
+  if (c->D.nf == 0) return SPHDEM_OK;
+  if (!eps) return sphdem_fail(c, SPHDEM_ERR_ARG, "get_porosity: eps is NULL");
+  if (c->cap_cf < c->D.nf || !c->forces_valid)
+    return sphdem_fail(c, SPHDEM_ERR_STATE, "get_porosity: no porosity yet (call sphdem_compute_rates)");
+  return download_fluid_coupling(c, eps, NULL);
+}
+
+int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
+  if (!c || !s) return SPHDEM_ERR_ARG;
+  memset(s, 0, sizeof *s);
+  s->eps_min = 1.0;
+  sphdem_dev *D = &c->D;
+  if (!D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_stats_get: the coupling is off");
+  s->ngrains = D->ng;
+  if (!c->forces_valid) return SPHDEM_OK;
+  long double fg[3] = {0, 0, 0}, ff[3] = {0, 0, 0};
+  for (int64_t j = 0; j < c->nforces; j++)
+    for (int d = 0; d < 3; d++) fg[d] += c->hgf[3 * j + d];
+  int64_t n = D->nf;
+  if (n > 0 && c->cap_cf >= n) {
+    double *e = (double *)malloc(8 * (size_t)n), *fr = (double *)malloc(24 * (size_t)n);
+    int rc = e && fr ? download_fluid_coupling(c, e, fr)
+                     : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple_stats_get: cannot allocate host staging");
+    for (int64_t a = 0; !rc && a < n; a++) {
+      if (e[a] < s->eps_min) s->eps_min = e[a];
+      for (int d = 0; d < 3; d++) ff[d] += fr[3 * a + d];
+    }
+    free(e);
+    free(fr);
+    TRYC(rc);
+  }
+  for (int d = 0; d < 3; d++) { s->f_grains[d] = (double)fg[d]; s->f_fluid[d] = (double)ff[d]; }
+  return SPHDEM_OK;
+}
+
+/* ---- testing hook ------------------------------------------------------------------------------------ */
+
+static int cmp_pair(const void *a, const void *b) {
+  const int64_t *x = (const int64_t *)a, *y = (const int64_t *)b;
+  if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+  if (x[1] != y[1]) return x[1] < y[1] ? -1 : 1;
+  return 0;
+}
+
+/* Runs both searches of the passes (fluid->grain on the grain grid, grain->fluid on the SPH grid) on a
+ * host copy of the device arrays; they must find the same pairs (else -SPHDEM_ERR_STATE with a message). */
+int64_t sphdem_debug_couple_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs) {
+  if (!c) return -SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (!D->couple) return -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: the coupling is off");
+  if (c->need_sort || c->grains_dirty || !c->forces_valid)
+    return -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: call sphdem_compute_rates first");
+  int64_t nf = D->nf, ng = D->ng;
+  if (nf == 0 || ng == 0) return 0;
+  sphdem_dev H = *D;
+  H.x = (double *)malloc(24 * (size_t)nf);
+  H.gx = (double *)malloc(24 * (size_t)ng);
+  H.cstart = (int32_t *)malloc(4 * (size_t)D->ncells);
+  H.cend = (int32_t *)malloc(4 * (size_t)D->ncells);
+  H.gcstart = (int32_t *)malloc(4 * (size_t)D->gncells);
+  H.gcend = (int32_t *)malloc(4 * (size_t)D->gncells);
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)nf);
+  int64_t *gt = (int64_t *)malloc(8 * (size_t)ng);
+  int64_t cap = 1024, np[2] = {0, 0};
+  int64_t *lst[2] = {(int64_t *)malloc(16 * (size_t)cap), (int64_t *)malloc(16 * (size_t)cap)};
+  int64_t caps[2] = {cap, cap};
+  int rc = H.x && H.gx && H.cstart && H.cend && H.gcstart && H.gcend && ui && gt && lst[0] && lst[1]
+               ? SPHDEM_OK : SPHDEM_ERR_ALLOC;
+  if (!rc) rc = c->ops->d2h(c, H.x, D->x, 24 * (size_t)nf);
+  if (!rc) rc = c->ops->d2h(c, H.gx, D->gx, 24 * (size_t)ng);
+  if (!rc) rc = c->ops->d2h(c, H.cstart, D->cstart, 4 * (size_t)D->ncells);
+  if (!rc) rc = c->ops->d2h(c, H.cend, D->cend, 4 * (size_t)D->ncells);
+  if (!rc) rc = c->ops->d2h(c, H.gcstart, D->gcstart, 4 * (size_t)D->gncells);
+  if (!rc) rc = c->ops->d2h(c, H.gcend, D->gcend, 4 * (size_t)D->gncells);
+  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)nf);
+  if (!rc) rc = c->ops->d2h(c, gt, D->gtag, 8 * (size_t)ng);
+  for (int dir = 0; dir < 2 && !rc; dir++) {
+    int64_t nsrc = dir == 0 ? nf : ng;
+    for (int64_t i = 0; i < nsrc && !rc; i++) {
+      const double *xi = (dir == 0 ? H.x : H.gx) + 3 * i;
+      cell_walk w;
+      int64_t cc;
+      double r[3];
+      if (dir == 0) walk_grains_around(&H, xi, &w);
+      else walk_fluid_around(&H, xi, &w);
+      while (!rc && walk_next(&w, &cc)) {
+        int32_t b0 = dir == 0 ? H.gcstart[cc] : H.cstart[cc], b1 = dir == 0 ? H.gcend[cc] : H.cend[cc];
+        for (int32_t k = b0; k < b1; k++) {
+          const double *xk = (dir == 0 ? H.gx : H.x) + 3 * k;
+          if (separation(&H, xi, xk, r) >= H.support2c) continue;
+          if (np[dir] == caps[dir]) {
+            int64_t *q = (int64_t *)realloc(lst[dir], 32 * (size_t)caps[dir]);
+            if (!q) { rc = SPHDEM_ERR_ALLOC; break; }
+            lst[dir] = q;
+            caps[dir] *= 2;
+          }
+          int64_t fl = dir == 0 ? ui[i] : ui[k], gr = dir == 0 ? gt[k] - 1 : gt[i] - 1;
+          lst[dir][2 * np[dir]] = fl;
+          lst[dir][2 * np[dir] + 1] = gr;
+          np[dir]++;
+        }
+      }
+    }
+  }
+  int64_t out = 0;
+  if (rc) {
+    sphdem_fail(c, rc, "debug_couple_pairs: cannot allocate host copies");
+    out = -rc;
+  } else {
+    qsort(lst[0], (size_t)np[0], 16, cmp_pair);
+    qsort(lst[1], (size_t)np[1], 16, cmp_pair);
+    if (np[0] != np[1] || memcmp(lst[0], lst[1], 16 * (size_t)np[0]) != 0) {
+      out = -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: fluid->grain search found %lld pairs, "
+                                              "grain->fluid search %lld (or different ones)",
+                         (long long)np[0], (long long)np[1]);
+    } else {
+      for (int64_t k = 0; k < np[0] && k < maxpairs; k++) { pairs[2 * k] = lst[0][2 * k]; pairs[2 * k + 1] = lst[0][2 * k + 1]; }
+      out = np[0];
+    }
+  }
+  free(H.x); free(H.gx); free(H.cstart); free(H.cend); free(H.gcstart); free(H.gcend);
+  free(ui); free(gt); free(lst[0]); free(lst[1]);
+  return out;
+}

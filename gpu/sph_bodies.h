@@ -49,14 +49,41 @@ SPHDEM_HD double tait_density(const sphdem_dev *D, double p) {
   return D->P.rho0 * pow(base, 1.0 / D->P.gamma);
 }
 
+/* Porosity used in the fluid equations: eq 26 floored at eps_min (1 while the coupling is off). */
+SPHDEM_HD double fluid_eps(const sphdem_dev *D, int64_t i) {
+  return D->eps ? fmax(D->eps[i], D->eps_floor) : 1.0;
+}
+
+/* Density that enters the EOS: rho itself, or the intrinsic density rho_bar / eps when rho is the
+ * superficial density of the coupled fluid (He 2018 eq 7: P = B ((rho_bar / (eps rho0))^gamma - 1)). */
+SPHDEM_HD double eos_density(const sphdem_dev *D, int64_t i, double rho) {
+  return D->couple_eos ? rho / fluid_eps(D, i) : rho;
+}
+
 /* ---- search grid ------------------------------------------------------------------------ */
 
-SPHDEM_HD int grid_coord(const sphdem_dev *D, int d, double x) {
-  int n = D->nc[d];
-  int c = (int)floor((x - D->glo[d]) * D->cs_inv[d]);
-  if (D->P.periodic[d]) { c %= n; if (c < 0) c += n; }
+/* Cell coordinate on one axis of a grid (origin lo, 1/cell inv, n cells): wrapped on periodic axes,
+ * clamped otherwise. */
+SPHDEM_HD int axis_coord(double x, double lo, double inv, int n, int periodic) {
+  int c = (int)floor((x - lo) * inv);
+  if (periodic) { c %= n; if (c < 0) c += n; }
   else { if (c < 0) c = 0; if (c >= n) c = n - 1; }
   return c;
+}
+
+SPHDEM_HD int grid_coord(const sphdem_dev *D, int d, double x) {
+  return axis_coord(x, D->glo[d], D->cs_inv[d], D->nc[d], D->P.periodic[d]);
+}
+
+/* Coordinate on the grain (DEM, level 1) grid of the coupling. */
+SPHDEM_HD int grain_grid_coord(const sphdem_dev *D, int d, double x) {
+  return axis_coord(x, D->gglo[d], D->gcs_inv[d], D->gnc[d], D->P.periodic[d]);
+}
+
+SPHDEM_HD int32_t grain_cell_of(const sphdem_dev *D, const double *x) {
+  int cx = grain_grid_coord(D, 0, x[0]), cy = grain_grid_coord(D, 1, x[1]);
+  int cz = D->P.dim == 3 ? grain_grid_coord(D, 2, x[2]) : 0;
+  return (int32_t)(((int64_t)cz * D->gnc[1] + cy) * D->gnc[0] + cx);
 }
 
 SPHDEM_HD int32_t cell_of(const sphdem_dev *D, const double *x) {
@@ -86,6 +113,32 @@ SPHDEM_HD int neighbor_cells(const sphdem_dev *D, int32_t c, int32_t *out) {
   return n;
 }
 
+/* Particle sets (fluid, wall, grain) as the sorts see them. */
+SPHDEM_HD int64_t set_count(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->nf : set == SPHDEM_SET_WALL ? D->nw : D->ng;
+}
+SPHDEM_HD const double *set_x(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->x : set == SPHDEM_SET_WALL ? D->wx : D->gx;
+}
+SPHDEM_HD const int64_t *set_tag(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->tag : set == SPHDEM_SET_WALL ? D->wtag : D->gtag;
+}
+SPHDEM_HD int32_t *set_cell(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->cell : set == SPHDEM_SET_WALL ? D->wcell : D->gcell;
+}
+SPHDEM_HD int32_t *set_cstart(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->cstart : set == SPHDEM_SET_WALL ? D->wcstart : D->gcstart;
+}
+SPHDEM_HD int32_t *set_cend(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_FLUID ? D->cend : set == SPHDEM_SET_WALL ? D->wcend : D->gcend;
+}
+SPHDEM_HD int64_t set_ncells(const sphdem_dev *D, int set) {
+  return set == SPHDEM_SET_GRAIN ? D->gncells : D->ncells;
+}
+SPHDEM_HD int32_t set_cell_of(const sphdem_dev *D, int set, const double *x) {
+  return set == SPHDEM_SET_GRAIN ? grain_cell_of(D, x) : cell_of(D, x);
+}
+
 /* r_ab = x_a - x_b with the minimum image on periodic axes; returns |r_ab|^2. */
 SPHDEM_HD double separation(const sphdem_dev *D, const double *xa, const double *xb, double *r) {
   double r2 = 0.0;
@@ -107,7 +160,7 @@ SPHDEM_HD double separation(const sphdem_dev *D, const double *xa, const double 
 SPHDEM_HD void predict_body(const sphdem_dev *D, int64_t i) {
   double rp = D->rho[i] + D->pred_dth * D->drho[i];
   D->rhop[i] = rp;
-  D->p[i] = tait_pressure(D, rp);
+  D->p[i] = tait_pressure(D, eos_density(D, i, rp));
   D->pr2[i] = D->p[i] / (rp * rp);
   for (int d = 0; d < 3; d++) D->ve[3 * i + d] = D->v[3 * i + d] + D->pred_dth * D->a[3 * i + d];
 }
@@ -310,7 +363,7 @@ SPHDEM_HD void probe_body(const sphdem_dev *D, const double *pts, double *out, i
       if (r2 >= D->support2) continue;
       double rho = D->rho[b], w = D->mass[b] / rho * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
       s += w;
-      sp += w * tait_pressure(D, rho);
+      sp += w * tait_pressure(D, eos_density(D, b, rho));
       sr += w * rho;
       for (int d = 0; d < 3; d++) sv[d] += w * D->v[3 * b + d];
     }

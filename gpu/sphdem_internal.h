@@ -43,6 +43,28 @@ typedef struct {
   /* optional CSR neighbour lists (CPU backend): fluid-fluid and fluid-wall */
   int64_t *nl_start, *wl_start;
   int32_t *nl, *wl;
+  /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
+  int couple;          /* coupling passes run in compute_rates */
+  int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
+  int drag, torque;    /* sphdem_drag, rotational drag on/off */
+  double cmu;          /* fluid viscosity in the drag laws */
+  double eps_floor;    /* eps_min */
+  double hc, inv_hc, alphaC, support2c; /* coupling kernel (support 2 hc) */
+  double *eps;         /* porosity at fluid particles (eq 26, before the floor), device order */
+  double *fr;          /* reaction force m_a S_a on fluid particles (eq 33), 3 per particle */
+  /* grains, in grain-grid (cell-sorted) order; gtag = upload index + 1 */
+  int64_t ng;
+  double *gx, *gv, *grad, *gom;
+  double *gsig;        /* Shepard sum sum_b V_b W_jb at each grain (eqs 28, 33) */
+  double *gf, *gfd, *gfpg, *gtq; /* total fluid force, drag part, pressure-gradient/viscous part, torque */
+  int64_t *gtag;
+  int32_t *gcell, *gcstart, *gcend;
+  /* grain ("DEM", level 1) grid: cells >= d_max; SPH (level 2) grid is the one above */
+  double gglo[3], gcs[3], gcs_inv[3];
+  int gnc[3];
+  int64_t gncells;
+  int glay[3];         /* grain-grid layers searched around a fluid particle: ceil(2 hc / cell) */
+  int flay[3];         /* SPH-grid layers searched around a grain: ceil((2 hc + skin/2) / cell) */
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -53,7 +75,7 @@ typedef struct {
 } sphdem_red;
 
 /* Which arrays a sort permutes. */
-enum { SPHDEM_SET_FLUID = 0, SPHDEM_SET_WALL = 1 };
+enum { SPHDEM_SET_FLUID = 0, SPHDEM_SET_WALL = 1, SPHDEM_SET_GRAIN = 2 };
 
 /* Backend operations. Each returns SPHDEM_OK or an error code (message set in ctx). */
 struct sphdem_ctx_s;
@@ -80,6 +102,11 @@ typedef struct {
   int (*reduce)(struct sphdem_ctx_s *c, int set, sphdem_red *out);
   int (*sync)(struct sphdem_ctx_s *c);
   int (*probe)(struct sphdem_ctx_s *c, int64_t npts, const double *dpts, double *dout);
+  /* SPH-DEM coupling passes (couple_bodies.h): porosity at fluid particles (eq 26); fluid force on
+   * grains (eqs 27-32); reaction on the fluid (eq 33) */
+  int (*couple_porosity)(struct sphdem_ctx_s *c);
+  int (*couple_grains)(struct sphdem_ctx_s *c);
+  int (*couple_reaction)(struct sphdem_ctx_s *c);
 } sphdem_ops;
 
 struct sphdem_ctx_s {
@@ -115,6 +142,15 @@ struct sphdem_ctx_s {
   int64_t *hmap;                /* tag -> caller index scratch */
   int64_t hmap_len;
   void *backend_data;
+  /* SPH-DEM coupling (couple.c) */
+  sphdem_couple_params cp;      /* as set (hc 0 = fluid h) */
+  int64_t cap_g, cap_gcells, cap_cf; /* capacities: grains, grain cells, fluid coupling arrays */
+  int grains_dirty;             /* uploaded but not yet sorted */
+  double gbb_lo[3], gbb_hi[3], gdmax; /* bounding box and largest diameter of the uploaded grains */
+  int64_t nforces;              /* grains seen by the last compute_rates */
+  double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
+  int64_t cap_hgf;
+  int forces_valid;
 };
 
 #ifdef __cplusplus
@@ -122,10 +158,24 @@ extern "C" {
 #endif
 /* Set the context error message (printf-style); returns code. */
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
+/* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (core.c). */
+int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
+/* Coupling steps of compute_rates (couple.c): before the pressure pass (grain sort, porosity) and after
+ * the rates pass (grain forces, reaction); and release of the coupling memory. */
+int sphdem_couple_prepare(struct sphdem_ctx_s *c);
+int sphdem_couple_finish(struct sphdem_ctx_s *c);
+void sphdem_couple_release(struct sphdem_ctx_s *c);
+/* CPU coupling passes (couple_cpu.c) */
+int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);
+int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c);
+int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c);
 
 extern const sphdem_ops sphdem_cpu_ops;
 #ifdef SPHDEM_WITH_CUDA
 extern const sphdem_ops sphdem_cuda_ops;
+int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c);
+int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c);
+int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c);
 int sphdem_cuda_probe(char *msg, size_t msglen);
 int sphdem_cuda_init(struct sphdem_ctx_s *c);
 void sphdem_cuda_fini(struct sphdem_ctx_s *c);

@@ -1,0 +1,52 @@
+/* couple.cu - CUDA backend of the SPH-DEM coupling: kernels over the bodies of couple_bodies.h. */
+#include <cuda_runtime.h>
+
+#include "couple_bodies.h"
+#include "sphdem_internal.h"
+
+#define SPHDEM_CBLOCK 128
+
+static inline unsigned cblocks(int64_t n) { return (unsigned)((n + SPHDEM_CBLOCK - 1) / SPHDEM_CBLOCK); }
+
+__global__ void k_couple_porosity(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) couple_porosity_body(&D, i);
+}
+
+__global__ void k_couple_grains(sphdem_dev D) {
+  int64_t j = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (j < D.ng) couple_grain_body(&D, j);
+}
+
+__global__ void k_couple_reaction(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) couple_reaction_body(&D, i);
+}
+
+static int launched(struct sphdem_ctx_s *c, const char *what) {
+  cudaError_t e = cudaGetLastError();
+  if (e == cudaSuccess) return SPHDEM_OK;
+  return sphdem_fail(c, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
+}
+
+extern "C" {
+
+int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c) {
+  if (c->D.nf == 0) return SPHDEM_OK;
+  k_couple_porosity<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
+  return launched(c, "coupling porosity kernel");
+}
+
+int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c) {
+  if (c->D.ng == 0) return SPHDEM_OK;
+  k_couple_grains<<<cblocks(c->D.ng), SPHDEM_CBLOCK>>>(c->D);
+  return launched(c, "coupling grain force kernel");
+}
+
+int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c) {
+  if (c->D.nf == 0) return SPHDEM_OK;
+  k_couple_reaction<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
+  return launched(c, "coupling reaction kernel");
+}
+
+}

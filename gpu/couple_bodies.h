@@ -1,0 +1,235 @@
+/* couple_bodies.h - unresolved SPH-DEM coupling of He 2018 §2.3 (eqs 26-33), written once for the CPU
+ * loops (couple_cpu.c) and the CUDA kernels (couple.cu).
+ *
+ * Conventions (see also the notes in couple.c):
+ * - One coupling kernel: Wendland (eq 5) with smoothing length hc (default the fluid h), support 2 hc,
+ *   used for the porosity (eq 26), the Shepard interpolations at grains (eq 28, u, eps) and the
+ *   reaction weights (eq 33), so one search range serves every term and the reaction sums exactly to
+ *   minus the grain forces.
+ * - The fluid density variable is the superficial density rho_bar = eps rho_f (eq 6); V_b = m_b/rho_bar_b
+ *   is the mixture volume of particle b.
+ * - Grain "volume" V_j: 4/3 pi r^3 in 3D; in 2D the disc area pi r^2 per unit depth, the measure the 2D
+ *   kernel (1/area) integrates against, so that eq 26 stays a volume fraction and forces are per unit
+ *   depth like the 2D fluid's masses. */
+#ifndef SPHDEM_COUPLE_BODIES_H
+#define SPHDEM_COUPLE_BODIES_H
+
+#include "sph_bodies.h"
+
+/* ---- search: a box of (2L+1)^dim cells around a cell, periodic wrap, each cell visited once ---- */
+
+typedef struct {
+  int c0[3], cnt[3], n[3], k[3];
+  int done;
+} cell_walk;
+
+SPHDEM_HD void walk_init(cell_walk *w, const int *nc, const int *periodic, int dim, const int *c, const int *L) {
+  for (int d = 0; d < 3; d++) {
+    w->n[d] = nc[d];
+    w->k[d] = 0;
+    if (d >= dim) { w->c0[d] = 0; w->cnt[d] = 1; }
+    else if (periodic[d] && 2 * L[d] + 1 >= nc[d]) { w->c0[d] = 0; w->cnt[d] = nc[d]; } /* whole axis once */
+    else if (periodic[d]) { w->c0[d] = c[d] - L[d]; w->cnt[d] = 2 * L[d] + 1; }
+    else {
+      int lo = c[d] - L[d] < 0 ? 0 : c[d] - L[d], hi = c[d] + L[d] > nc[d] - 1 ? nc[d] - 1 : c[d] + L[d];
+      w->c0[d] = lo; w->cnt[d] = hi - lo + 1;
+    }
+  }
+  w->done = w->cnt[0] <= 0 || w->cnt[1] <= 0 || w->cnt[2] <= 0;
+}
+
+/* Next cell of the box (x fastest); 0 when the box is exhausted. */
+SPHDEM_HD int walk_next(cell_walk *w, int64_t *cell) {
+  if (w->done) return 0;
+  int x[3];
+  for (int d = 0; d < 3; d++) {
+    int v = w->c0[d] + w->k[d], n = w->n[d];
+    v %= n; if (v < 0) v += n;
+    x[d] = v;
+  }
+  *cell = ((int64_t)x[2] * w->n[1] + x[1]) * w->n[0] + x[0];
+  for (int d = 0; d < 3; d++) {
+    if (++w->k[d] < w->cnt[d]) return 1;
+    w->k[d] = 0;
+  }
+  w->done = 1;
+  return 1;
+}
+
+/* Fluid -> grain search: the fluid position is mapped into the grain grid, ceil(2 hc / cell) layers. */
+SPHDEM_HD void walk_grains_around(const sphdem_dev *D, const double *x, cell_walk *w) {
+  int c[3] = {0, 0, 0};
+  for (int d = 0; d < D->P.dim; d++) c[d] = grain_grid_coord(D, d, x[d]);
+  walk_init(w, D->gnc, D->P.periodic, D->P.dim, c, D->glay);
+}
+
+/* Grain -> fluid search: the grain is mapped into the SPH grid, ceil((2 hc + skin/2) / cell) layers
+ * (fluid cells are from the last sort; particles moved at most skin/2 since). */
+SPHDEM_HD void walk_fluid_around(const sphdem_dev *D, const double *x, cell_walk *w) {
+  int c[3] = {0, 0, 0};
+  for (int d = 0; d < D->P.dim; d++) c[d] = grid_coord(D, d, x[d]);
+  walk_init(w, D->nc, D->P.periodic, D->P.dim, c, D->flay);
+}
+
+/* ---- closed forms ------------------------------------------------------------------------------- */
+
+/* Grain volume V_j: sphere in 3D, disc area per unit depth in 2D. */
+SPHDEM_HD double grain_volume(int dim, double r) {
+  return dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r;
+}
+
+/* C_D |w| of eq 32 (Schiller-Naumann below Re 1000, 0.44 above) with Re = k |w|; finite as w -> 0. */
+SPHDEM_HD double drag_cd_times_w(double k, double w) {
+  double re = k * w;
+  if (!(re > 1e-300)) return 24.0 / k;                        /* limit w -> 0: 24/Re * w = 24/k */
+  if (re <= 1000.0) return 24.0 * (1.0 + 0.15 * pow(re, 0.687)) / k; /* eq 32 */
+  return 0.44 * w;
+}
+
+/* Di Felice 1994 C_D |w| (Dallavalle, C_D = (0.63 + 4.8/sqrt(Re))^2) with Re = k |w|. */
+SPHDEM_HD double drag_difelice_cd_times_w(double k, double w) {
+  double re = k * w;
+  if (!(re > 1e-300)) return 23.04 / k;
+  double s = 0.63 + 4.8 / sqrt(re);
+  return s * s * w;
+}
+
+/* Drag coefficient K with F_d = K V_j (u - v) (eq 30: K = beta / (1 - eps)), written so that it stays
+ * finite as eps -> 1 and |u - v| -> 0. eps porosity at the grain, rhof intrinsic fluid density, d the
+ * grain diameter, w = |u - v|. */
+SPHDEM_HD double drag_coefficient(int law, double mu, double eps, double rhof, double d, double w) {
+  switch (law) {
+    case SPHDEM_DRAG_ERGUN_WENYU:
+      if (eps < 0.8) /* eq 31, Ergun, divided by (1 - eps) */
+        return 150.0 * mu * (1.0 - eps) / (eps * d * d) + 1.75 * rhof * w / d;
+      /* eq 31, Wen & Yu, divided by (1 - eps); Re_p = eps rho_f d |u - v| / mu (eq 32) */
+      return 0.75 * drag_cd_times_w(eps * rhof * d / mu, w) * eps * rhof * pow(eps, -2.65) / d;
+    case SPHDEM_DRAG_DIFELICE: {
+      /* F = 1/2 C_D rho_f (pi d^2/4) eps^2 |u-v| (u-v) eps^-chi, chi = 3.7 - 0.65 exp(-(1.5 - log10 Re)^2 / 2),
+       * Re = eps rho_f d |u - v| / mu; per grain volume (pi d^2/4)/V = 3/(2d) for a sphere */
+      double k = eps * rhof * d / mu, re = k * w;
+      double chi = re > 1e-300 ? 3.7 - 0.65 * exp(-0.5 * (1.5 - log10(re)) * (1.5 - log10(re))) : 3.7;
+      return 0.75 * drag_difelice_cd_times_w(k, w) * rhof * pow(eps, 2.0 - chi) / d;
+    }
+    case SPHDEM_DRAG_SCHILLER_NAUMANN:
+      /* single sphere: F = 1/2 C_D rho_f (pi d^2/4) |u-v| (u-v), C_D of eq 32 with Re = rho_f d |u-v| / mu */
+      return 0.75 * drag_cd_times_w(rhof * d / mu, w) * rhof / d;
+    default:
+      return 0.0;
+  }
+}
+
+/* ---- passes ------------------------------------------------------------------------------------- */
+
+/* Porosity at fluid particle a (eq 26): eps_a = 1 - sum_j W_aj(hc) V_j. */
+SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
+  const double *xa = D->x + 3 * a;
+  double s = 0.0, r[3];
+  cell_walk w;
+  int64_t cc;
+  walk_grains_around(D, xa, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) {
+      double r2 = separation(D, xa, D->gx + 3 * j, r);
+      if (r2 >= D->support2c) continue;
+      s += grain_volume(D->P.dim, D->grad[j]) * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
+    }
+  D->eps[a] = 1.0 - s;
+}
+
+/* Fluid force on grain j (eqs 27-32). Shepard-corrected interpolations over the fluid particles b within
+ * 2 hc, weights V_b W_jb, V_b = m_b / rho_b:
+ *   (-grad P + div tau)_j = sum_b m_b theta_b W_jb / sum_b V_b W_jb        (eq 28, momentum rate per volume)
+ * with theta_b = a_b - g, the pressure (+ tensile) and viscous acceleration of b from its fluid and wall
+ * neighbours (eq 29, the pair_momentum terms of the rates pass; rho_b theta_b = -grad P + div tau);
+ *   u_j, eps_j, rho_f,j = Shepard averages of v_b, eps_b (floored) and the intrinsic density.
+ *   F_pg = V_j (-grad P + div tau)_j  (eq 27; its printed leading minus would make buoyancy point down)
+ *   F_d  = K(eps_j, Re) V_j (u_j - v_j) (eq 30 and the drag laws).
+ * Torque (optional): Stokes rotational drag T = k mu V_j (1/2 curl u - omega), k = 6 for a sphere
+ * (8 pi mu r^3), 4 for a disc per unit depth (4 pi mu r^2); curl u by the SPH gradient. */
+SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
+  const double *xj = D->gx + 3 * j, *vj = D->gv + 3 * j;
+  int dim = D->P.dim;
+  double sig = 0.0, se = 0.0, srf = 0.0, su[3] = {0, 0, 0}, sth[3] = {0, 0, 0};
+  double scr[3] = {0, 0, 0}, sgr[3] = {0, 0, 0}, r[3];
+  cell_walk w;
+  int64_t cc;
+  walk_fluid_around(D, xj, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t b = D->cstart[cc]; b < D->cend[cc]; b++) {
+      double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
+      if (r2 >= D->support2c) continue;
+      double q = sqrt(r2) * D->inv_hc, W = wendland_w(D->alphaC, q);
+      double mb = D->mass[b], rhob = D->rhop[b], Vb = mb / rhob, wv = Vb * W, eb = fluid_eps(D, b);
+      const double *vb = D->ve + 3 * b, *ab = D->a + 3 * b;
+      sig += wv;
+      se += wv * eb;
+      srf += wv * (D->couple_eos ? rhob / eb : rhob);
+      for (int d = 0; d < dim; d++) {
+        su[d] += wv * vb[d];
+        sth[d] += mb * W * (ab[d] - D->P.gravity[d]);
+      }
+      if (D->torque) {
+        double k = Vb * wendland_grad_factor(D->alphaC, D->inv_hc, q); /* V_b grad_j W_jb = k r */
+        scr[0] += k * (r[1] * vb[2] - r[2] * vb[1]);
+        scr[1] += k * (r[2] * vb[0] - r[0] * vb[2]);
+        scr[2] += k * (r[0] * vb[1] - r[1] * vb[0]);
+        for (int d = 0; d < 3; d++) sgr[d] += k * r[d];
+      }
+    }
+  double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0};
+  if (sig > 0.0) {
+    double inv = 1.0 / sig, u[3] = {0, 0, 0}, rel[3] = {0, 0, 0}, w2 = 0.0;
+    double rj = D->grad[j], V = grain_volume(dim, rj);
+    for (int d = 0; d < dim; d++) {
+      u[d] = su[d] * inv;
+      rel[d] = u[d] - vj[d];
+      w2 += rel[d] * rel[d];
+      fpg[d] = V * sth[d] * inv;                                         /* eqs 27-29 */
+    }
+    double K = drag_coefficient(D->drag, D->cmu, se * inv, srf * inv, 2.0 * rj, sqrt(w2));
+    for (int d = 0; d < dim; d++) fd[d] = K * V * rel[d];                /* eq 30 */
+    if (D->torque) {
+      /* curl u = sum_b V_b grad_j W x (u_b - u_j) = scr - sgr x u */
+      double cu[3] = {scr[0] - (sgr[1] * u[2] - sgr[2] * u[1]), scr[1] - (sgr[2] * u[0] - sgr[0] * u[2]),
+                      scr[2] - (sgr[0] * u[1] - sgr[1] * u[0])};
+      double kt = (dim == 3 ? 6.0 : 4.0) * D->cmu * V;
+      const double *om = D->gom + 3 * j;
+      if (dim == 3) for (int d = 0; d < 3; d++) tq[d] = kt * (0.5 * cu[d] - om[d]);
+      else tq[2] = kt * (0.5 * cu[2] - om[2]);
+    }
+  }
+  D->gsig[j] = sig;
+  for (int d = 0; d < 3; d++) {
+    D->gfpg[3 * j + d] = fpg[d];
+    D->gfd[3 * j + d] = fd[d];
+    D->gf[3 * j + d] = fpg[d] + fd[d];                                   /* eq 27 */
+    D->gtq[3 * j + d] = tq[d];
+  }
+}
+
+/* Reaction on fluid particle a (eq 33): f_a = m_a S_a = -V_a sum_j F_j W_aj(hc) / sum_b V_b W_jb(hc).
+ * Summed over a, the weights V_a W_aj / sum_b V_b W_jb give exactly 1 per grain: sum_a f_a = -sum_j F_j.
+ * (The paper's prefactor m_a/rho_a with S_a an acceleration is read as this force, divided by m_a.) */
+SPHDEM_HD void couple_reaction_body(const sphdem_dev *D, int64_t a) {
+  const double *xa = D->x + 3 * a;
+  double s[3] = {0, 0, 0}, r[3];
+  cell_walk w;
+  int64_t cc;
+  walk_grains_around(D, xa, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) {
+      double r2 = separation(D, xa, D->gx + 3 * j, r);
+      if (r2 >= D->support2c || !(D->gsig[j] > 0.0)) continue;
+      double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->gsig[j];
+      for (int d = 0; d < D->P.dim; d++) s[d] += k * D->gf[3 * j + d];
+    }
+  double Va = D->mass[a] / D->rhop[a];
+  for (int d = 0; d < 3; d++) {
+    double f = -Va * s[d];
+    D->fr[3 * a + d] = f;
+    D->a[3 * a + d] += f / D->mass[a];
+  }
+}
+
+#endif
