@@ -27,10 +27,10 @@ const char *const SYNTAX =
     "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
-    "[hydrostatic ZSURF]";
+    "[hydrostatic ZSURF] [every N]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, skin, cfl, rho_err_max, "
-    "device, sync, check, hydrostatic";
+    "device, sync, check, hydrostatic, every";
 
 double wall_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -42,8 +42,9 @@ double wall_seconds() {
 FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), ctx_(nullptr), wall_igroup_(-1),
       wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), mass_scaled_(false), zsurf_(0.0),
-      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false),
-      sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
+      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1),
+      last_fluid_step_(0), fluid_step_(false), dt_fluid_(0.0), nfluid_steps_(0), coupler_(nullptr),
+      couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
   std::memset(&stats_, 0, sizeof stats_);
   parse_args(narg, arg);
 
@@ -52,7 +53,7 @@ FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
   next_reneighbor = -1;
   nevery = 1;
   peratom_flag = 1;
-  size_peratom_cols = 2;
+  size_peratom_cols = NOUT;
   peratom_freq = 1;
   vector_flag = 1;
   size_vector = 4;
@@ -190,13 +191,15 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       else if (d == "gpu") device_ = SPHDEM_DEVICE_GPU;
       else fail("device must be auto, cpu or gpu (got '" + d + "')");
       iarg += 2;
-    } else if (kw == "sync" || kw == "check") {
+    } else if (kw == "sync" || kw == "check" || kw == "every") {
       const std::string usage = kw + " N";
       need(1, usage.c_str());
+      const long nmin = kw == "every" ? 1 : 0;
       long n;
-      if (!sphdem_compat::to_int(arg[iarg + 1], &n) || n < 0)
-        fail(kw + " expects an integer N >= 0, got '" + arg[iarg + 1] + "' (usage: " + usage + ")");
-      (kw == "sync" ? sync_every_ : check_every_) = n;
+      if (!sphdem_compat::to_int(arg[iarg + 1], &n) || n < nmin)
+        fail(kw + " expects an integer N >= " + std::to_string(nmin) + ", got '" + arg[iarg + 1] +
+             "' (usage: " + usage + ")");
+      (kw == "sync" ? sync_every_ : kw == "check" ? check_every_ : every_) = n;
       iarg += 2;
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
@@ -238,6 +241,7 @@ void FixSPHFluid::init() {
   if (!atom->rmass_flag && !atom->mass)
     fail("the atom style must define a per-atom mass (rmass) or per-type masses");
   if (update->dt <= 0) fail("the timestep must be > 0");
+  coupler_ = nullptr; /* a fix sph/couple defined after this one attaches itself in its init() */
 
   const int nlocal = atom->nlocal;
   const int *mask = atom->mask;
@@ -284,16 +288,29 @@ void FixSPHFluid::setup(int) {
   } else {
     check(sphdem_set_params(ctx_, &prm_), "set_params");
   }
+  if (coupler_) {
+    coupler_->couple_setup(ctx_);
+    couple_on_ = true;
+  } else if (couple_on_) { /* the fix sph/couple of an earlier run was removed */
+    sphdem_couple_params off;
+    sphdem_couple_params_default(&off);
+    off.enabled = 0;
+    check(sphdem_couple_set(ctx_, &off), "couple_set");
+    couple_on_ = false;
+  }
 
   build_map();
   upload_walls(false);
-  upload_fluid();          /* computes the rates when the per-atom state was not valid */
+  const bool valid = upload_fluid();
+  /* the rates are computed when the per-atom state or the held grain forces were not valid */
+  if (!valid || (coupler_ && !coupler_->couple_forces_valid())) rates();
   host_current_ = false;
   download();              /* host rho, p and state columns now match the device */
 
   sphdem_stats s;
-  int rc = sphdem_stats_get(ctx_, update->dt, &s);
-  if (rc != SPHDEM_OK) fail(sphdem_last_error(ctx_));
+  const double dt_nominal = (double)every_ * update->dt; /* the fluid step of the stability check */
+  int rc = sphdem_stats_get(ctx_, dt_nominal, &s);
+  if (rc != SPHDEM_OK) fail(stats_message(rc, s));
   stats_ = s;
   stats_step_ = update->ntimestep;
 
@@ -301,17 +318,28 @@ void FixSPHFluid::setup(int) {
     const char *note = sphdem_backend_note(ctx_);
     const size_t n = fidx_.size();
     char line[768];
+    char stepnote[128] = "";
+    if (every_ > 1) snprintf(stepnote, sizeof stepnote, "; fluid step %g = every %ld x", dt_nominal, every_);
     snprintf(line, sizeof line,
              "Fix sph/fluid: %s backend%s%s%s; %zu fluid + %zu wall particles; %.0f device bytes per fluid "
-             "particle; stable dt %g (timestep %g)\n",
+             "particle; stable dt %g (timestep %g%s)\n",
              sphdem_backend(ctx_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU", *note ? " (" : "", note,
              *note ? ")" : "", n, widx_.size(), n ? (double)sphdem_device_bytes(ctx_) / (double)n : 0.0,
-             s.dt_stable, update->dt);
+             s.dt_stable, update->dt, stepnote);
     sphdem_compat::logmesg(lmp, line);
     announced_ = true;
   }
   run_step0_ = update->ntimestep;
   run_t0_ = wall_seconds();
+  last_fluid_step_ = update->ntimestep;
+  nfluid_steps_ = 0;
+  fluid_step_ = false;
+}
+
+bool FixSPHFluid::attach_coupler(SPHCoupler *c) {
+  if (coupler_ && coupler_ != c) return false;
+  coupler_ = c;
+  return true;
 }
 
 /* ---- mapping and transfers -------------------------------------------------------------------------- */
@@ -331,8 +359,9 @@ void FixSPHFluid::build_map() {
 static double atom_mass(Atom *atom, int i) { return atom->rmass ? atom->rmass[i] : atom->mass[atom->type[i]]; }
 
 /* Upload the fluid from the host. rho and state come from the per-atom array where it is valid
- * (an earlier run or a restart); otherwise rho is rho0 (or hydrostatic) and the rates are computed. */
-void FixSPHFluid::upload_fluid() {
+ * (an earlier run or a restart); otherwise rho is rho0 (or hydrostatic), the rates are zero and the
+ * function returns false: the caller computes them. */
+bool FixSPHFluid::upload_fluid() {
   const size_t n = fidx_.size();
   double **x = atom->x, **v = atom->v;
   ftag_.resize(n);
@@ -372,14 +401,20 @@ void FixSPHFluid::upload_fluid() {
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
-  if (!all_valid) {
-    check(sphdem_compute_rates(ctx_), "compute_rates");
-    host_current_ = false;
-  }
+  return all_valid;
 }
 
-/* Upload the wall particles (host-authoritative). Each step for moving walls: acceleration is the
- * finite difference of the wall velocity over dt, the previous velocity kept in the per-atom array. */
+/* One rate evaluation; the coupled grains are uploaded before it and their forces fetched after. */
+void FixSPHFluid::rates() {
+  if (coupler_) coupler_->couple_before_rates(ctx_);
+  check(sphdem_compute_rates(ctx_), "compute_rates");
+  if (coupler_) coupler_->couple_after_rates(ctx_);
+  host_current_ = false;
+}
+
+/* Upload the wall particles (host-authoritative). Each fluid step for moving walls: acceleration is the
+ * finite difference of the wall velocity over the fluid step, the previous velocity kept in the
+ * per-atom array. */
 void FixSPHFluid::upload_walls(bool each_step) {
   const size_t n = widx_.size();
   double **x = atom->x, **v = atom->v;
@@ -387,7 +422,7 @@ void FixSPHFluid::upload_walls(bool each_step) {
   wv_.resize(3 * n);
   wa_.resize(3 * n);
   wmass_.resize(n);
-  const double inv_dt = 1.0 / update->dt;
+  const double inv_dt = each_step ? 1.0 / dt_fluid_ : 0.0;
   for (size_t k = 0; k < n; k++) {
     const int i = widx_[k];
     wmass_[k] = atom_mass(atom, i);
@@ -411,12 +446,17 @@ void FixSPHFluid::download() {
   fp_.resize(n);
   fstate_.resize(SPHDEM_NSTATE * n);
   check(sphdem_get_fluid(ctx_, fx_.data(), fv_.data(), frho_.data(), fp_.data(), fstate_.data()), "get_fluid");
+  if (couple_on_) {
+    feps_.resize(n);
+    check(sphdem_get_porosity(ctx_, feps_.data()), "get_porosity");
+  }
   double **x = atom->x, **v = atom->v;
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
     for (int d = 0; d < 3; d++) x[i][d] = fx_[3 * k + d], v[i][d] = fv_[3 * k + d];
     sa_[i][C_RHO] = frho_[k];
     sa_[i][C_P] = fp_[k];
+    sa_[i][C_EPS] = couple_on_ ? feps_[k] : 1.0;
     for (int s = 0; s < SPHDEM_NSTATE; s++) sa_[i][C_STATE + s] = fstate_[SPHDEM_NSTATE * k + s];
     sa_[i][C_VALID] = 1.0;
   }
@@ -425,31 +465,55 @@ void FixSPHFluid::download() {
 
 /* ---- time step ---------------------------------------------------------------------------------------- */
 
+/* Sub-cycling (every N): the fluid advances on the steps N, 2N, ... after the run's start, and on
+ * the run's last step (a shorter fluid step), so fluid and engine times agree at every fluid step
+ * and at the end of each run. With N = 1 every step is a fluid step of length dt. */
 void FixSPHFluid::initial_integrate(int) {
+  const bigint step = update->ntimestep;
+  fluid_step_ = step - last_fluid_step_ >= every_ || step == update->laststep;
+  if (!fluid_step_) return;
+  dt_fluid_ = (double)(step - last_fluid_step_) * update->dt;
   host_current_ = false;
-  check(sphdem_kick(ctx_, 0.5 * update->dt), "kick");
-  check(sphdem_drift(ctx_, update->dt), "drift");
+  check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
+  check(sphdem_drift(ctx_, dt_fluid_), "drift");
 }
 
 void FixSPHFluid::post_force(int) {
+  if (!fluid_step_) return;
   if (walls_move_) upload_walls(true);
-  check(sphdem_compute_rates(ctx_), "compute_rates");
-  host_current_ = false;
+  rates();
 }
 
 void FixSPHFluid::final_integrate() {
-  check(sphdem_kick(ctx_, 0.5 * update->dt), "kick");
+  if (!fluid_step_) return;
+  check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   host_current_ = false;
-  const bigint step = update->ntimestep;
-  if ((check_every_ > 0 && step % check_every_ == 0) || step == update->laststep) {
-    int rc = sphdem_stats_get(ctx_, update->dt, &stats_);
+  const bigint step = update->ntimestep, prev = last_fluid_step_;
+  last_fluid_step_ = step;
+  nfluid_steps_++;
+  /* check when a multiple of check_every_ lies in (prev, step] (with every 1: step % check == 0) */
+  if ((check_every_ > 0 && step / check_every_ != prev / check_every_) || step == update->laststep) {
+    int rc = sphdem_stats_get(ctx_, (double)every_ * update->dt, &stats_);
     stats_step_ = step;
     if (rc != SPHDEM_OK) {
-      const std::string msg = sphdem_last_error(ctx_);
+      const std::string msg = stats_message(rc, stats_);
       download(); /* keep the user's data on the host before stopping */
       fail(msg);
     }
   }
+}
+
+/* The core's message of a failed check; with sub-cycling the time step it judged is the fluid step. */
+std::string FixSPHFluid::stats_message(int rc, const sphdem_stats &s) const {
+  std::string msg = sphdem_last_error(ctx_);
+  if (rc == SPHDEM_ERR_UNSTABLE && every_ > 1) {
+    char note[256];
+    snprintf(note, sizeof note,
+             " With every %ld the fluid step is %ld x timestep: set the timestep to %g or less, or lower every.",
+             every_, every_, s.dt_stable / (double)every_);
+    msg += note;
+  }
+  return msg;
 }
 
 bool FixSPHFluid::output_step() const {
@@ -468,7 +532,7 @@ void FixSPHFluid::pre_neighbor() {
   box_to_params();
   check(sphdem_set_params(ctx_, &prm_), "set_params");
   build_map();
-  upload_fluid();
+  if (!upload_fluid()) rates(); /* new fluid atoms without a valid state */
   if (!walls_move_) upload_walls(false); /* moving walls are uploaded in post_force anyway */
 }
 
@@ -488,7 +552,7 @@ double FixSPHFluid::compute_vector(int n) {
     case 2: return stats_.ke;
     case 3: {
       const double dt_wall = wall_seconds() - run_t0_;
-      const double steps = (double)(update->ntimestep - run_step0_);
+      const double steps = (double)nfluid_steps_;
       return dt_wall > 0 ? steps * (double)stats_.nfluid / dt_wall : 0.0;
     }
   }

@@ -15,6 +15,18 @@ FixStyle(sph/fluid,FixSPHFluid)
 
 namespace LAMMPS_NS {
 
+/* What fix sph/couple gives the fluid fix it couples to. The fluid fix drives the calls, so the
+ * grains are uploaded right before each fluid rate evaluation and their forces fetched right after,
+ * whatever the order of the fixes' post_force hooks (doc/fix_sph_couple.md, "Order of operations"). */
+class SPHCoupler {
+ public:
+  virtual ~SPHCoupler() = default;
+  virtual void couple_setup(sphdem_ctx ctx) = 0;        /* sphdem_couple_set, at each run set-up */
+  virtual bool couple_forces_valid() = 0;               /* held forces exist for every grain */
+  virtual void couple_before_rates(sphdem_ctx ctx) = 0; /* upload the grains */
+  virtual void couple_after_rates(sphdem_ctx ctx) = 0;  /* fetch and hold the grain forces */
+};
+
 class FixSPHFluid : public Fix {
  public:
   FixSPHFluid(class LAMMPS *, int, char **);
@@ -33,6 +45,12 @@ class FixSPHFluid : public Fix {
   double compute_vector(int) override;
   double memory_usage() override;
   sphdem_ctx context() const { return ctx_; } /* for compute sph/probe; null before setup */
+  const sphdem_params &params() const { return prm_; }
+  int wall_groupbit() const { return wall_groupbit_; }
+  long every() const { return every_; }
+  /* fix sph/couple registers itself in its init() (after this fix's init, which forgets the last
+   * coupler); false when another coupler is already attached */
+  bool attach_coupler(SPHCoupler *c);
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;
@@ -45,8 +63,11 @@ class FixSPHFluid : public Fix {
   int maxsize_restart() override;
 
  private:
-  /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, then state kept for restarts */
-  enum { C_RHO = 0, C_P = 1, C_STATE = 2, C_WALLV = C_STATE + SPHDEM_NSTATE, C_VALID = C_WALLV + 3, NCOL };
+  /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
+   * for restarts */
+  enum { C_RHO = 0, C_P = 1, C_EPS = 2, C_STATE = 3, C_WALLV = C_STATE + SPHDEM_NSTATE, C_VALID = C_WALLV + 3,
+         NCOL };
+  static const int NOUT = 3; /* visible columns */
 
   sphdem_params prm_;
   sphdem_device device_;
@@ -62,13 +83,24 @@ class FixSPHFluid : public Fix {
   bool mapping_dirty_;
   bool announced_;
 
+  /* sub-cycling (keyword every): the fluid advances on the steps where fluid_step_ is set, by
+   * dt_fluid_ = (step - last_fluid_step_) * dt, i.e. every_ * dt, shorter at the end of a run */
+  long every_;
+  bigint last_fluid_step_;
+  bool fluid_step_;
+  double dt_fluid_;
+  bigint nfluid_steps_; /* fluid steps since the start of the run */
+
+  SPHCoupler *coupler_;
+  bool couple_on_;      /* the coupling is enabled in the core */
+
   double **sa_;         /* per-atom array, NCOL columns */
   int nmax_;            /* rows allocated in sa_ */
 
   /* local indices of fluid and wall atoms in upload order, and the staging buffers */
   std::vector<int> fidx_, widx_;
   std::vector<int64_t> ftag_;
-  std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_;
+  std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_, feps_;
   std::vector<double> wx_, wv_, wa_, wmass_;
 
   sphdem_stats stats_;
@@ -82,10 +114,12 @@ class FixSPHFluid : public Fix {
   void parse_args(int, char **);
   void box_to_params();
   void build_map();
-  void upload_fluid();
+  bool upload_fluid();
   void upload_walls(bool each_step);
+  void rates();
   void download();
   bool output_step() const;
+  std::string stats_message(int rc, const sphdem_stats &s) const;
 };
 
 }  // namespace LAMMPS_NS

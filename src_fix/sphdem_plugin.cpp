@@ -2,6 +2,7 @@
  * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package; the plugin record
  * is declared in lammpsplugin_decl.h. */
 #include "compute_sph_probe.h"
+#include "fix_sph_couple.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
 #include "lammpsplugin_decl.h"
@@ -9,6 +10,10 @@
 
 static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+}
+
+static void *sph_couple_creator(void *lmp, int argc, char **argv) {
+  return new LAMMPS_NS::FixSPHCouple(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
 }
 
 static void *sph_probe_creator(void *lmp, int argc, char **argv) {
@@ -26,6 +31,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   plugin.author = "sphdem developers";
   plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_fluid_creator;
   plugin.handle = handle;
+  (*register_plugin)(&plugin, lmp);
+  plugin.name = "sph/couple";
+  plugin.info = "sphdem " SPHDEM_VERSION " SPH-DEM coupling (fluid force on grains, reaction on the fluid)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_couple_creator;
   (*register_plugin)(&plugin, lmp);
   plugin.style = "compute";
   plugin.name = "sph/probe";

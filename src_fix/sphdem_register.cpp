@@ -3,6 +3,7 @@
 #include "sphdem_register.h"
 
 #include "compute_sph_probe.h"
+#include "fix_sph_couple.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
 #include "modify.h"
@@ -13,6 +14,7 @@ using namespace LAMMPS_NS;
 void sphdem_register_styles(LAMMPS *lmp) {
   sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
   fixes["sph/fluid"] = &sphdem_compat::fix_creator<FixSPHFluid>;
+  fixes["sph/couple"] = &sphdem_compat::fix_creator<FixSPHCouple>;
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   computes["sph/probe"] = &sphdem_compat::compute_creator<ComputeSPHProbe>;
 }

@@ -1,0 +1,373 @@
+/* fix_sph_couple.cpp - fix sph/couple: parses the coupling keywords into sphdem_couple_params, uploads the
+ * grains of its group before each fluid rate evaluation of a fix sph/fluid, holds the fluid forces on
+ * them between fluid steps and adds them to atom->f every step. No physics here (gpu/couple.c). */
+#include "fix_sph_couple.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "atom.h"
+#include "comm.h"
+#include "error.h"
+#include "group.h"
+#include "memory.h"
+#include "modify.h"
+#include "sphdem_compat.h"
+#include "update.h"
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+const char *const SYNTAX =
+    "fix ID group sph/couple FLUID-FIX-ID [drag ergun-wenyu|difelice|schiller-naumann|none] [mu V] [hc V] "
+    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V]";
+const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax";
+const char *const DRAGS = "ergun-wenyu, difelice, schiller-naumann or none";
+
+const char *drag_name(int d) {
+  switch (d) {
+    case SPHDEM_DRAG_NONE: return "none";
+    case SPHDEM_DRAG_ERGUN_WENYU: return "ergun-wenyu";
+    case SPHDEM_DRAG_DIFELICE: return "difelice";
+    case SPHDEM_DRAG_SCHILLER_NAUMANN: return "schiller-naumann";
+  }
+  return "?";
+}
+}  // namespace
+
+/* ---------------------------------------------------------------------------------------------- */
+
+FixSPHCouple::FixSPHCouple(LAMMPS *lmp, int narg, char **arg)
+    : Fix(lmp, narg, arg), fluid_(nullptr), have_mu_(false), have_hc_(false), ca_(nullptr), nmax_(0) {
+  std::memset(&cstats_, 0, sizeof cstats_);
+  cstats_.eps_min = 1.0;
+  for (int d = 0; d < 3; d++) pgrain_[d] = pfluid_[d] = 0.0;
+  parse_args(narg, arg);
+
+  nevery = 1;
+  peratom_flag = 1;
+  size_peratom_cols = NOUT;
+  peratom_freq = 1;
+  vector_flag = 1;
+  size_vector = NVEC;
+  global_freq = 1;
+  extvector = 0;
+  restart_peratom = 1;
+  restart_global = 1;
+  create_attribute = 1;
+
+  grow_arrays(atom->nmax);
+  atom->add_callback(0);
+  atom->add_callback(1);
+}
+
+FixSPHCouple::~FixSPHCouple() {
+  atom->delete_callback(id, 0);
+  atom->delete_callback(id, 1);
+  memory->destroy(ca_);
+}
+
+int FixSPHCouple::setmask() { return POST_FORCE; }
+
+void FixSPHCouple::fail(const std::string &msg) {
+  sphdem_compat::error_all(error, FLERR, std::string("Fix sph/couple: ") + msg);
+}
+
+void FixSPHCouple::check(sphdem_ctx ctx, int rc, const char *what) {
+  if (rc == SPHDEM_OK) return;
+  fail(std::string(what) + ": " + sphdem_last_error(ctx) + " (" + sphdem_strerror(rc) + ")");
+}
+
+double FixSPHCouple::parse_number(const char *kw, const char *s, const char *usage) {
+  double v;
+  if (!sphdem_compat::to_double(s, &v))
+    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
+  return v;
+}
+
+/* ---- arguments --------------------------------------------------------------------------------- */
+
+void FixSPHCouple::parse_args(int narg, char **arg) {
+  sphdem_couple_params_default(&cp_);
+  cp_.enabled = 1;
+  cp_.drag = SPHDEM_DRAG_ERGUN_WENYU;
+  if (narg < 4) fail(std::string("missing the ID of the fix sph/fluid (syntax: ") + SYNTAX + ")");
+  fluid_id_ = arg[3];
+
+  int iarg = 4;
+  while (iarg < narg) {
+    const std::string kw = arg[iarg];
+    if (iarg + 1 >= narg) {
+      if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
+      if (kw == "superficial" || kw == "torque") fail(kw + " must be yes or no");
+      if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax")
+        fail("missing value for " + kw + " (usage: " + kw + " V)");
+      fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
+    }
+    const std::string val = arg[iarg + 1];
+    if (kw == "drag") {
+      if (val == "ergun-wenyu") cp_.drag = SPHDEM_DRAG_ERGUN_WENYU;
+      else if (val == "difelice") cp_.drag = SPHDEM_DRAG_DIFELICE;
+      else if (val == "schiller-naumann") cp_.drag = SPHDEM_DRAG_SCHILLER_NAUMANN;
+      else if (val == "none") cp_.drag = SPHDEM_DRAG_NONE;
+      else fail(std::string("drag must be ") + DRAGS + " (got '" + val + "')");
+    } else if (kw == "superficial" || kw == "torque") {
+      if (val != "yes" && val != "no") fail(kw + " must be yes or no (got '" + val + "')");
+      (kw == "superficial" ? cp_.superficial : cp_.torque) = val == "yes";
+    } else if (kw == "mu") {
+      cp_.mu = parse_number("mu", val.c_str(), "mu V");
+      if (cp_.mu <= 0) fail("mu must be > 0 (got " + val + ")");
+      have_mu_ = true;
+    } else if (kw == "hc") {
+      cp_.hc = parse_number("hc", val.c_str(), "hc V");
+      if (cp_.hc <= 0) fail("hc must be > 0 (got " + val + ")");
+      have_hc_ = true;
+    } else if (kw == "eps_min") {
+      cp_.eps_min = parse_number("eps_min", val.c_str(), "eps_min V");
+      if (!(cp_.eps_min > 0 && cp_.eps_min < 1)) fail("eps_min must be in (0, 1) (got " + val + ")");
+    } else if (kw == "dmax") {
+      cp_.dmax = parse_number("dmax", val.c_str(), "dmax V");
+      if (cp_.dmax < 0) fail("dmax must be >= 0 (got " + val + "; 0 = from the grains)");
+    } else {
+      fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
+    }
+    iarg += 2;
+  }
+}
+
+/* ---- run set-up ---------------------------------------------------------------------------------- */
+
+void FixSPHCouple::init() {
+  const int ifluid = modify->find_fix(fluid_id_.c_str());
+  if (ifluid < 0) fail("fix ID '" + fluid_id_ + "' does not exist (syntax: " + SYNTAX + ")");
+  fluid_ = dynamic_cast<FixSPHFluid *>(modify->fix[ifluid]);
+  if (!fluid_)
+    fail("fix '" + fluid_id_ + "' is not a fix sph/fluid (its style is " + modify->fix[ifluid]->style + ")");
+  int ime = -1;
+  for (int k = 0; k < modify->nfix; k++)
+    if (modify->fix[k] == this) ime = k;
+  if (ime < ifluid)
+    fail(std::string("define fix ") + id + " after fix sph/fluid " + fluid_id_ +
+         " (the fluid's rate evaluation must precede the coupling forces in post_force)");
+  if (!fluid_->attach_coupler(this))
+    fail("fix sph/fluid " + fluid_id_ + " is already coupled by another fix sph/couple (one per fluid fix)");
+
+  if (!atom->radius_flag) fail("the atom style must define a per-atom radius (atom_style sphere or granular)");
+  if (cp_.torque && !(atom->omega_flag && atom->torque_flag))
+    fail("torque yes needs per-atom omega and torque (atom_style sphere or granular)");
+
+  /* the grains are neither fluid nor wall particles */
+  const int *mask = atom->mask;
+  const int bad = fluid_->groupbit | fluid_->wall_groupbit();
+  int overlap = 0, any = 0;
+  for (int i = 0; i < atom->nlocal; i++)
+    if ((mask[i] & groupbit) && (mask[i] & bad)) overlap = 1;
+  MPI_Allreduce(&overlap, &any, 1, MPI_INT, MPI_MAX, world);
+  if (any)
+    fail(std::string("the grain group ") + group->names[igroup] +
+         " overlaps the fluid or wall group of fix sph/fluid " + fluid_id_);
+
+  const sphdem_params &fp = fluid_->params();
+  if (!have_hc_) cp_.hc = fp.h;
+  if (!have_mu_) {
+    if (fp.visc == SPHDEM_VISC_MORRIS) cp_.mu = fp.mu;
+    else if (cp_.drag != SPHDEM_DRAG_NONE)
+      fail(std::string("drag ") + drag_name(cp_.drag) + " needs the fluid viscosity: give mu V, or use visc " +
+           "morris MU in fix sph/fluid " + fluid_id_);
+  }
+}
+
+/* Called by the fluid fix in its setup(), after its context exists and before any rate evaluation. */
+void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
+  check(ctx, sphdem_couple_set(ctx, &cp_), "couple_set");
+  if (comm->me == 0) {
+    char line[512];
+    snprintf(line, sizeof line,
+             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s; fluid "
+             "step every %ld engine steps\n",
+             drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
+             cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)", fluid_->every());
+    sphdem_compat::logmesg(lmp, line);
+  }
+}
+
+bool FixSPHCouple::couple_forces_valid() {
+  const int *mask = atom->mask;
+  int invalid = 0, any = 0;
+  for (int i = 0; i < nloop(); i++)
+    if ((mask[i] & groupbit) && ca_[i][C_VALID] <= 0) invalid = 1;
+  MPI_Allreduce(&invalid, &any, 1, MPI_INT, MPI_MAX, world);
+  return !any;
+}
+
+/* The fluid fix's setup() (earlier in the fix list) has computed or kept the held forces. */
+void FixSPHCouple::setup(int) {
+  const int *mask = atom->mask;
+  double **f = atom->f, **t = atom->torque;
+  for (int i = 0; i < nloop(); i++) {
+    if (!(mask[i] & groupbit)) continue;
+    for (int d = 0; d < 3; d++) f[i][d] += ca_[i][C_F + d];
+    if (cp_.torque)
+      for (int d = 0; d < 3; d++) t[i][d] += ca_[i][C_TORQUE + d];
+  }
+}
+
+int FixSPHCouple::nloop() const {
+  return (atom->firstgroup >= 0 && igroup == atom->firstgroup) ? atom->nfirst : atom->nlocal;
+}
+
+/* ---- the fluid step: upload grains, fetch forces ------------------------------------------------- */
+
+void FixSPHCouple::couple_before_rates(sphdem_ctx ctx) {
+  const int *mask = atom->mask;
+  gidx_.clear();
+  for (int i = 0; i < nloop(); i++)
+    if (mask[i] & groupbit) gidx_.push_back(i);
+  const size_t n = gidx_.size();
+  gx_.resize(3 * n);
+  gv_.resize(3 * n);
+  grad_.resize(n);
+  if (cp_.torque) gom_.resize(3 * n);
+  double **x = atom->x, **v = atom->v, **om = atom->omega;
+  for (size_t k = 0; k < n; k++) {
+    const int i = gidx_[k];
+    grad_[k] = atom->radius[i];
+    for (int d = 0; d < 3; d++) {
+      gx_[3 * k + d] = x[i][d];
+      gv_[3 * k + d] = v[i][d];
+      if (cp_.torque) gom_[3 * k + d] = om[i][d];
+    }
+  }
+  check(ctx, sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr),
+        "set_grains");
+}
+
+void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
+  const size_t n = gidx_.size();
+  gf_.resize(3 * n);
+  gfd_.resize(3 * n);
+  gfp_.resize(3 * n);
+  gt_.resize(3 * n);
+  check(ctx, sphdem_get_grain_forces(ctx, gf_.data(), gfd_.data(), gfp_.data(), cp_.torque ? gt_.data() : nullptr),
+        "get_grain_forces");
+  for (size_t k = 0; k < n; k++) {
+    double *row = ca_[gidx_[k]];
+    for (int d = 0; d < 3; d++) {
+      row[C_F + d] = gf_[3 * k + d];
+      row[C_FDRAG + d] = gfd_[3 * k + d];
+      row[C_FPG + d] = gfp_[3 * k + d];
+      row[C_TORQUE + d] = cp_.torque ? gt_[3 * k + d] : 0.0;
+    }
+    row[C_VALID] = 1.0;
+  }
+  check(ctx, sphdem_couple_stats_get(ctx, &cstats_), "couple_stats_get");
+}
+
+/* ---- every engine step: add the held forces ------------------------------------------------------- */
+
+void FixSPHCouple::post_force(int) {
+  const int *mask = atom->mask;
+  double **f = atom->f, **t = atom->torque;
+  double fsum[3] = {0.0, 0.0, 0.0};
+  for (int i = 0; i < nloop(); i++) {
+    if (!(mask[i] & groupbit)) continue;
+    for (int d = 0; d < 3; d++) {
+      f[i][d] += ca_[i][C_F + d];
+      fsum[d] += ca_[i][C_F + d];
+    }
+    if (cp_.torque)
+      for (int d = 0; d < 3; d++) t[i][d] += ca_[i][C_TORQUE + d];
+  }
+  /* momentum exchanged: the held forces act over this engine step on both sides */
+  const double dt = update->dt;
+  double all[3];
+  MPI_Allreduce(fsum, all, 3, MPI_DOUBLE, MPI_SUM, world);
+  for (int d = 0; d < 3; d++) {
+    pgrain_[d] += all[d] * dt;
+    pfluid_[d] += cstats_.f_fluid[d] * dt;
+  }
+}
+
+/* ---- output ------------------------------------------------------------------------------------------ */
+
+double FixSPHCouple::compute_vector(int n) {
+  if (n >= V_PGRAIN && n < V_PGRAIN + 3) return pgrain_[n - V_PGRAIN];
+  if (n >= V_PFLUID && n < V_PFLUID + 3) return pfluid_[n - V_PFLUID];
+  if (n >= V_PNET && n < V_PNET + 3) return pgrain_[n - V_PNET] + pfluid_[n - V_PNET];
+  if (n == V_EPSMIN) return cstats_.eps_min;
+  if (n >= V_FGRAIN && n < V_FGRAIN + 3) return cstats_.f_grains[n - V_FGRAIN];
+  if (n >= V_FFLUID && n < V_FFLUID + 3) return cstats_.f_fluid[n - V_FFLUID];
+  if (n == V_NGRAIN) return (double)cstats_.ngrains;
+  return 0.0;
+}
+
+double FixSPHCouple::memory_usage() {
+  return (double)atom->nmax * NCOL * sizeof(double) +
+         (double)(gx_.capacity() + gv_.capacity() + grad_.capacity() + gom_.capacity() + gf_.capacity() +
+                  gfd_.capacity() + gfp_.capacity() + gt_.capacity()) *
+             sizeof(double) +
+         (double)gidx_.capacity() * sizeof(int);
+}
+
+/* global restart state: the momentum integrals */
+void FixSPHCouple::write_restart(FILE *fp) {
+  double list[6] = {pgrain_[0], pgrain_[1], pgrain_[2], pfluid_[0], pfluid_[1], pfluid_[2]};
+  if (comm->me == 0) {
+    int size = (int)sizeof(list);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(list, sizeof(double), 6, fp);
+  }
+}
+
+void FixSPHCouple::restart(char *buf) {
+  double list[6];
+  std::memcpy(list, buf, sizeof list);
+  for (int d = 0; d < 3; d++) pgrain_[d] = list[d], pfluid_[d] = list[3 + d];
+}
+
+/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
+
+void FixSPHCouple::grow_arrays(int nmax) {
+  memory->grow(ca_, nmax, NCOL, "sph/couple:ca");
+  for (int i = nmax_ < nmax ? nmax_ : nmax; i < nmax; i++)
+    for (int c = 0; c < NCOL; c++) ca_[i][c] = 0.0;
+  nmax_ = nmax;
+  array_atom = ca_;
+}
+
+void FixSPHCouple::copy_arrays(int i, int j, int) {
+  for (int c = 0; c < NCOL; c++) ca_[j][c] = ca_[i][c];
+}
+
+void FixSPHCouple::set_arrays(int i) {
+  for (int c = 0; c < NCOL; c++) ca_[i][c] = 0.0;
+}
+
+int FixSPHCouple::pack_exchange(int i, double *buf) {
+  for (int c = 0; c < NCOL; c++) buf[c] = ca_[i][c];
+  return NCOL;
+}
+
+int FixSPHCouple::unpack_exchange(int nlocal, double *buf) {
+  for (int c = 0; c < NCOL; c++) ca_[nlocal][c] = buf[c];
+  return NCOL;
+}
+
+int FixSPHCouple::pack_restart(int i, double *buf) {
+  buf[0] = NCOL + 1;
+  for (int c = 0; c < NCOL; c++) buf[c + 1] = ca_[i][c];
+  return NCOL + 1;
+}
+
+void FixSPHCouple::unpack_restart(int nlocal, int nth) {
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
+  m++;
+  for (int c = 0; c < NCOL; c++) ca_[nlocal][c] = extra[nlocal][m++];
+}
+
+int FixSPHCouple::size_restart(int) { return NCOL + 1; }
+
+int FixSPHCouple::maxsize_restart() { return NCOL + 1; }

@@ -1,0 +1,82 @@
+/* fix_sph_couple.h - fix sph/couple: the engine side of the unresolved SPH-DEM coupling (He 2018 §2.3):
+ * uploads the grains to the core of a fix sph/fluid and adds the fluid force on them to atom->f. */
+#ifdef FIX_CLASS
+FixStyle(sph/couple,FixSPHCouple)
+#else
+
+#ifndef SPHDEM_FIX_SPH_COUPLE_H
+#define SPHDEM_FIX_SPH_COUPLE_H
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "fix.h"
+#include "fix_sph_fluid.h"
+#include "sphdem.h"
+
+namespace LAMMPS_NS {
+
+class FixSPHCouple : public Fix, public SPHCoupler {
+ public:
+  FixSPHCouple(class LAMMPS *, int, char **);
+  ~FixSPHCouple() override;
+  int setmask() override;
+  void init() override;
+  void setup(int) override;
+  void post_force(int) override;
+  double compute_vector(int) override;
+  double memory_usage() override;
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+
+  /* SPHCoupler: called by the fluid fix */
+  void couple_setup(sphdem_ctx ctx) override;
+  bool couple_forces_valid() override;
+  void couple_before_rates(sphdem_ctx ctx) override;
+  void couple_after_rates(sphdem_ctx ctx) override;
+
+ private:
+  /* per-atom array: f_ID[1-3] fluid force, [4-6] its drag part, [7-9] its pressure-gradient/viscous
+   * part, [10-12] fluid torque; then a flag: the forces are valid (held between fluid steps) */
+  enum { C_F = 0, C_FDRAG = 3, C_FPG = 6, C_TORQUE = 9, NOUT = 12, C_VALID = 12, NCOL = 13 };
+  /* global vector (0-based here): momentum given to grains, fluid, net (3 each, time integrals of
+   * the held forces); min porosity; force on grains, on fluid now (3 each); grain count */
+  enum { V_PGRAIN = 0, V_PFLUID = 3, V_PNET = 6, V_EPSMIN = 9, V_FGRAIN = 10, V_FFLUID = 13, V_NGRAIN = 16,
+         NVEC = 17 };
+
+  std::string fluid_id_;
+  FixSPHFluid *fluid_;
+  sphdem_couple_params cp_;   /* as given; hc and mu resolved against the fluid fix in init() */
+  bool have_mu_, have_hc_;
+
+  double **ca_;
+  int nmax_;
+
+  std::vector<int> gidx_;     /* local indices of the grains in upload order */
+  std::vector<double> gx_, gv_, grad_, gom_, gf_, gfd_, gfp_, gt_;
+
+  sphdem_couple_stats cstats_;
+  double pgrain_[3], pfluid_[3]; /* time integrals of the held forces on grains and on fluid */
+
+  [[noreturn]] void fail(const std::string &msg);
+  void check(sphdem_ctx ctx, int rc, const char *what);
+  double parse_number(const char *kw, const char *s, const char *usage);
+  void parse_args(int, char **);
+  int nloop() const;
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
+#endif
