@@ -198,6 +198,76 @@ int sphdem_couple_stats_get(sphdem_ctx ctx, sphdem_couple_stats *s);
  * indices in upload order, written to pairs (2*maxpairs); returns the count or a negative code. */
 int64_t sphdem_debug_couple_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
 
+/* ---- GPU DEM (Yu 2024 §2.2-2.3, He 2018 §2.2) ----------------------------------------------------
+ * Soft-sphere contacts between grains and with fixed planes, on the CPU (OpenMP) or CUDA. A separate
+ * context: the caller (engine pair style or test driver) integrates; each call uploads the grains,
+ * the core finds contacts on a cell grid of size d_max + skin, carries the per-pair history (keyed by
+ * the two tags, so it survives any reordering) and returns force and torque on every grain. */
+typedef enum {
+  SPHDEM_DEM_HOOKE = 0,         /* linear spring-dashpot (Yu 2024 eqs 7-13; LAMMPS gran/hooke/history) */
+  SPHDEM_DEM_HERTZ = 1,         /* LAMMPS gran/hertz/history: the Hooke law times sqrt(delta R*) */
+  SPHDEM_DEM_HERTZ_MINDLIN = 2  /* Hertz normal + Mindlin-Deresiewicz tangential (He 2018 eqs 18-23) */
+} sphdem_dem_model;
+
+typedef enum {
+  SPHDEM_DEM_PAIR_PARALLEL = 0,     /* Yu 2024 §2.3: one thread per collision pair, atomic sums */
+  SPHDEM_DEM_PARTICLE_PARALLEL = 1  /* one thread per grain over its pairs, no atomics, deterministic */
+} sphdem_dem_algo;
+
+typedef struct {
+  int model;            /* sphdem_dem_model */
+  int algo;             /* sphdem_dem_algo */
+  double kn, kt;        /* HOOKE / HERTZ: normal and tangential stiffness (N/m; HERTZ N/m^1.5) */
+  double gamman, gammat;/* HOOKE / HERTZ: damping per unit effective mass (1/s), used when en == 0 */
+  double en;            /* restitution coefficient in (0,1]: HOOKE damping from Yu eq 11 (per pair,
+                           eta = 2 sqrt(k m_eff) |ln e| / sqrt(pi^2 + ln^2 e), tangential alike with kt);
+                           HERTZ_MINDLIN: c_n of He eq 23. 0: use gamman, gammat (HOOKE/HERTZ) */
+  double ct;            /* HERTZ_MINDLIN tangential damping coefficient c_t (eq 21); < 0: equal to c_n */
+  double E, nu;         /* HERTZ_MINDLIN Young's modulus (Pa) and Poisson ratio (one material) */
+  double mu;            /* sliding friction coefficient (Coulomb limit) */
+  double mu_r;          /* constant-torque rolling friction (He eq 25); 0 = off */
+  int limit_damping;    /* 1: the normal force is never attractive (LAMMPS limit_damping) */
+  double skin;          /* search gap: cells of d_max + skin; pairs rebuilt when a grain moved skin/2 */
+  double boxlo[3], boxhi[3];
+  int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */
+} sphdem_dem_params;
+
+/* A fixed plane: grains interact with it on the side its unit normal n points to. */
+typedef struct { double point[3]; double normal[3]; } sphdem_dem_wall;
+
+typedef struct sphdem_dem_s *sphdem_dem;
+
+/* Per-grain flag bits (sphdem_dem_compute flags array). */
+#define SPHDEM_DEM_FROZEN 1     /* effective mass of its contacts is the partner's (LAMMPS fix freeze) */
+
+void sphdem_dem_params_default(sphdem_dem_params *p);
+/* Check p; on error SPHDEM_ERR_ARG and a message naming the field. */
+int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen);
+int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen);
+int sphdem_dem_destroy(sphdem_dem *dem);
+const char *sphdem_dem_last_error(sphdem_dem dem);
+int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
+/* Change parameters between calls (history is kept). */
+int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
+/* Fixed planes (replaces the previous set); nw may be 0. */
+int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
+/* Contact forces for n grains given in the caller's order. tag[i] in [1, 2^31) unique; x, v, omega 3n;
+ * radius, mass n; flags n or NULL. dt: the time step that advances the tangential history (eq 13);
+ * update_history 0 evaluates forces without changing the history (engine setup). f and torque (3n)
+ * are overwritten; virial (6: xx yy zz xy xz yz, sum over grain pairs of r_ab F_ab) if not NULL. */
+int sphdem_dem_compute(sphdem_dem dem, int n, const int64_t *tag, const double *x, const double *v,
+                       const double *omega, const double *radius, const double *mass, const int *flags,
+                       double dt, int update_history, double *f, double *torque, double *virial);
+/* Counters: candidate pairs (within r_a + r_b + skin, walls included), touching contacts at the
+ * last call, pair-list builds so far. */
+typedef struct { int64_t npairs, ncontacts, nbuilds; } sphdem_dem_stats;
+int sphdem_dem_stats_get(sphdem_dem dem, sphdem_dem_stats *s);
+/* Testing hooks: candidate pairs of the last build as caller indices (a, b), b = -1 - w for wall w,
+ * a the grain of lower tag; returns the count or a negative code. History of the pair (tag_a, tag_b)
+ * (tag_b = -1 - w for a wall): 4 doubles (tangential displacement xyz, touch flag); 0 if found. */
+int64_t sphdem_dem_debug_pairs(sphdem_dem dem, int64_t *pairs, int64_t maxpairs);
+int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, double hist[4]);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,400 @@
+/* dem.c - the GPU DEM context: parameters, grain upload, pair-list builds with history carry, forces. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dem_internal.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+int sphdem_dem_fail(struct sphdem_dem_s *m, int code, const char *fmt, ...) {
+  if (m) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m->err, sizeof m->err, fmt, ap);
+    va_end(ap);
+  }
+  return code;
+}
+
+void sphdem_dem_params_default(sphdem_dem_params *p) {
+  memset(p, 0, sizeof *p);
+  p->model = SPHDEM_DEM_HOOKE;
+  p->algo = SPHDEM_DEM_PAIR_PARALLEL;
+  p->ct = -1.0;
+  p->nu = 0.3;
+  p->mu = 0.5;
+}
+
+#define BAD(...) do { if (msg && msglen) snprintf(msg, msglen, __VA_ARGS__); return SPHDEM_ERR_ARG; } while (0)
+
+int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen) {
+  if (!p) BAD("params: NULL");
+  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HERTZ_MINDLIN)
+    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin)", p->model);
+  if (p->algo != SPHDEM_DEM_PAIR_PARALLEL && p->algo != SPHDEM_DEM_PARTICLE_PARALLEL)
+    BAD("algo: %d is not a sphdem_dem_algo (0 pair-parallel, 1 particle-parallel)", p->algo);
+  if (!(p->en >= 0.0 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside [0, 1]", p->en);
+  if (p->model != SPHDEM_DEM_HERTZ_MINDLIN) {
+    if (!(p->kn > 0.0)) BAD("kn: normal stiffness must be > 0 (got %g)", p->kn);
+    if (!(p->kt >= 0.0)) BAD("kt: tangential stiffness must be >= 0 (got %g)", p->kt);
+    if (!(p->gamman >= 0.0)) BAD("gamman: normal damping must be >= 0 (got %g)", p->gamman);
+    if (!(p->gammat >= 0.0)) BAD("gammat: tangential damping must be >= 0 (got %g)", p->gammat);
+    if (p->model == SPHDEM_DEM_HERTZ && p->en > 0.0)
+      BAD("en: damping from a restitution coefficient is defined for the hooke and hertz_mindlin models, "
+          "not hertz (give gamman, gammat)");
+    if (p->en > 0.0 && (p->gamman > 0.0 || p->gammat > 0.0))
+      BAD("en: give either en or gamman/gammat, not both");
+  } else {
+    if (!(p->E > 0.0)) BAD("E: Young's modulus must be > 0 (got %g)", p->E);
+    if (!(p->nu > -1.0 && p->nu <= 0.5)) BAD("nu: Poisson ratio %g outside (-1, 0.5]", p->nu);
+    if (!(p->en > 0.0)) BAD("en: hertz_mindlin needs a restitution coefficient in (0, 1] (got %g)", p->en);
+    if (!(p->ct <= 1.0)) BAD("ct: tangential damping coefficient %g above 1 (< 0 means c_n)", p->ct);
+  }
+  if (!(p->mu >= 0.0)) BAD("mu: friction coefficient must be >= 0 (got %g)", p->mu);
+  if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
+  if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
+  if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  for (int d = 0; d < 3; d++) {
+    if (p->periodic[d] != 0 && p->periodic[d] != 1) BAD("periodic[%d]: must be 0 or 1", d);
+    if (p->periodic[d] && !(p->boxhi[d] > p->boxlo[d]))
+      BAD("boxhi[%d]: periodic axis needs boxhi > boxlo (got %g, %g)", d, p->boxlo[d], p->boxhi[d]);
+  }
+  return SPHDEM_OK;
+}
+
+static void derive(dem_dev *D, const sphdem_dem_params *p) {
+  D->P = *p;
+  D->use_en = p->en > 0.0;
+  double le = p->en > 0.0 ? fabs(log(p->en)) : 0.0;
+  D->cdamp = le / sqrt(M_PI * M_PI + le * le);        /* Yu eq 11 / He eq 23 */
+  D->ct = p->ct < 0.0 ? D->cdamp : p->ct;
+  D->Estar = p->E / (2.0 * (1.0 - p->nu * p->nu));    /* He eq 21, one material */
+  D->tmax_fac = (2.0 - p->nu) / (2.0 - 2.0 * p->nu) * p->mu; /* He eq 22 */
+  for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+}
+
+int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {
+  if (!out) BAD("out: NULL");
+  *out = NULL;
+  int rc = sphdem_dem_params_check(p, msg, msglen);
+  if (rc) return rc;
+  if (dev != SPHDEM_DEVICE_AUTO && dev != SPHDEM_DEVICE_CPU && dev != SPHDEM_DEVICE_GPU)
+    BAD("dev: %d is not a sphdem_device", (int)dev);
+  struct sphdem_dem_s *m = (struct sphdem_dem_s *)calloc(1, sizeof *m);
+  if (!m) {
+    if (msg && msglen) snprintf(msg, msglen, "cannot allocate the DEM context");
+    return SPHDEM_ERR_ALLOC;
+  }
+  m->ops = &sphdem_dem_cpu_ops;
+  m->backend = SPHDEM_DEVICE_CPU;
+  if (dev != SPHDEM_DEVICE_CPU) {
+#ifdef SPHDEM_WITH_CUDA
+    char why[256];
+    if (sphdem_cuda_probe(why, sizeof why) == SPHDEM_OK) {
+      m->ops = &sphdem_dem_cuda_ops;
+      m->backend = SPHDEM_DEVICE_GPU;
+    } else if (dev == SPHDEM_DEVICE_GPU) {
+      if (msg && msglen) snprintf(msg, msglen, "GPU requested but none is usable: %s", why);
+      free(m);
+      return SPHDEM_ERR_NO_GPU;
+    }
+#else
+    if (dev == SPHDEM_DEVICE_GPU) {
+      if (msg && msglen) snprintf(msg, msglen, "GPU requested but sphdem was built without CUDA");
+      free(m);
+      return SPHDEM_ERR_NO_GPU;
+    }
+#endif
+  }
+  derive(&m->D, p);
+  m->need_build = 1;
+  rc = m->ops->alloc(m, (void **)&m->D.vir, 8 * sizeof(double)); /* virial + a device counter */
+  if (rc) {
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    free(m);
+    return rc;
+  }
+  *out = m;
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_destroy(sphdem_dem *pm) {
+  if (!pm || !*pm) return SPHDEM_OK;
+  struct sphdem_dem_s *m = *pm;
+  dem_dev *D = &m->D;
+  void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
+                  D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
+                  D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir};
+  for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++)
+    if (arrs[k]) m->ops->free(m, arrs[k]);
+  free(m->hx0);
+  free(m->htag);
+  free(m);
+  *pm = NULL;
+  return SPHDEM_OK;
+}
+
+const char *sphdem_dem_last_error(sphdem_dem m) { return m ? m->err : "no DEM context"; }
+int sphdem_dem_backend(sphdem_dem m) { return m ? m->backend : SPHDEM_DEVICE_CPU; }
+
+int sphdem_dem_set_params(sphdem_dem m, const sphdem_dem_params *p) {
+  if (!m) return SPHDEM_ERR_ARG;
+  int rc = sphdem_dem_params_check(p, m->err, sizeof m->err);
+  if (rc) return rc;
+  derive(&m->D, p);
+  m->need_build = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_set_walls(sphdem_dem m, int nw, const sphdem_dem_wall *w) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if (nw < 0 || nw > SPHDEM_DEM_MAX_WALLS)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "nw: %d walls, allowed 0..%d", nw, SPHDEM_DEM_MAX_WALLS);
+  if (nw > 0 && !w) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "walls: NULL with nw = %d", nw);
+  for (int k = 0; k < nw; k++) {
+    const double *n = w[k].normal;
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(fabs(nn - 1.0) < 1e-9))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "walls[%d].normal: not a unit vector (|n| = %g)", k, nn);
+    m->D.walls[k] = w[k];
+  }
+  m->D.nw = nw;
+  m->need_build = 1;
+  return SPHDEM_OK;
+}
+
+/* (Re)allocate a device array for at least need elements; contents are not kept. */
+static int grow(struct sphdem_dem_s *m, void **ptr, size_t elem, int64_t need, int64_t cap_new) {
+  (void)need;
+  if (*ptr) m->ops->free(m, *ptr);
+  *ptr = NULL;
+  return m->ops->alloc(m, ptr, elem * (size_t)(cap_new > 0 ? cap_new : 1));
+}
+
+static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
+  if (n <= m->cap_n && m->D.x) return SPHDEM_OK;
+  dem_dev *D = &m->D;
+  int64_t cap = n + n / 4 + 16, rc = 0;
+  rc |= grow(m, (void **)&D->x, 3 * sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->v, 3 * sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->om, 3 * sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->f, 3 * sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->tq, 3 * sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->rad, sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->mass, sizeof(double), n, cap);
+  rc |= grow(m, (void **)&D->flags, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->tag, sizeof(int64_t), n, cap);
+  rc |= grow(m, (void **)&D->sidx, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->cell, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->cnt, sizeof(int64_t), n, cap);
+  rc |= grow(m, (void **)&D->off, sizeof(int64_t), n, cap);
+  rc |= grow(m, (void **)&D->fstart, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->fend, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->rstart, sizeof(int32_t), n, cap);
+  rc |= grow(m, (void **)&D->rend, sizeof(int32_t), n, cap);
+  if (rc) return SPHDEM_ERR_ALLOC;
+  double *hx = (double *)realloc(m->hx0, sizeof(double) * 3 * cap);
+  if (hx) m->hx0 = hx;
+  int64_t *ht = (int64_t *)realloc(m->htag, sizeof(int64_t) * cap);
+  if (ht) m->htag = ht;
+  if (!hx || !ht) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate host copies for %lld grains", (long long)n);
+  m->cap_n = cap;
+  m->need_build = 1;
+  m->tags_valid = 0; /* tags must be uploaded again */
+  return SPHDEM_OK;
+}
+
+/* Cell grid: periodic axes span the box, the others the grains' bounding box; cells >= d_max + skin. */
+static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
+  dem_dev *D = &m->D;
+  double cut = dmax + D->P.skin;
+  if (!(cut > 0.0)) cut = 1.0;
+  double lo[3], hi[3];
+  for (int d = 0; d < 3; d++) {
+    if (D->P.periodic[d]) { lo[d] = D->P.boxlo[d]; hi[d] = D->P.boxhi[d]; continue; }
+    lo[d] = n ? x[d] : 0.0;
+    hi[d] = lo[d];
+    for (int64_t i = 1; i < n; i++) {
+      double v = x[3 * i + d];
+      if (v < lo[d]) lo[d] = v;
+      if (v > hi[d]) hi[d] = v;
+    }
+  }
+  for (;;) {
+    int64_t tot = 1;
+    for (int d = 0; d < 3; d++) {
+      double len = hi[d] - lo[d];
+      int nc = (int)floor(len / cut);
+      if (nc < 1) nc = 1;
+      D->nc[d] = nc;
+      D->glo[d] = lo[d];
+      D->cs_inv[d] = D->P.periodic[d] ? nc / len : 1.0 / cut;
+      tot *= nc;
+    }
+    if (tot <= SPHDEM_DEM_MAX_CELLS) { D->ncells = tot; break; }
+    cut *= 1.26;
+  }
+  if (D->ncells > m->cap_cells) {
+    int rc = grow(m, (void **)&D->cstart, sizeof(int32_t), D->ncells, D->ncells);
+    rc |= grow(m, (void **)&D->cend, sizeof(int32_t), D->ncells, D->ncells);
+    if (rc) return SPHDEM_ERR_ALLOC;
+    m->cap_cells = D->ncells;
+  }
+  return SPHDEM_OK;
+}
+
+#define TRY(call) do { int rc_ = (call); if (rc_) return rc_; } while (0)
+
+static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
+  dem_dev *D = &m->D;
+  /* keep the current list (sorted by key) and its history for the carry */
+  int64_t npold = m->nbuilds ? D->np : 0;
+  if (npold > m->cap_pold) {
+    int64_t cap = npold + npold / 4 + 16;
+    TRY(grow(m, (void **)&D->key_old, sizeof(uint64_t), npold, cap));
+    TRY(grow(m, (void **)&D->hist_old, sizeof(double) * SPHDEM_DEM_NHIST, npold, cap));
+    m->cap_pold = cap;
+  }
+  if (npold) {
+    TRY(m->ops->d2d(m, D->key_old, D->key, sizeof(uint64_t) * npold));
+    TRY(m->ops->d2d(m, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
+  }
+  D->np_old = npold;
+  TRY(setup_grid(m, n, x, dmax));
+  TRY(m->ops->cells(m));
+  int64_t np = 0;
+  TRY(m->ops->count(m, &np));
+  if (np > 2147483647LL) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "%lld candidate pairs exceed 2^31", (long long)np);
+  if (np > m->cap_p || !D->pa) {
+    int64_t cap = np + np / 4 + 64;
+    TRY(grow(m, (void **)&D->pa, sizeof(int32_t), np, cap));
+    TRY(grow(m, (void **)&D->pb, sizeof(int32_t), np, cap));
+    TRY(grow(m, (void **)&D->rlist, sizeof(int32_t), np, cap));
+    TRY(grow(m, (void **)&D->rkey, sizeof(int32_t), np, cap));
+    TRY(grow(m, (void **)&D->key, sizeof(uint64_t), np, cap));
+    TRY(grow(m, (void **)&D->hin, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
+    TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
+    m->cap_p = cap;
+  }
+  D->np = np;
+  TRY(m->ops->fill(m));
+  if (D->P.algo == SPHDEM_DEM_PARTICLE_PARALLEL) TRY(m->ops->csr(m));
+  memcpy(m->hx0, x, sizeof(double) * 3 * n);
+  m->dmax_built = dmax;
+  m->nbuilds++;
+  m->need_build = 0;
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x, const double *v,
+                       const double *omega, const double *radius, const double *mass, const int *flags,
+                       double dt, int update_history, double *f, double *torque, double *virial) {
+  if (!m) return SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  if (n < 0) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "n: %d grains", n);
+  if (n > 0 && (!tag || !x || !v || !omega || !radius || !mass || !f || !torque))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag, x, v, omega, radius, mass, f, torque: all needed (one is NULL)");
+  if (!(dt >= 0.0) || !isfinite(dt)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "dt: must be finite and >= 0 (got %g)", dt);
+  double rmax = 0.0;
+  for (int i = 0; i < n; i++) {
+    if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
+    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
+    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
+    if (radius[i] > rmax) rmax = radius[i];
+  }
+  TRY(ensure_grains(m, n));
+  /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */
+  int new_tags = !m->tags_valid || n != D->n || (n && memcmp(m->htag, tag, sizeof(int64_t) * n));
+  if (new_tags) m->need_build = 1;
+  if (2.0 * rmax > m->dmax_built) m->need_build = 1;
+  if (!m->need_build) {
+    double lim = 0.25 * D->P.skin * D->P.skin;
+    for (int64_t i = 0; i < n && !m->need_build; i++) {
+      double dx = x[3 * i] - m->hx0[3 * i], dy = x[3 * i + 1] - m->hx0[3 * i + 1], dz = x[3 * i + 2] - m->hx0[3 * i + 2];
+      if (dx * dx + dy * dy + dz * dz > lim) m->need_build = 1;
+    }
+  }
+  D->n = n;
+  if (n) {
+    TRY(m->ops->h2d(m, D->x, x, sizeof(double) * 3 * n));
+    TRY(m->ops->h2d(m, D->v, v, sizeof(double) * 3 * n));
+    TRY(m->ops->h2d(m, D->om, omega, sizeof(double) * 3 * n));
+    TRY(m->ops->h2d(m, D->rad, radius, sizeof(double) * n));
+    TRY(m->ops->h2d(m, D->mass, mass, sizeof(double) * n));
+    if (flags) TRY(m->ops->h2d(m, D->flags, flags, sizeof(int32_t) * n));
+    else TRY(m->ops->memset0(m, D->flags, sizeof(int32_t) * n));
+    if (new_tags) {
+      TRY(m->ops->h2d(m, D->tag, tag, sizeof(int64_t) * n));
+      memcpy(m->htag, tag, sizeof(int64_t) * n);
+    }
+  }
+  m->tags_valid = 1;
+  if (m->need_build) TRY(build(m, n, x, 2.0 * rmax));
+  D->dt = dt;
+  D->update = update_history ? 1 : 0;
+  D->want_virial = virial != NULL;
+  if (virial) TRY(m->ops->memset0(m, D->vir, 6 * sizeof(double)));
+  int64_t ntouch = 0;
+  if (n) TRY(m->ops->forces(m, &ntouch));
+  m->ncontacts = ntouch;
+  /* the new history becomes the current one */
+  double *t = D->hin;
+  D->hin = D->hout;
+  D->hout = t;
+  if (n) {
+    TRY(m->ops->d2h(m, f, D->f, sizeof(double) * 3 * n));
+    TRY(m->ops->d2h(m, torque, D->tq, sizeof(double) * 3 * n));
+  }
+  if (virial) TRY(m->ops->d2h(m, virial, D->vir, 6 * sizeof(double)));
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_stats_get(sphdem_dem m, sphdem_dem_stats *s) {
+  if (!m || !s) return SPHDEM_ERR_ARG;
+  s->npairs = m->D.np;
+  s->ncontacts = m->ncontacts;
+  s->nbuilds = m->nbuilds;
+  return SPHDEM_OK;
+}
+
+int64_t sphdem_dem_debug_pairs(sphdem_dem m, int64_t *pairs, int64_t maxpairs) {
+  if (!m || (!pairs && maxpairs > 0)) return -SPHDEM_ERR_ARG;
+  int64_t np = m->D.np, k = np < maxpairs ? np : maxpairs;
+  if (k <= 0) return np;
+  int32_t *a = (int32_t *)malloc(sizeof(int32_t) * np), *b = (int32_t *)malloc(sizeof(int32_t) * np);
+  if (!a || !b) { free(a); free(b); return -SPHDEM_ERR_ALLOC; }
+  int rc = m->ops->d2h(m, a, m->D.pa, sizeof(int32_t) * np);
+  if (!rc) rc = m->ops->d2h(m, b, m->D.pb, sizeof(int32_t) * np);
+  for (int64_t p = 0; !rc && p < k; p++) { pairs[2 * p] = a[p]; pairs[2 * p + 1] = b[p]; }
+  free(a);
+  free(b);
+  return rc ? -rc : np;
+}
+
+int sphdem_dem_debug_history(sphdem_dem m, int64_t ta, int64_t tb, double hist[4]) {
+  if (!m || !hist) return SPHDEM_ERR_ARG;
+  uint64_t k = tb >= 0 ? ((uint64_t)ta << 32) | (uint64_t)tb : ((uint64_t)ta << 32) | (0xffffffffu - (uint32_t)(-1 - tb));
+  int64_t np = m->D.np;
+  if (np == 0) return SPHDEM_ERR_ARG;
+  uint64_t *keys = (uint64_t *)malloc(sizeof(uint64_t) * np);
+  double *h = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * np);
+  int rc = (!keys || !h) ? SPHDEM_ERR_ALLOC : m->ops->d2h(m, keys, m->D.key, sizeof(uint64_t) * np);
+  if (!rc) rc = m->ops->d2h(m, h, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * np);
+  int found = 0;
+  for (int64_t p = 0; !rc && p < np; p++)
+    if (keys[p] == k) {
+      for (int q = 0; q < 4; q++) hist[q] = h[SPHDEM_DEM_NHIST * p + q];
+      found = 1;
+      break;
+    }
+  free(keys);
+  free(h);
+  if (rc) return rc;
+  return found ? SPHDEM_OK : sphdem_dem_fail(m, SPHDEM_ERR_ARG, "pair (%lld, %lld): not in the pair list", (long long)ta, (long long)tb);
+}

@@ -1,0 +1,381 @@
+/* dem_bodies.h - the DEM physics and contact search, written once for the CPU loops and CUDA kernels
+ * (Yu 2024 §2.2-2.3, He 2018 §2.2). */
+#ifndef SPHDEM_DEM_BODIES_H
+#define SPHDEM_DEM_BODIES_H
+
+#include <math.h>
+#include "dem_internal.h"
+
+/* Atomic add: CUDA atomicAdd on the device, an OpenMP atomic on the host. */
+SPHDEM_HD void dem_add(double *p, double v) {
+#ifdef __CUDA_ARCH__
+  atomicAdd(p, v);
+#else
+#pragma omp atomic
+  *p += v;
+#endif
+}
+
+/* ---- cell grid of size d_max + skin (He 2018 §2.4.1 level 1; Yu 2024 Fig. 1) ----------------------- */
+
+SPHDEM_HD int dem_grid_coord(const dem_dev *D, int d, double x) {
+  int n = D->nc[d];
+  double s = (x - D->glo[d]) * D->cs_inv[d];
+  int c;
+  if (D->P.periodic[d]) {
+    s -= n * floor(s / n);           /* wrap into [0, n) */
+    c = (int)s;
+    if (c >= n) c = n - 1;
+  } else {
+    if (s < 0.0) s = 0.0;            /* clamping keeps neighbours within one cell of each other */
+    c = s >= (double)n ? n - 1 : (int)s;
+  }
+  return c;
+}
+
+SPHDEM_HD int32_t dem_cell_of(const dem_dev *D, const double *x) {
+  int cx = dem_grid_coord(D, 0, x[0]), cy = dem_grid_coord(D, 1, x[1]), cz = dem_grid_coord(D, 2, x[2]);
+  return (int32_t)(((int64_t)cz * D->nc[1] + cy) * D->nc[0] + cx);
+}
+
+/* Distinct wrapped coordinates c-1, c, c+1 along axis d (fewer when the axis has < 3 cells). */
+SPHDEM_HD int dem_axis_neighbors(const dem_dev *D, int d, int c, int out[3]) {
+  int n = D->nc[d], k = 0;
+  for (int o = -1; o <= 1; o++) {
+    int x = c + o;
+    if (x < 0 || x >= n) {
+      if (!D->P.periodic[d]) continue;
+      x = (x + n) % n;
+    }
+    int dup = 0;
+    for (int q = 0; q < k; q++) dup |= out[q] == x;
+    if (!dup) out[k++] = x;
+  }
+  return k;
+}
+
+/* The (up to 27) distinct cells adjacent to cell c, itself included. */
+SPHDEM_HD int dem_neighbor_cells(const dem_dev *D, int32_t c, int32_t *out) {
+  int nx = D->nc[0], ny = D->nc[1];
+  int cx = c % nx, cy = (c / nx) % ny, cz = c / (nx * ny);
+  int ax[3], ay[3], az[3];
+  int kx = dem_axis_neighbors(D, 0, cx, ax), ky = dem_axis_neighbors(D, 1, cy, ay),
+      kz = dem_axis_neighbors(D, 2, cz, az), n = 0;
+  for (int z = 0; z < kz; z++)
+    for (int y = 0; y < ky; y++)
+      for (int x = 0; x < kx; x++) out[n++] = (int32_t)(((int64_t)az[z] * ny + ay[y]) * nx + ax[x]);
+  return n;
+}
+
+/* r = xa - xb with the minimum image on periodic axes; returns |r|^2. */
+SPHDEM_HD double dem_sep(const dem_dev *D, const double *xa, const double *xb, double *r) {
+  double r2 = 0.0;
+  for (int d = 0; d < 3; d++) {
+    double s = xa[d] - xb[d];
+    if (D->P.periodic[d]) s -= D->L[d] * rint(s / D->L[d]);
+    r[d] = s;
+    r2 += s * s;
+  }
+  return r2;
+}
+
+/* Signed distance of x from wall w along its normal. */
+SPHDEM_HD double dem_wall_dist(const dem_dev *D, int w, const double *x) {
+  const sphdem_dem_wall *W = &D->walls[w];
+  return (x[0] - W->point[0]) * W->normal[0] + (x[1] - W->point[1]) * W->normal[1] +
+         (x[2] - W->point[2]) * W->normal[2];
+}
+
+SPHDEM_HD uint64_t dem_key(int64_t ta, uint32_t tb) { return ((uint64_t)ta << 32) | (uint64_t)tb; }
+SPHDEM_HD uint32_t dem_wall_code(int w) { return 0xffffffffu - (uint32_t)w; }
+
+/* Yu 2024 §2.3 collision detection for sorted slot s: candidates j in the adjacent cells with a later
+ * slot (each pair once) closer than r_i + r_j + skin, then the walls closer than r_i + skin. With
+ * write = 0 it only counts; with write = 1 it stores the pairs from off[s] on, the grain of lower tag
+ * first. Returns the count. */
+SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
+  int32_t i = D->sidx[s];
+  const double *xi = D->x + 3 * (int64_t)i;
+  double ri = D->rad[i], r[3];
+  int64_t k = 0, o = write ? D->off[s] : 0;
+  int32_t cells[27];
+  int nn = dem_neighbor_cells(D, D->cell[s], cells);
+  for (int q = 0; q < nn; q++) {
+    int32_t c = cells[q];
+    for (int32_t t = D->cstart[c]; t < D->cend[c]; t++) {
+      if (t <= s) continue;
+      int32_t j = D->sidx[t];
+      double cut = ri + D->rad[j] + D->P.skin;
+      if (dem_sep(D, xi, D->x + 3 * (int64_t)j, r) >= cut * cut) continue;
+      if (write) {
+        int64_t p = o + k;
+        int lo = D->tag[i] < D->tag[j];
+        D->pa[p] = lo ? i : j;
+        D->pb[p] = lo ? j : i;
+        D->key[p] = lo ? dem_key(D->tag[i], (uint32_t)D->tag[j]) : dem_key(D->tag[j], (uint32_t)D->tag[i]);
+      }
+      k++;
+    }
+  }
+  for (int w = 0; w < D->nw; w++) {
+    if (dem_wall_dist(D, w, xi) >= ri + D->P.skin) continue;
+    if (write) {
+      int64_t p = o + k;
+      D->pa[p] = i;
+      D->pb[p] = -1 - w;
+      D->key[p] = dem_key(D->tag[i], dem_wall_code(w));
+    }
+    k++;
+  }
+  return k;
+}
+
+/* History carried across a rebuild (and any reordering): look the pair's key up in the previous,
+ * key-sorted list; a new pair starts from zero. */
+SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
+  uint64_t k = D->key[p];
+  int64_t lo = 0, hi = D->np_old - 1, found = -1;
+  while (lo <= hi) {
+    int64_t mid = lo + (hi - lo) / 2;
+    uint64_t km = D->key_old[mid];
+    if (km == k) { found = mid; break; }
+    if (km < k) lo = mid + 1; else hi = mid - 1;
+  }
+  for (int q = 0; q < SPHDEM_DEM_NHIST; q++)
+    D->hin[SPHDEM_DEM_NHIST * p + q] = found >= 0 ? D->hist_old[SPHDEM_DEM_NHIST * found + q] : 0.0;
+}
+
+/* ---- contact laws ------------------------------------------------------------------------------------ */
+
+/* Force and torques of pair p. Fa: force on a (b gets -Fa); Ta, Tb torques on a and b; hout (NULL: not
+ * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
+ * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
+ * tangent plane, Yu eq 13) are common; the three laws differ in the normal and tangential forces. */
+SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
+                          double *vir) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  const int wall = b < 0;
+  const double *xa = D->x + 3 * (int64_t)a, *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
+  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const double ra = D->rad[a];
+  double del[3], rsq, rb, radsum, meff, vr[3], wr[3], wrel[3];
+  for (int d = 0; d < 3; d++) Fa[d] = Ta[d] = Tb[d] = 0.0;
+  for (int d = 0; d < 6; d++) vir[d] = 0.0;
+  if (!wall) {
+    rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
+    rb = D->rad[b];
+    radsum = ra + rb;
+  } else {
+    const int w = -1 - b;
+    const double dist = dem_wall_dist(D, w, xa);
+    for (int d = 0; d < 3; d++) del[d] = dist * D->walls[w].normal[d];
+    rsq = dist * dist;
+    rb = 0.0;
+    radsum = ra;
+    if (dist <= 0.0) rsq = radsum * radsum; /* centre behind the plane: no contact */
+  }
+  if (rsq >= radsum * radsum) {
+    if (hout)
+      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+    return 0;
+  }
+  const double r = sqrt(rsq), rinv = 1.0 / r, rsqinv = 1.0 / rsq;
+  const double ma = D->mass[a];
+  if (!wall) {
+    const double *vb = D->v + 3 * (int64_t)b, *wb = D->om + 3 * (int64_t)b;
+    const double mb = D->mass[b];
+    for (int d = 0; d < 3; d++) {
+      vr[d] = va[d] - vb[d];
+      wr[d] = (ra * wa[d] + rb * wb[d]) * rinv;
+      wrel[d] = wa[d] - wb[d];
+    }
+    meff = ma * mb / (ma + mb);
+    if (D->flags[a] & SPHDEM_DEM_FROZEN) meff = mb;
+    if (D->flags[b] & SPHDEM_DEM_FROZEN) meff = ma;
+  } else {
+    for (int d = 0; d < 3; d++) {
+      vr[d] = va[d];
+      wr[d] = ra * wa[d] * rinv;
+      wrel[d] = wa[d];
+    }
+    meff = ma;
+  }
+  const double delta = radsum - r;
+  /* normal and tangential relative velocity at the contact point */
+  const double vnnr = vr[0] * del[0] + vr[1] * del[1] + vr[2] * del[2];
+  double vt[3], vtr[3];
+  for (int d = 0; d < 3; d++) vt[d] = vr[d] - del[d] * vnnr * rsqinv;
+  vtr[0] = vt[0] - (del[2] * wr[1] - del[1] * wr[2]);
+  vtr[1] = vt[1] - (del[0] * wr[2] - del[2] * wr[0]);
+  vtr[2] = vt[2] - (del[1] * wr[0] - del[0] * wr[1]);
+  /* tangential displacement: accumulate (eq 13), then rotate onto the current tangent plane */
+  double s[3] = {hin[0], hin[1], hin[2]};
+  if (D->update)
+    for (int d = 0; d < 3; d++) s[d] += vtr[d] * D->dt;
+  const double shrmag = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  const double rsht = (s[0] * del[0] + s[1] * del[1] + s[2] * del[2]) * rsqinv;
+  if (D->update)
+    for (int d = 0; d < 3; d++) s[d] -= rsht * del[d];
+
+  double ccel, fs[3], fn_el;
+  const double mu = D->P.mu;
+  if (D->P.model != SPHDEM_DEM_HERTZ_MINDLIN) {
+    /* Yu eqs 7-8 / LAMMPS gran/hooke|hertz/history: F_n = k_n delta - eta_n v_n, F_t = -(k_t d_t + eta_t v_t)
+     * capped at mu |F_n|; eta = m_eff gamma, or from e by eq 11 (eta = 2 sqrt(k m_eff) |ln e|/sqrt(pi^2 + ln^2 e)) */
+    const double kn = D->P.kn, kt = D->P.kt;
+    double gn = D->P.gamman, gt = D->P.gammat;
+    if (D->use_en) {
+      gn = 2.0 * sqrt(kn / meff) * D->cdamp;
+      gt = 2.0 * sqrt(kt / meff) * D->cdamp;
+    }
+    const double damp = meff * gn * vnnr * rsqinv;
+    double poly = 1.0;
+    if (D->P.model == SPHDEM_DEM_HERTZ) poly = wall ? sqrt(delta * ra) : sqrt(delta * ra * rb / radsum);
+    ccel = (kn * delta * rinv - damp) * poly;
+    if (D->P.limit_damping && ccel < 0.0) ccel = 0.0;
+    fn_el = kn * delta * poly;
+    for (int d = 0; d < 3; d++) fs[d] = -poly * (kt * s[d] + meff * gt * vtr[d]);
+    const double fsm = sqrt(fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]);
+    const double fn = mu * fabs(ccel * r);
+    if (fsm > fn) {
+      if (shrmag != 0.0) {
+        /* sliding: the spring is shortened so that spring + dashpot equal the Coulomb limit */
+        const double fnfs = fn / fsm, mgkt = kt > 0.0 ? meff * gt / kt : 0.0;
+        for (int d = 0; d < 3; d++) {
+          s[d] = fnfs * (s[d] + mgkt * vtr[d]) - mgkt * vtr[d];
+          fs[d] *= fnfs;
+        }
+      } else {
+        fs[0] = fs[1] = fs[2] = 0.0;
+      }
+    }
+  } else {
+    /* He 2018: Hertz normal (eq 18) with damping (eq 20, c_n from e by eq 23), R* and E* (eqs 20-21) */
+    const double reff = wall ? ra : ra * rb / radsum;
+    const double sq = sqrt(reff * delta);
+    fn_el = 4.0 / 3.0 * D->Estar * sq * delta;
+    const double vn = vnnr * rinv; /* > 0 separating */
+    double fn_tot = fn_el - D->cdamp * sqrt(8.0 * meff * D->Estar * sq) * vn;
+    if (D->P.limit_damping && fn_tot < 0.0) fn_tot = 0.0;
+    ccel = fn_tot * rinv;
+    fs[0] = fs[1] = fs[2] = 0.0;
+    const double tmax = D->tmax_fac * delta; /* eq 22 */
+    if (mu > 0.0 && tmax > 0.0) {
+      double sm = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+      if (sm > tmax) { /* full sliding: the displacement stays at delta_t,max */
+        for (int d = 0; d < 3; d++) s[d] *= tmax / sm;
+        sm = tmax;
+      }
+      const double ratio = sm / tmax, rest = 1.0 - ratio;
+      /* Mindlin-Deresiewicz (eq 19) */
+      const double fel = sm > 0.0 ? mu * fn_el * (1.0 - rest * sqrt(rest)) / sm : 0.0;
+      /* eq 21, written as c_t sqrt(4 m* k_t) with k_t = 3/2 mu |F_n| sqrt(1 - d/dmax)/dmax (the printed E*
+       * factor would make the coefficient dimensionally inconsistent) */
+      const double eta_t = D->ct * sqrt(6.0 * mu * meff * fn_el * sqrt(rest) / tmax);
+      for (int d = 0; d < 3; d++) fs[d] = -fel * s[d] - eta_t * vtr[d];
+      const double fsm = sqrt(fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]), fmax = mu * fabs(fn_tot);
+      if (fsm > fmax)
+        for (int d = 0; d < 3; d++) fs[d] *= fmax / fsm;
+    } else {
+      s[0] = s[1] = s[2] = 0.0;
+    }
+  }
+  for (int d = 0; d < 3; d++) Fa[d] = del[d] * ccel + fs[d];
+  /* torque of the tangential force (He eq 24) */
+  double tor[3];
+  tor[0] = rinv * (del[1] * fs[2] - del[2] * fs[1]);
+  tor[1] = rinv * (del[2] * fs[0] - del[0] * fs[2]);
+  tor[2] = rinv * (del[0] * fs[1] - del[1] * fs[0]);
+  for (int d = 0; d < 3; d++) {
+    Ta[d] = -ra * tor[d];
+    Tb[d] = -rb * tor[d];
+  }
+  /* constant-torque rolling friction against the relative rotation (He eq 25) */
+  if (D->P.mu_r > 0.0) {
+    const double wm = sqrt(wrel[0] * wrel[0] + wrel[1] * wrel[1] + wrel[2] * wrel[2]);
+    if (wm > 0.0) {
+      const double tr = D->P.mu_r * fn_el / wm;
+      for (int d = 0; d < 3; d++) {
+        Ta[d] -= tr * ra * wrel[d];
+        Tb[d] += tr * rb * wrel[d];
+      }
+    }
+  }
+  if (!wall) {
+    vir[0] = del[0] * Fa[0];
+    vir[1] = del[1] * Fa[1];
+    vir[2] = del[2] * Fa[2];
+    vir[3] = del[0] * Fa[1];
+    vir[4] = del[0] * Fa[2];
+    vir[5] = del[1] * Fa[2];
+  }
+  if (hout) {
+    hout[0] = s[0];
+    hout[1] = s[1];
+    hout[2] = s[2];
+    hout[3] = 1.0;
+  }
+  return 1;
+}
+
+/* Collision-pair parallel pass (Yu 2024 §2.3, Fig. 3): one thread per pair, the force added to a and
+ * subtracted from b atomically. */
+SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) {
+  double F[3], Ta[3], Tb[3], vir[6];
+  if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) return;
+  const int64_t a = D->pa[p], b = D->pb[p];
+  for (int d = 0; d < 3; d++) {
+    dem_add(&D->f[3 * a + d], F[d]);
+    dem_add(&D->tq[3 * a + d], Ta[d]);
+  }
+  if (b >= 0)
+    for (int d = 0; d < 3; d++) {
+      dem_add(&D->f[3 * b + d], -F[d]);
+      dem_add(&D->tq[3 * b + d], Tb[d]);
+    }
+  if (D->want_virial)
+    for (int d = 0; d < 6; d++) dem_add(&D->vir[d], vir[d]);
+}
+
+/* Particle-parallel pass: grain i sums its own pairs (as a, then as b) without atomics; both partners
+ * evaluate the same pair with the same operands, so the forces are exactly opposite. Only a writes the
+ * history and counts the virial. */
+SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
+  double F[3], Ta[3], Tb[3], vir[6], f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+  for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
+    if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) continue;
+    for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
+    for (int d = 0; d < 6; d++) vs[d] += vir[d];
+  }
+  for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
+    if (!dem_contact(D, D->rlist[k], F, Ta, Tb, 0, vir)) continue;
+    for (int d = 0; d < 3; d++) { f[d] -= F[d]; t[d] += Tb[d]; }
+  }
+  for (int d = 0; d < 3; d++) {
+    D->f[3 * i + d] = f[d];
+    D->tq[3 * i + d] = t[d];
+  }
+  if (D->want_virial)
+    for (int d = 0; d < 6; d++)
+      if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+}
+
+/* Touching pairs are the ones with the touch flag set in the new history. */
+SPHDEM_HD int dem_touching(const dem_dev *D, int64_t p) { return D->hout[SPHDEM_DEM_NHIST * p + 3] != 0.0; }
+
+/* Cell range tables from the cell of each sorted slot. */
+SPHDEM_HD void dem_cell_range_body(const int32_t *cell, int64_t n, int64_t s, int32_t *cs, int32_t *ce) {
+  int32_t c = cell[s];
+  if (s == 0 || cell[s - 1] != c) cs[c] = (int32_t)s;
+  if (s == n - 1 || cell[s + 1] != c) ce[c] = (int32_t)(s + 1);
+}
+
+/* CSR ranges of a pair array sorted by grain index g[] (pa for the forward, pb copy for the reverse). */
+SPHDEM_HD void dem_range_body(const int32_t *g, int64_t n, int64_t k, int32_t *st, int32_t *en) {
+  int32_t c = g[k];
+  if (c < 0) return;
+  if (k == 0 || g[k - 1] != c) st[c] = (int32_t)k;
+  if (k == n - 1 || g[k + 1] != c) en[c] = (int32_t)(k + 1);
+}
+
+#endif

@@ -1,0 +1,140 @@
+/* dem_cpu.c - CPU (OpenMP) backend of the GPU DEM: loops that call the bodies of dem_bodies.h. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "dem_bodies.h"
+
+static int c_alloc(struct sphdem_dem_s *m, void **ptr, size_t bytes) {
+  *ptr = malloc(bytes ? bytes : 1);
+  if (!*ptr) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes", bytes);
+  return SPHDEM_OK;
+}
+static void c_free(struct sphdem_dem_s *m, void *ptr) { (void)m; free(ptr); }
+static int c_copy(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes) {
+  (void)m;
+  if (bytes) memmove(dst, src, bytes);
+  return SPHDEM_OK;
+}
+static int c_memset0(struct sphdem_dem_s *m, void *ptr, size_t bytes) {
+  (void)m;
+  if (bytes) memset(ptr, 0, bytes);
+  return SPHDEM_OK;
+}
+
+/* Stable counting sort of the grains by cell (the same order as the GPU's stable radix sort). */
+static int c_cells(struct sphdem_dem_s *m) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n;
+  memset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells);
+  memset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; i++) D->cell[i] = dem_cell_of(D, D->x + 3 * i);
+  /* cend as counts, then exclusive offsets in cstart */
+  for (int64_t i = 0; i < n; i++) D->cend[D->cell[i]]++;
+  int32_t acc = 0;
+  for (int64_t c = 0; c < D->ncells; c++) {
+    D->cstart[c] = acc;
+    acc += D->cend[c];
+    D->cend[c] = D->cstart[c];
+  }
+  for (int64_t i = 0; i < n; i++) D->sidx[D->cend[D->cell[i]]++] = (int32_t)i;
+  for (int64_t s = 0; s < n; s++) D->cell[s] = dem_cell_of(D, D->x + 3 * (int64_t)D->sidx[s]);
+  for (int64_t c = 0; c < D->ncells; c++)
+    if (D->cstart[c] == D->cend[c]) D->cstart[c] = D->cend[c] = 0;
+  return SPHDEM_OK;
+}
+
+static int c_count(struct sphdem_dem_s *m, int64_t *np) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n;
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int64_t s = 0; s < n; s++) D->cnt[s] = dem_scan_slot(D, s, 0);
+  int64_t acc = 0; /* exclusive prefix sum (Yu 2024 Fig. 2) */
+  for (int64_t s = 0; s < n; s++) {
+    D->off[s] = acc;
+    acc += D->cnt[s];
+  }
+  *np = acc;
+  return SPHDEM_OK;
+}
+
+static const uint64_t *g_sort_keys; /* qsort has no context argument; only used under the lock below */
+static int cmp_key(const void *a, const void *b) {
+  uint64_t ka = g_sort_keys[*(const int32_t *)a], kb = g_sort_keys[*(const int32_t *)b];
+  return ka < kb ? -1 : ka > kb;
+}
+static const int32_t *g_sort_pb;
+static int cmp_pb(const void *a, const void *b) {
+  int32_t ia = *(const int32_t *)a, ib = *(const int32_t *)b;
+  int32_t ka = g_sort_pb[ia], kb = g_sort_pb[ib];
+  if (ka != kb) return ka < kb ? -1 : 1;
+  return ia < ib ? -1 : ia > ib; /* stable */
+}
+
+static int c_fill(struct sphdem_dem_s *m) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n, np = D->np;
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int64_t s = 0; s < n; s++) dem_scan_slot(D, s, 1);
+  /* sort the list by key (keys are unique); rlist and rkey serve as scratch */
+  int32_t *perm = D->rlist;
+  for (int64_t p = 0; p < np; p++) perm[p] = (int32_t)p;
+#pragma omp critical(sphdem_dem_qsort)
+  {
+    g_sort_keys = D->key;
+    qsort(perm, (size_t)np, sizeof(int32_t), cmp_key);
+  }
+  uint64_t *k2 = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)(np ? np : 1));
+  if (!k2) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair sort buffer");
+  for (int64_t p = 0; p < np; p++) k2[p] = D->key[perm[p]];
+  memcpy(D->key, k2, sizeof(uint64_t) * (size_t)np);
+  free(k2);
+  for (int64_t p = 0; p < np; p++) D->rkey[p] = D->pa[perm[p]];
+  memcpy(D->pa, D->rkey, sizeof(int32_t) * (size_t)np);
+  for (int64_t p = 0; p < np; p++) D->rkey[p] = D->pb[perm[p]];
+  memcpy(D->pb, D->rkey, sizeof(int32_t) * (size_t)np);
+#pragma omp parallel for schedule(static)
+  for (int64_t p = 0; p < np; p++) dem_carry_body(D, p);
+  return SPHDEM_OK;
+}
+
+static int c_csr(struct sphdem_dem_s *m) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n, np = D->np;
+  memset(D->fstart, 0, sizeof(int32_t) * (size_t)n);
+  memset(D->fend, 0, sizeof(int32_t) * (size_t)n);
+  memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
+  memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
+  for (int64_t p = 0; p < np; p++) dem_range_body(D->pa, np, p, D->fstart, D->fend);
+  for (int64_t p = 0; p < np; p++) D->rlist[p] = (int32_t)p;
+#pragma omp critical(sphdem_dem_qsort)
+  {
+    g_sort_pb = D->pb;
+    qsort(D->rlist, (size_t)np, sizeof(int32_t), cmp_pb);
+  }
+  for (int64_t k = 0; k < np; k++) D->rkey[k] = D->pb[D->rlist[k]];
+  for (int64_t k = 0; k < np; k++) dem_range_body(D->rkey, np, k, D->rstart, D->rend);
+  return SPHDEM_OK;
+}
+
+static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n, np = D->np, nt = 0;
+  if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
+    memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
+    memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
+#pragma omp parallel for schedule(static)
+    for (int64_t p = 0; p < np; p++) dem_pair_force_body(D, p);
+  } else {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t i = 0; i < n; i++) dem_particle_force_body(D, i);
+  }
+#pragma omp parallel for reduction(+ : nt) schedule(static)
+  for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+  *ntouch = nt;
+  return SPHDEM_OK;
+}
+
+const dem_ops sphdem_dem_cpu_ops = {
+  "cpu", c_alloc, c_free, c_copy, c_copy, c_memset0, c_copy, c_cells, c_count, c_fill, c_csr, c_forces,
+};

@@ -1,0 +1,103 @@
+/* dem_internal.h - GPU DEM data shared by the context code (dem.c) and both backends (not public). */
+#ifndef SPHDEM_DEM_INTERNAL_H
+#define SPHDEM_DEM_INTERNAL_H
+
+#include "sphdem_internal.h"
+
+#define SPHDEM_DEM_NHIST 4      /* per pair: tangential displacement xyz, touch flag */
+#define SPHDEM_DEM_MAX_CELLS (1 << 24)
+#define SPHDEM_DEM_MAX_WALLS 64
+#define SPHDEM_DEM_MAX_TAG 2147483647LL
+
+/* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the
+ * caller's order; the cell grid sorts only an index array (sidx). */
+typedef struct {
+  sphdem_dem_params P;
+  /* derived constants */
+  double cdamp;       /* |ln e| / sqrt(pi^2 + ln^2 e) (Yu eq 11 / He eq 23) */
+  int use_en;         /* damping from the restitution coefficient (en > 0) */
+  double ct;          /* He eq 21 tangential coefficient */
+  double Estar;       /* He eq 21 for one material: E / (2 (1 - nu^2)) */
+  double tmax_fac;    /* He eq 22: (2 - nu) / (2 - 2 nu) mu */
+  double L[3];
+  double glo[3], cs_inv[3];
+  int nc[3];
+  int64_t ncells;
+  int nw;
+  sphdem_dem_wall walls[SPHDEM_DEM_MAX_WALLS];
+  double dt;
+  int update, want_virial;
+  /* grains */
+  int64_t n;
+  double *x, *v, *om, *rad, *mass, *f, *tq;
+  int32_t *flags;
+  int64_t *tag;
+  /* cell grid: sorted slot -> grain, cell of each sorted slot, cell ranges */
+  int32_t *sidx, *cell, *cstart, *cend;
+  /* pair list: per-slot counts and offsets, pairs sorted by key, history double-buffered */
+  int64_t *cnt, *off;
+  int64_t np;
+  int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
+  uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
+  double *hin, *hout;
+  /* previous list for the history carry */
+  int64_t np_old;
+  uint64_t *key_old;
+  double *hist_old;
+  /* particle-parallel CSR: pairs where the grain is a: [fstart, fend); where it is b: rlist[rstart..rend) */
+  int32_t *fstart, *fend, *rstart, *rend, *rlist, *rkey;
+  double *vir;        /* 6 virial components, then 8 bytes of device counter */
+} dem_dev;
+
+struct sphdem_dem_s;
+/* Backend operations; each returns SPHDEM_OK or a code with the message set. */
+typedef struct {
+  const char *name;
+  int (*alloc)(struct sphdem_dem_s *m, void **ptr, size_t bytes);
+  void (*free)(struct sphdem_dem_s *m, void *ptr);
+  int (*h2d)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
+  int (*d2h)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
+  int (*memset0)(struct sphdem_dem_s *m, void *ptr, size_t bytes);
+  int (*d2d)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
+  /* cells of the grains, sidx stably sorted by cell, cell ranges */
+  int (*cells)(struct sphdem_dem_s *m);
+  /* count candidate pairs per sorted slot, exclusive scan; *np gets the total */
+  int (*count)(struct sphdem_dem_s *m, int64_t *np);
+  /* fill pa, pb, key, sort the list by key, carry the history from the previous list */
+  int (*fill)(struct sphdem_dem_s *m);
+  /* CSR for the particle-parallel pass */
+  int (*csr)(struct sphdem_dem_s *m);
+  /* contact forces into f, tq (zeroed here), history hin -> hout, virial; touching pairs into *ntouch */
+  int (*forces)(struct sphdem_dem_s *m, int64_t *ntouch);
+} dem_ops;
+
+struct sphdem_dem_s {
+  dem_dev D;
+  const dem_ops *ops;
+  int backend;
+  char err[1024];
+  int64_t cap_n, cap_p, cap_pold, cap_cells;
+  int need_build;
+  int tags_valid;              /* device tag array matches htag */
+  int64_t nbuilds, ncontacts;
+  /* host copies for the rebuild decision */
+  double *hx0;
+  int64_t *htag;
+  int64_t hcap;
+  double dmax_built;
+  void *backend_data;
+};
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+int sphdem_dem_fail(struct sphdem_dem_s *m, int code, const char *fmt, ...);
+extern const dem_ops sphdem_dem_cpu_ops;
+#ifdef SPHDEM_WITH_CUDA
+extern const dem_ops sphdem_dem_cuda_ops;
+#endif
+#ifdef __cplusplus
+}
+#endif
+
+#endif
