@@ -1,0 +1,338 @@
+/* test_dem.c - GPU DEM core: parameter errors name the field, contact detection against brute force
+ * (periodic, clamped and tiny grids), pair- vs particle-parallel forces, Newton's third law, history
+ * carried through rebuilds and arbitrary reordering, closed-form single contacts. */
+#include <math.h>
+#include <stdint.h>
+#include "testlib.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static uint64_t rng_state = 88172645463325252ull;
+static double urand(void) {
+  rng_state ^= rng_state << 13; rng_state ^= rng_state >> 7; rng_state ^= rng_state << 17;
+  return (double)(rng_state >> 11) / 9007199254740992.0;
+}
+
+static sphdem_dem make(const sphdem_dem_params *p) {
+  char msg[256];
+  sphdem_dem d = NULL;
+  int rc = sphdem_dem_create(&d, p, test_device(), msg, sizeof msg);
+  if (rc) { printf("create: %s\n", msg); exit(rc == SPHDEM_ERR_NO_GPU ? 77 : 1); }
+  return d;
+}
+
+static void expect_arg(sphdem_dem_params p, const char *field) {
+  char msg[256] = "";
+  int rc = sphdem_dem_params_check(&p, msg, sizeof msg);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(msg, field) == msg, "bad %s: rc %d msg '%s'", field, rc, msg);
+  sphdem_dem d = NULL;
+  rc = sphdem_dem_create(&d, &p, SPHDEM_DEVICE_CPU, msg, sizeof msg);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && d == NULL && strstr(msg, field) == msg, "create with bad %s: '%s'", field, msg);
+}
+
+static void test_bad_params(void) {
+  sphdem_dem_params p, q;
+  sphdem_dem_params_default(&p);
+  p.kn = 1e5; p.kt = 2e4;
+  char msg[256];
+  TEST_ASSERT(sphdem_dem_params_check(&p, msg, sizeof msg) == SPHDEM_OK, "good params rejected: %s", msg);
+  q = p; q.kn = 0; expect_arg(q, "kn");
+  q = p; q.kt = -1; expect_arg(q, "kt");
+  q = p; q.gamman = -1; expect_arg(q, "gamman");
+  q = p; q.en = 1.5; expect_arg(q, "en");
+  q = p; q.model = 7; expect_arg(q, "model");
+  q = p; q.algo = 3; expect_arg(q, "algo");
+  q = p; q.mu = -0.1; expect_arg(q, "mu");
+  q = p; q.mu_r = -0.1; expect_arg(q, "mu_r");
+  q = p; q.skin = -1; expect_arg(q, "skin");
+  q = p; q.periodic[1] = 1; expect_arg(q, "boxhi[1]");
+  q = p; q.model = SPHDEM_DEM_HERTZ; q.en = 0.5; expect_arg(q, "en");
+  q = p; q.model = SPHDEM_DEM_HERTZ_MINDLIN; q.en = 0.5; q.E = 0; expect_arg(q, "E");
+  q = p; q.model = SPHDEM_DEM_HERTZ_MINDLIN; q.en = 0.5; q.E = 1e7; q.nu = 0.7; expect_arg(q, "nu");
+  /* call arguments */
+  sphdem_dem d = make(&p);
+  sphdem_dem_wall w = {{0, 0, 0}, {0, 2, 0}};
+  TEST_ASSERT(sphdem_dem_set_walls(d, 1, &w) == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(d), "walls[0].normal"),
+              "non-unit wall normal: %s", sphdem_dem_last_error(d));
+  int64_t tag[2] = {1, 0};
+  double x[6] = {0}, v[6] = {0}, om[6] = {0}, r[2] = {1, 1}, m[2] = {1, 1}, f[6], t[6];
+  TEST_ASSERT(sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-3, 1, f, t, NULL) == SPHDEM_ERR_ARG &&
+                  strstr(sphdem_dem_last_error(d), "tag[1]"), "tag 0: %s", sphdem_dem_last_error(d));
+  tag[1] = 2; r[0] = -1;
+  TEST_ASSERT(sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-3, 1, f, t, NULL) == SPHDEM_ERR_ARG &&
+                  strstr(sphdem_dem_last_error(d), "radius[0]"), "radius: %s", sphdem_dem_last_error(d));
+  sphdem_dem_destroy(&d);
+}
+
+/* ---- random packings ---------------------------------------------------------------------------------- */
+typedef struct { int n; int64_t *tag; double *x, *v, *om, *r, *m, *f, *t; } grains;
+
+static grains make_grains(int n, const double *lo, const double *hi, double r0, double vscale) {
+  grains g;
+  g.n = n;
+  g.tag = malloc(sizeof(int64_t) * n);
+  g.x = malloc(sizeof(double) * 3 * n); g.v = malloc(sizeof(double) * 3 * n); g.om = malloc(sizeof(double) * 3 * n);
+  g.f = malloc(sizeof(double) * 3 * n); g.t = malloc(sizeof(double) * 3 * n);
+  g.r = malloc(sizeof(double) * n); g.m = malloc(sizeof(double) * n);
+  for (int i = 0; i < n; i++) {
+    g.tag[i] = 1000 + 7 * i; /* not contiguous, not ordered like anything else */
+    g.r[i] = r0 * (0.6 + 0.4 * urand());
+    g.m[i] = 2500 * 4.0 / 3.0 * M_PI * pow(g.r[i], 3);
+    for (int d = 0; d < 3; d++) {
+      g.x[3 * i + d] = lo[d] + (hi[d] - lo[d]) * urand();
+      g.v[3 * i + d] = vscale * (urand() - 0.5);
+      g.om[3 * i + d] = vscale / r0 * (urand() - 0.5);
+    }
+  }
+  return g;
+}
+static void free_grains(grains *g) {
+  free(g->tag); free(g->x); free(g->v); free(g->om); free(g->f); free(g->t); free(g->r); free(g->m);
+}
+
+static int cmp_pair(const void *a, const void *b) {
+  const int64_t *p = a, *q = b;
+  if (p[0] != q[0]) return p[0] < q[0] ? -1 : 1;
+  return p[1] < q[1] ? -1 : p[1] > q[1];
+}
+
+/* candidate pairs of the core vs all pairs closer than r_a + r_b + skin by brute force (minimum image) */
+static void check_detection(const char *what, sphdem_dem_params p, grains *g, int nw, const sphdem_dem_wall *w) {
+  sphdem_dem d = make(&p);
+  sphdem_dem_set_walls(d, nw, w);
+  int rc = sphdem_dem_compute(d, g->n, g->tag, g->x, g->v, g->om, g->r, g->m, NULL, 1e-4, 0, g->f, g->t, NULL);
+  TEST_ASSERT(rc == SPHDEM_OK, "%s: %s", what, sphdem_dem_last_error(d));
+  int64_t cap = (int64_t)g->n * 64 + 64;
+  int64_t *core = malloc(sizeof(int64_t) * 2 * cap), *brute = malloc(sizeof(int64_t) * 2 * cap);
+  int64_t nc = sphdem_dem_debug_pairs(d, core, cap), nb = 0;
+  for (int i = 0; i < g->n; i++) {
+    for (int j = i + 1; j < g->n; j++) {
+      double r2 = 0;
+      for (int k = 0; k < 3; k++) {
+        double s = g->x[3 * i + k] - g->x[3 * j + k];
+        if (p.periodic[k]) { double L = p.boxhi[k] - p.boxlo[k]; s -= L * rint(s / L); }
+        r2 += s * s;
+      }
+      double cut = g->r[i] + g->r[j] + p.skin;
+      if (r2 < cut * cut) {
+        int lo = g->tag[i] < g->tag[j];
+        brute[2 * nb] = lo ? i : j;
+        brute[2 * nb + 1] = lo ? j : i;
+        nb++;
+      }
+    }
+    for (int k = 0; k < nw; k++) {
+      double dist = 0;
+      for (int q = 0; q < 3; q++) dist += (g->x[3 * i + q] - w[k].point[q]) * w[k].normal[q];
+      if (dist < g->r[i] + p.skin) { brute[2 * nb] = i; brute[2 * nb + 1] = -1 - k; nb++; }
+    }
+  }
+  int same = nc == nb;
+  if (same) {
+    qsort(core, nc, 2 * sizeof(int64_t), cmp_pair);
+    qsort(brute, nb, 2 * sizeof(int64_t), cmp_pair);
+    same = memcmp(core, brute, sizeof(int64_t) * 2 * nb) == 0;
+  }
+  TEST_ASSERT(same && nb > 0, "%s: core %lld pairs, brute force %lld", what, (long long)nc, (long long)nb);
+  printf("  detection %s: %lld candidate pairs, identical to brute force: %s\n", what, (long long)nb, same ? "yes" : "NO");
+  free(core);
+  free(brute);
+  sphdem_dem_destroy(&d);
+}
+
+static void test_detection(void) {
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.kn = 1e5; p.kt = 2e4;
+  p.skin = 0.05;
+  double lo[3] = {0, 0, 0}, hi[3] = {3, 2, 2.5};
+  grains g = make_grains(600, lo, hi, 0.1, 0);
+  /* periodic in x and z, a floor and a tilted plane */
+  p.periodic[0] = p.periodic[2] = 1;
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+  double s = 1 / sqrt(2.0);
+  sphdem_dem_wall w[2] = {{{0, 0.05, 0}, {0, 1, 0}}, {{0, 2, 0}, {s, -s, 0}}};
+  check_detection("periodic x,z + 2 walls", p, &g, 2, w);
+  /* no periodic axis: the grid spans the grains' bounding box; some grains far outside */
+  p.periodic[0] = p.periodic[2] = 0;
+  for (int i = 0; i < 20; i++) g.x[3 * i] += 50.0 + 0.01 * i;
+  check_detection("open, spread", p, &g, 0, NULL);
+  p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
+  check_detection("open, particle-parallel", p, &g, 0, NULL);
+  free_grains(&g);
+  /* periodic box only 2.2 cells wide on x and y: the adjacent-cell set must not repeat cells */
+  double lo2[3] = {0, 0, 0}, hi2[3] = {0.55, 0.55, 2};
+  grains h = make_grains(60, lo2, hi2, 0.1, 0);
+  p.algo = SPHDEM_DEM_PAIR_PARALLEL;
+  p.periodic[0] = p.periodic[1] = 1;
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo2[d]; p.boxhi[d] = hi2[d]; }
+  check_detection("periodic, 2 cells across", p, &h, 0, NULL);
+  free_grains(&h);
+}
+
+/* ---- dynamics: algorithms agree, Newton's third law, history through reordering ----------------------- */
+
+static double maxabs(const double *a, int n) {
+  double m = 0;
+  for (int i = 0; i < n; i++) m = fmax(m, fabs(a[i]));
+  return m;
+}
+
+static void test_dynamics(void) {
+  double lo[3] = {0, 0, 0}, hi[3] = {1.2, 1.2, 1.2};
+  grains g = make_grains(300, lo, hi, 0.1, 0.5);
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 2.0 / 7.0 * 2e5; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+  p.mu_r = 0.01;
+  p.skin = 0.02;
+  p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+  sphdem_dem A = make(&p);        /* pair-parallel, grains in a fixed order */
+  p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
+  sphdem_dem B = make(&p);        /* particle-parallel, fixed order */
+  sphdem_dem C = make(&p);        /* particle-parallel, reshuffled every step */
+  sphdem_dem Dn = make(&p);       /* control: reshuffled and recreated every step (history lost) */
+  int n = g.n;
+  int *perm = malloc(sizeof(int) * n);
+  int64_t *ptag = malloc(sizeof(int64_t) * n);
+  double *px = malloc(sizeof(double) * 3 * n), *pv = malloc(sizeof(double) * 3 * n), *pom = malloc(sizeof(double) * 3 * n);
+  double *pr = malloc(sizeof(double) * n), *pm = malloc(sizeof(double) * n);
+  double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+  double *fC = malloc(sizeof(double) * 3 * n), *tC = malloc(sizeof(double) * 3 * n);
+  double *fD = malloc(sizeof(double) * 3 * n), *tD = malloc(sizeof(double) * 3 * n);
+  double dt = 2e-5, worst_ab = 0, worst_bc = 0, worst_newton = 0, lost = 0, vir[6];
+  int rc = 0;
+  for (int step = 0; step < 400 && !rc; step++) {
+    for (int i = 0; i < n; i++) perm[i] = i;
+    for (int i = n - 1; i > 0; i--) { int j = (int)(urand() * (i + 1)); int t = perm[i]; perm[i] = perm[j]; perm[j] = t; }
+    for (int k = 0; k < n; k++) {
+      int i = perm[k];
+      ptag[k] = g.tag[i]; pr[k] = g.r[i]; pm[k] = g.m[i];
+      for (int d = 0; d < 3; d++) { px[3 * k + d] = g.x[3 * i + d]; pv[3 * k + d] = g.v[3 * i + d]; pom[3 * k + d] = g.om[3 * i + d]; }
+    }
+    rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, dt, 1, g.f, g.t, vir);
+    rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, dt, 1, fB, tB, NULL);
+    rc |= sphdem_dem_compute(C, n, ptag, px, pv, pom, pr, pm, NULL, dt, 1, fC, tC, NULL);
+    sphdem_dem_destroy(&Dn);
+    Dn = make(&p);
+    rc |= sphdem_dem_compute(Dn, n, ptag, px, pv, pom, pr, pm, NULL, dt, 1, fD, tD, NULL);
+    double fscale = fmax(maxabs(g.f, 3 * n), 1e-300), tscale = fmax(maxabs(g.t, 3 * n), 1e-300), sum[3] = {0, 0, 0};
+    for (int i = 0; i < n; i++)
+      for (int d = 0; d < 3; d++) {
+        worst_ab = fmax(worst_ab, fabs(g.f[3 * i + d] - fB[3 * i + d]) / fscale);
+        worst_ab = fmax(worst_ab, fabs(g.t[3 * i + d] - tB[3 * i + d]) / tscale);
+        sum[d] += g.f[3 * i + d];
+      }
+    for (int k = 0; k < n; k++)
+      for (int d = 0; d < 3; d++) {
+        int i = perm[k];
+        worst_bc = fmax(worst_bc, fabs(fB[3 * i + d] - fC[3 * k + d]) / fscale);
+        worst_bc = fmax(worst_bc, fabs(tB[3 * i + d] - tC[3 * k + d]) / tscale);
+        lost = fmax(lost, fabs(fB[3 * i + d] - fD[3 * k + d]) / fscale);
+      }
+    for (int d = 0; d < 3; d++) worst_newton = fmax(worst_newton, fabs(sum[d]) / fscale);
+    /* advance with A's forces (symplectic Euler), no gravity: a shaken periodic packing */
+    for (int i = 0; i < n; i++) {
+      double I = 0.4 * g.m[i] * g.r[i] * g.r[i];
+      for (int d = 0; d < 3; d++) {
+        g.v[3 * i + d] += dt * g.f[3 * i + d] / g.m[i];
+        g.om[3 * i + d] += dt * g.t[3 * i + d] / I;
+        g.x[3 * i + d] += dt * g.v[3 * i + d];
+      }
+    }
+  }
+  TEST_ASSERT(rc == SPHDEM_OK, "compute failed: %s", sphdem_dem_last_error(A));
+  sphdem_dem_stats sa, sc;
+  sphdem_dem_stats_get(A, &sa);
+  sphdem_dem_stats_get(C, &sc);
+  /* a sliding, touching pair with history */
+  int64_t pairs[2 * 4096];
+  int64_t np = sphdem_dem_debug_pairs(B, pairs, 4096);
+  double hB[4] = {0}, hC[4] = {0}, hmax = 0;
+  int found = 0;
+  for (int64_t q = 0; q < np && q < 4096; q++) {
+    if (pairs[2 * q + 1] < 0) continue;
+    int64_t ta = g.tag[pairs[2 * q]], tb = g.tag[pairs[2 * q + 1]];
+    if (sphdem_dem_debug_history(B, ta, tb, hB) == SPHDEM_OK && hB[3] != 0.0 &&
+        sphdem_dem_debug_history(C, ta, tb, hC) == SPHDEM_OK) {
+      double s = sqrt(hB[0] * hB[0] + hB[1] * hB[1] + hB[2] * hB[2]);
+      if (s > hmax) { hmax = s; found = memcmp(hB, hC, sizeof hB) == 0; }
+    }
+  }
+  printf("  dynamics: 300 grains, 400 steps, %lld builds (reshuffled copy: %lld), %lld contacts at the end\n",
+         (long long)sa.nbuilds, (long long)sc.nbuilds, (long long)sa.ncontacts);
+  printf("  pair- vs particle-parallel max rel diff %.3g; particle-parallel fixed vs reshuffled every step %.3g; "
+         "history lost each step %.3g; |sum F| / max|F| %.3g; largest tangential displacement %.3g m\n",
+         worst_ab, worst_bc, lost, worst_newton, hmax);
+  TEST_ASSERT(sa.nbuilds > 2 && sa.ncontacts > 50, "the test needs rebuilds and contacts (%lld, %lld)",
+              (long long)sa.nbuilds, (long long)sa.ncontacts);
+  TEST_ASSERT(worst_ab < 1e-10, "pair- vs particle-parallel differ by %.3g", worst_ab);
+  TEST_ASSERT(worst_bc == 0.0, "reordering changed particle-parallel forces by %.3g (history not carried?)", worst_bc);
+  TEST_ASSERT(lost > 1e-3, "losing the history changes nothing (%.3g): the test would not see a lost history", lost);
+  TEST_ASSERT(worst_newton < 1e-10, "Newton's third law: |sum F| / max|F| = %.3g", worst_newton);
+  TEST_ASSERT(hmax > 0 && found, "no tangential history, or it differs after reordering (%.3g)", hmax);
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B); sphdem_dem_destroy(&C); sphdem_dem_destroy(&Dn);
+  free(perm); free(ptag); free(px); free(pv); free(pom); free(pr); free(pm);
+  free(fB); free(tB); free(fC); free(tC); free(fD); free(tD);
+  free_grains(&g);
+}
+
+/* ---- closed-form single contacts ----------------------------------------------------------------------- */
+
+static void test_single_contacts(void) {
+  int64_t tag[2] = {5, 3};
+  double ra = 0.01, rb = 0.02, delta = 1e-4, reff = ra * rb / (ra + rb);
+  double x[6] = {0, 0, 0, ra + rb - delta, 0, 0}, v[6] = {0}, om[6] = {0}, r[2] = {ra, rb}, m[2] = {1e-2, 8e-2};
+  double f[6], t[6];
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.kn = 1e5; p.kt = 1e4; p.mu = 0.3;
+  const char *names[3] = {"hooke", "hertz", "hertz_mindlin"};
+  for (int model = 0; model < 3; model++) {
+    p.model = model;
+    if (model == SPHDEM_DEM_HERTZ_MINDLIN) { p.E = 1e8; p.nu = 0.25; p.en = 0.5; }
+    sphdem_dem d = make(&p);
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    double expect = model == 0 ? p.kn * delta
+                  : model == 1 ? p.kn * delta * sqrt(delta * reff)
+                               : 4.0 / 3.0 * p.E / (2 * (1 - p.nu * p.nu)) * sqrt(reff) * pow(delta, 1.5); /* He eqs 18, 21 */
+    /* grain 1 (tag 3) is at +x: it is pushed to +x */
+    TEST_ASSERT(rc == 0 && fabs(f[3] / expect - 1) < 1e-12 && f[0] == -f[3], "%s normal force %.15g vs %.15g",
+                names[model], f[3], expect);
+    sphdem_dem_destroy(&d);
+  }
+  /* rolling friction (He eq 25): constant torque mu_r R |F_n| against the relative rotation */
+  p.model = SPHDEM_DEM_HOOKE; p.mu_r = 0.1; p.mu = 0;
+  om[2] = 3.0;
+  sphdem_dem d = make(&p);
+  sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+  double fn = p.kn * delta;
+  TEST_ASSERT(fabs(t[2] + p.mu_r * ra * fn) < 1e-15 && fabs(t[5] - p.mu_r * rb * fn) < 1e-15,
+              "rolling torque %.6g %.6g vs -/+ %.6g %.6g", t[2], t[5], p.mu_r * ra * fn, p.mu_r * rb * fn);
+  sphdem_dem_destroy(&d);
+  /* Mindlin: grain 1 (tag 3, the pair's a) slides along +y; once the tangential displacement exceeds
+   * delta_t,max (eq 22, 3.5e-5 m here) the force on it is -mu |F_n| along y, the torques r x F on both */
+  p.model = SPHDEM_DEM_HERTZ_MINDLIN; p.mu_r = 0; p.mu = 0.3; p.en = 0.5;
+  om[2] = 0;
+  v[4] = 0.01;
+  d = make(&p);
+  for (int s = 0; s < 1000; s++) sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-5, 1, f, t, NULL);
+  double Fn = 4.0 / 3.0 * p.E / (2 * (1 - p.nu * p.nu)) * sqrt(reff) * pow(delta, 1.5);
+  TEST_ASSERT(fabs(-f[4] / (p.mu * Fn) - 1) < 1e-12 && f[1] == -f[4], "sliding force %.12g vs -mu Fn %.12g", f[4], -p.mu * Fn);
+  /* grain 1 (radius r[1]) gets f_y < 0 at -r[1] x from its centre: torque_z = -r[1] f_y; grain 0 (radius
+   * r[0]) gets -f_y at +r[0] x: torque_z = -r[0] f_y, the same sign */
+  TEST_ASSERT(fabs(t[5] / (-r[1] * f[4]) - 1) < 1e-12 && fabs(t[2] / (-r[0] * f[4]) - 1) < 1e-12,
+              "tangential torques %.6g %.6g", t[2], t[5]);
+  sphdem_dem_destroy(&d);
+}
+
+int main(void) {
+  test_bad_params();
+  test_detection();
+  test_single_contacts();
+  test_dynamics();
+  return test_summary("unit_dem");
+}
