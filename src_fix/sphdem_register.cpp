@@ -7,6 +7,7 @@
 #include "fix_sph_fluid.h"
 #include "lammps.h"
 #include "modify.h"
+#include "pair_gran_gpu_register.h"
 #include "sphdem_compat.h"
 
 using namespace LAMMPS_NS;
@@ -17,4 +18,5 @@ void sphdem_register_styles(LAMMPS *lmp) {
   fixes["sph/couple"] = &sphdem_compat::fix_creator<FixSPHCouple>;
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   computes["sph/probe"] = &sphdem_compat::compute_creator<ComputeSPHProbe>;
+  sphdem_register_pair_gran_gpu(lmp); /* pair styles of this engine (pair_gran_gpu_register.h) */
 }

@@ -1,0 +1,12 @@
+/* pair_gran_gpu_register.h - registers the GPU granular pair styles of the engine being built
+ * (LAMMPS: gran/hooke/history/gpu, gran/hertz/history/gpu; LIGGGHTS: none yet). */
+#ifndef SPHDEM_PAIR_GRAN_GPU_REGISTER_H
+#define SPHDEM_PAIR_GRAN_GPU_REGISTER_H
+
+namespace LAMMPS_NS {
+class LAMMPS;
+}
+
+void sphdem_register_pair_gran_gpu(LAMMPS_NS::LAMMPS *lmp);
+
+#endif
