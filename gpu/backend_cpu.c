@@ -161,10 +161,11 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
     for (int64_t a = 0; a < n; a++) {
       const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
       double rhoa = D->rhop[a], pra = D->pr2[a], ma = D->mass[a], da = 0.0, aa[3] = {0, 0, 0}, ua[3] = {0, 0, 0};
+      double epsa = fluid_eps(D, a);
       for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) {
         int32_t b = D->nl[k];
         fluid_pair_rec P;
-        if (!fluid_pair_terms(D, xa, va, rhoa, pra, b, &P)) continue;
+        if (!fluid_pair_terms(D, xa, va, rhoa, pra, epsa, b, &P)) continue;
         double mb = D->mass[b], *Bb = B + 7 * (size_t)b;
         da += mb * (P.cont + P.dda);
         Bb[0] += ma * (P.cont + P.ddb);

@@ -246,6 +246,7 @@ SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob
 typedef struct {
   const double *xa, *va;
   double rhoa, pra, drho, acc[3], u[3];
+  double epsa;          /* porosity of a (1 without coupling) */
 } rates_acc;
 
 /* The fluid pair (a, b) per unit mass of the partner. Every term is symmetric or antisymmetric in
@@ -257,7 +258,7 @@ typedef struct {
 
 /* Continuity (eq 6), delta-SPH, momentum (eqs 9-11) and XSPH (eq 12) of the pair; 0 if out of reach. */
 SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
-                               double pra, int32_t b, fluid_pair_rec *P) {
+                               double pra, double epsa, int32_t b, fluid_pair_rec *P) {
   double r[3], vab[3];
   double r2 = separation(D, xa, D->x + 3 * b, r);
   if (r2 >= D->support2 || r2 == 0.0) return 0;
@@ -267,7 +268,13 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; P->A[d] = 0.0; }
   P->cont = vdotr * F;                                                 /* eq 6 */
   P->dda = P->ddb = 0.0;
-  if (D->P.delta > 0.0) {
+  if (D->P.delta > 0.0 && D->couple_eos) {
+    /* coupled, superficial density rho = eps rho_f: diffuse the intrinsic density rho_f (the EOS variable),
+     * not the porosity structure of rho; each side's rate scaled back by its eps (He 2018 eq 7 context) */
+    double epsb = fluid_eps(D, b), dd = density_diffusion(D, rhoa / epsa, rhob / epsb, F, r, r2, ie);
+    P->dda = epsa * dd * (rhob / epsb) / rhob;  /* density_diffusion divides by rho_f,b; V_b = m_b / rho_b */
+    P->ddb = -epsb * dd * (rhob / epsb) / rhoa;
+  } else if (D->P.delta > 0.0) {
     P->dda = density_diffusion(D, rhoa, rhob, F, r, r2, ie);
     P->ddb = -P->dda * rhob / rhoa;
   }
@@ -280,7 +287,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
 /* Fluid neighbour b of a, gathered into a's rates. */
 SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
   fluid_pair_rec P;
-  if (!fluid_pair_terms(D, R->xa, R->va, R->rhoa, R->pra, b, &P)) return;
+  if (!fluid_pair_terms(D, R->xa, R->va, R->rhoa, R->pra, R->epsa, b, &P)) return;
   double mb = D->mass[b];
   R->drho += mb * (P.cont + P.dda);
   for (int d = 0; d < 3; d++) { R->acc[d] += mb * P.A[d]; R->u[d] += mb * P.U[d]; }
@@ -312,7 +319,7 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
 
 SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
   R->xa = D->x + 3 * a; R->va = D->ve + 3 * a;
-  R->rhoa = D->rhop[a]; R->pra = D->pr2[a]; R->drho = 0.0;
+  R->rhoa = D->rhop[a]; R->pra = D->pr2[a]; R->drho = 0.0; R->epsa = fluid_eps(D, a);
   for (int d = 0; d < 3; d++) { R->acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R->u[d] = 0.0; }
 }
 

@@ -1,0 +1,34 @@
+#!/usr/bin/python3
+"""plot_settling.py - settling velocity of one sphere: SPH-DEM (verify_settling) vs the Schiller-Naumann ODE
+(closed form of ../shared/reference/README.md, "Single sphere settling").
+Usage: /usr/bin/python3 tests/verification/plot_settling.py [build-dir/tests/settling_v.csv] [out.png]"""
+import csv
+import sys
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+src = sys.argv[1] if len(sys.argv) > 1 else "settling_v.csv"
+out = sys.argv[2] if len(sys.argv) > 2 else "settling.png"
+cases = {}
+for r in csv.DictReader(open(src)):
+    c = cases.setdefault(int(r["case"]), {"d": float(r["d"]), "rho": float(r["rho_p"]), "t": [], "v": [], "ode": [], "u": []})
+    c["t"].append(1e3 * float(r["t"]))
+    c["v"].append(1e3 * float(r["v_sim"]))
+    c["ode"].append(1e3 * float(r["v_ode"]))
+    c["u"].append(1e3 * float(r["u_fluid"]))
+fig, ax = plt.subplots(figsize=(7, 4.5))
+for k, c in sorted(cases.items()):
+    lab = "d = %.1f mm, rho_p/rho_f = %.1f" % (1e3 * c["d"], c["rho"] / 1000)
+    line, = ax.plot(c["t"], c["v"], "-", lw=2, label=lab + " (SPH-DEM)")
+    ax.plot(c["t"], c["ode"], "--", color=line.get_color(), lw=1, label="Schiller-Naumann ODE")
+    ax.plot(c["t"], c["u"], ":", color=line.get_color(), lw=1)
+ax.set_xlabel("t after release (ms)")
+ax.set_ylabel("settling velocity (mm/s)")
+ax.set_title("Single sphere settling in water (dotted: fluid velocity at the grain)")
+ax.legend(fontsize=7, ncol=2)
+ax.grid(alpha=0.3)
+fig.tight_layout()
+fig.savefig(out, dpi=120)
+print("wrote", out)
