@@ -39,10 +39,11 @@ const char *drag_name(int d) {
 /* ---------------------------------------------------------------------------------------------- */
 
 FixSPHCouple::FixSPHCouple(LAMMPS *lmp, int narg, char **arg)
-    : Fix(lmp, narg, arg), fluid_(nullptr), have_mu_(false), have_hc_(false), ca_(nullptr), nmax_(0) {
+    : Fix(lmp, narg, arg), fluid_(nullptr), have_mu_(false), have_hc_(false), ca_(nullptr), nmax_(0),
+      stats_dirty_(false) {
   std::memset(&cstats_, 0, sizeof cstats_);
   cstats_.eps_min = 1.0;
-  for (int d = 0; d < 3; d++) pgrain_[d] = pfluid_[d] = 0.0;
+  for (int d = 0; d < 3; d++) pgrain_[d] = 0.0;
   parse_args(narg, arg);
 
   nevery = 1;
@@ -172,9 +173,9 @@ void FixSPHCouple::init() {
   if (!have_hc_) cp_.hc = fp.h;
   if (!have_mu_) {
     if (fp.visc == SPHDEM_VISC_MORRIS) cp_.mu = fp.mu;
-    else if (cp_.drag != SPHDEM_DRAG_NONE)
-      fail(std::string("drag ") + drag_name(cp_.drag) + " needs the fluid viscosity: give mu V, or use visc " +
-           "morris MU in fix sph/fluid " + fluid_id_);
+    else if (cp_.drag != SPHDEM_DRAG_NONE || cp_.torque)
+      fail(std::string(cp_.drag != SPHDEM_DRAG_NONE ? "drag " : "torque yes with drag ") + drag_name(cp_.drag) +
+           " needs the fluid viscosity: give mu V, or use visc morris MU in fix sph/fluid " + fluid_id_);
   }
 }
 
@@ -261,7 +262,7 @@ void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
     }
     row[C_VALID] = 1.0;
   }
-  check(ctx, sphdem_couple_stats_get(ctx, &cstats_), "couple_stats_get");
+  stats_dirty_ = true;
 }
 
 /* ---- every engine step: add the held forces ------------------------------------------------------- */
@@ -279,25 +280,28 @@ void FixSPHCouple::post_force(int) {
     if (cp_.torque)
       for (int d = 0; d < 3; d++) t[i][d] += ca_[i][C_TORQUE + d];
   }
-  /* momentum exchanged: the held forces act over this engine step on both sides */
+  /* momentum given to the grains: the held forces act over this engine step */
   const double dt = update->dt;
   double all[3];
   MPI_Allreduce(fsum, all, 3, MPI_DOUBLE, MPI_SUM, world);
-  for (int d = 0; d < 3; d++) {
-    pgrain_[d] += all[d] * dt;
-    pfluid_[d] += cstats_.f_fluid[d] * dt;
-  }
+  for (int d = 0; d < 3; d++) pgrain_[d] += all[d] * dt;
 }
 
 /* ---- output ------------------------------------------------------------------------------------------ */
 
+/* The sums over the fluid need a download of the porosity and reaction of every fluid particle, so
+ * they are fetched only when output asks for them; the core keeps them until the next rate evaluation. */
 double FixSPHCouple::compute_vector(int n) {
   if (n >= V_PGRAIN && n < V_PGRAIN + 3) return pgrain_[n - V_PGRAIN];
-  if (n >= V_PFLUID && n < V_PFLUID + 3) return pfluid_[n - V_PFLUID];
-  if (n >= V_PNET && n < V_PNET + 3) return pgrain_[n - V_PNET] + pfluid_[n - V_PNET];
-  if (n == V_EPSMIN) return cstats_.eps_min;
+  sphdem_ctx ctx = fluid_ ? fluid_->context() : nullptr;
+  if (stats_dirty_ && ctx) {
+    check(ctx, sphdem_couple_stats_get(ctx, &cstats_), "couple_stats_get");
+    stats_dirty_ = false;
+  }
   if (n >= V_FGRAIN && n < V_FGRAIN + 3) return cstats_.f_grains[n - V_FGRAIN];
   if (n >= V_FFLUID && n < V_FFLUID + 3) return cstats_.f_fluid[n - V_FFLUID];
+  if (n >= V_FNET && n < V_FNET + 3) return cstats_.f_grains[n - V_FNET] + cstats_.f_fluid[n - V_FNET];
+  if (n == V_EPSMIN) return cstats_.eps_min;
   if (n == V_NGRAIN) return (double)cstats_.ngrains;
   return 0.0;
 }
@@ -310,20 +314,20 @@ double FixSPHCouple::memory_usage() {
          (double)gidx_.capacity() * sizeof(int);
 }
 
-/* global restart state: the momentum integrals */
+/* global restart state: the momentum given to the grains */
 void FixSPHCouple::write_restart(FILE *fp) {
-  double list[6] = {pgrain_[0], pgrain_[1], pgrain_[2], pfluid_[0], pfluid_[1], pfluid_[2]};
+  double list[3] = {pgrain_[0], pgrain_[1], pgrain_[2]};
   if (comm->me == 0) {
     int size = (int)sizeof(list);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(list, sizeof(double), 6, fp);
+    fwrite(list, sizeof(double), 3, fp);
   }
 }
 
 void FixSPHCouple::restart(char *buf) {
-  double list[6];
+  double list[3];
   std::memcpy(list, buf, sizeof list);
-  for (int d = 0; d < 3; d++) pgrain_[d] = list[d], pfluid_[d] = list[3 + d];
+  for (int d = 0; d < 3; d++) pgrain_[d] = list[d];
 }
 
 /* ---- per-atom array: migration and restarts -------------------------------------------------------------- */

@@ -45,15 +45,16 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   bool couple_forces_valid() override;
   void couple_before_rates(sphdem_ctx ctx) override;
   void couple_after_rates(sphdem_ctx ctx) override;
+  double couple_superficial_floor() const override { return cp_.superficial ? cp_.eps_min : 0.0; }
 
  private:
   /* per-atom array: f_ID[1-3] fluid force, [4-6] its drag part, [7-9] its pressure-gradient/viscous
    * part, [10-12] fluid torque; then a flag: the forces are valid (held between fluid steps) */
   enum { C_F = 0, C_FDRAG = 3, C_FPG = 6, C_TORQUE = 9, NOUT = 12, C_VALID = 12, NCOL = 13 };
-  /* global vector (0-based here): momentum given to grains, fluid, net (3 each, time integrals of
-   * the held forces); min porosity; force on grains, on fluid now (3 each); grain count */
-  enum { V_PGRAIN = 0, V_PFLUID = 3, V_PNET = 6, V_EPSMIN = 9, V_FGRAIN = 10, V_FFLUID = 13, V_NGRAIN = 16,
-         NVEC = 17 };
+  /* global vector (0-based here): momentum exchange rate = force on the grains, on the fluid, net
+   * (3 each, at the last fluid step); min porosity; momentum given to the grains since the fix was
+   * defined (time integral of the held forces, 3); number of coupled grains */
+  enum { V_FGRAIN = 0, V_FFLUID = 3, V_FNET = 6, V_EPSMIN = 9, V_PGRAIN = 10, V_NGRAIN = 13, NVEC = 14 };
 
   std::string fluid_id_;
   FixSPHFluid *fluid_;
@@ -67,7 +68,8 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   std::vector<double> gx_, gv_, grad_, gom_, gf_, gfd_, gfp_, gt_;
 
   sphdem_couple_stats cstats_;
-  double pgrain_[3], pfluid_[3]; /* time integrals of the held forces on grains and on fluid */
+  bool stats_dirty_;          /* cstats_ predates the last rate evaluation (fetched on demand: O(fluid)) */
+  double pgrain_[3];          /* time integral of the held forces on the grains */
 
   [[noreturn]] void fail(const std::string &msg);
   void check(sphdem_ctx ctx, int rc, const char *what);

@@ -304,6 +304,7 @@ void FixSPHFluid::setup(int) {
   const bool valid = upload_fluid();
   /* the rates are computed when the per-atom state or the held grain forces were not valid */
   if (!valid || (coupler_ && !coupler_->couple_forces_valid())) rates();
+  if (!valid && coupler_ && coupler_->couple_superficial_floor() > 0) start_superficial();
   host_current_ = false;
   download();              /* host rho, p and state columns now match the device */
 
@@ -377,6 +378,7 @@ bool FixSPHFluid::upload_fluid() {
   const double down_sign = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* depth grows against gravity */
 
   bool all_valid = true, scaled_any = false;
+  fresh_.clear();
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
     ftag_[k] = (int64_t)atom->tag[i];
@@ -387,6 +389,7 @@ bool FixSPHFluid::upload_fluid() {
       for (int s = 0; s < SPHDEM_NSTATE; s++) fstate_[SPHDEM_NSTATE * k + s] = sa_[i][C_STATE + s];
     } else {
       all_valid = false;
+      fresh_.push_back((int)k);
       const double depth = down_sign * (zsurf_ - x[i][axis]);
       frho_[k] = hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, std::max(depth, 0.0)) : prm_.rho0;
       /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
@@ -402,6 +405,35 @@ bool FixSPHFluid::upload_fluid() {
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
   return all_valid;
+}
+
+/* Superficial coupling: the fluid density variable is eps rho_f (He 2018 eq 6). Fluid particles created
+ * on a full lattice among grains would start with an intrinsic density rho/eps > rho0, i.e. a large
+ * pressure in a packed bed. Fresh particles (no valid state) therefore start at rho = eps rho and, with
+ * per-atom masses, m = eps m (their volume m/rho stays the lattice volume; once per particle: the
+ * state is valid afterwards), using the porosity of the first rate evaluation; then the rates again. */
+void FixSPHFluid::start_superficial() {
+  if (fresh_.empty()) return;
+  const double floor = coupler_->couple_superficial_floor();
+  const size_t n = fidx_.size();
+  feps_.resize(n);
+  check(sphdem_get_porosity(ctx_, feps_.data()), "get_porosity");
+  for (int k : fresh_) {
+    const double eps = std::max(feps_[k], floor);
+    frho_[k] *= eps;
+    if (atom->rmass) {
+      atom->rmass[fidx_[k]] *= eps;
+      fmass_[k] = atom->rmass[fidx_[k]];
+    }
+  }
+  if (!atom->rmass && comm->me == 0)
+    sphdem_compat::warning(error, FLERR,
+                           "Fix sph/fluid: per-type masses: the fluid density starts at eps rho, the masses are "
+                           "not scaled by the porosity (use an atom style with per-atom mass, e.g. sphere)");
+  /* x, v are unchanged since the upload; the state stays zero (it was not valid) */
+  check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(), nullptr),
+        "set_fluid");
+  rates();
 }
 
 /* One rate evaluation; the coupled grains are uploaded before it and their forces fetched after. */
@@ -446,9 +478,14 @@ void FixSPHFluid::download() {
   fp_.resize(n);
   fstate_.resize(SPHDEM_NSTATE * n);
   check(sphdem_get_fluid(ctx_, fx_.data(), fv_.data(), frho_.data(), fp_.data(), fstate_.data()), "get_fluid");
+  /* the porosity exists after a coupled rate evaluation; before the first one of a continued run the
+   * column keeps its previous (restart) values */
+  bool have_eps = false;
   if (couple_on_) {
     feps_.resize(n);
-    check(sphdem_get_porosity(ctx_, feps_.data()), "get_porosity");
+    const int rc = sphdem_get_porosity(ctx_, feps_.data());
+    if (rc != SPHDEM_ERR_STATE) check(rc, "get_porosity");
+    have_eps = rc == SPHDEM_OK;
   }
   double **x = atom->x, **v = atom->v;
   for (size_t k = 0; k < n; k++) {
@@ -456,7 +493,8 @@ void FixSPHFluid::download() {
     for (int d = 0; d < 3; d++) x[i][d] = fx_[3 * k + d], v[i][d] = fv_[3 * k + d];
     sa_[i][C_RHO] = frho_[k];
     sa_[i][C_P] = fp_[k];
-    sa_[i][C_EPS] = couple_on_ ? feps_[k] : 1.0;
+    if (have_eps) sa_[i][C_EPS] = feps_[k];
+    else if (!couple_on_) sa_[i][C_EPS] = 1.0;
     for (int s = 0; s < SPHDEM_NSTATE; s++) sa_[i][C_STATE + s] = fstate_[SPHDEM_NSTATE * k + s];
     sa_[i][C_VALID] = 1.0;
   }

@@ -25,6 +25,9 @@ class SPHCoupler {
   virtual bool couple_forces_valid() = 0;               /* held forces exist for every grain */
   virtual void couple_before_rates(sphdem_ctx ctx) = 0; /* upload the grains */
   virtual void couple_after_rates(sphdem_ctx ctx) = 0;  /* fetch and hold the grain forces */
+  /* > 0: the porosity enters the fluid density (superficial); fresh fluid particles then start at
+   * rho = eps rho_start and m = eps m (eps floored at this value) so their intrinsic density is rho_start */
+  virtual double couple_superficial_floor() const = 0;
 };
 
 class FixSPHFluid : public Fix {
@@ -99,6 +102,7 @@ class FixSPHFluid : public Fix {
 
   /* local indices of fluid and wall atoms in upload order, and the staging buffers */
   std::vector<int> fidx_, widx_;
+  std::vector<int> fresh_; /* upload positions k of fluid atoms whose state was not valid at the last upload */
   std::vector<int64_t> ftag_;
   std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_, feps_;
   std::vector<double> wx_, wv_, wa_, wmass_;
@@ -117,6 +121,7 @@ class FixSPHFluid : public Fix {
   bool upload_fluid();
   void upload_walls(bool each_step);
   void rates();
+  void start_superficial();
   void download();
   bool output_step() const;
   std::string stats_message(int rc, const sphdem_stats &s) const;

@@ -14,6 +14,17 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
                            the fix reports its backend, the fluid moves or stays finite, no ERROR
   probe   EXE ENGINE       compute sph/probe on the hydrostatic start: p = rho0 g depth (2 %), and a
                            probe naming a fix that is not sph/fluid stops with a clear message
+  every   EXE ENGINE       'every 1' == no keyword (0), and 'every 2' at dt/2 == 'every 1' at dt (0: the
+                           fluid steps are then the same floating-point operations)
+  couple_same LMP LIG      the tiny dam break with 6 grains (fix sph/couple, every 2, nve/sphere, gravity):
+                           LAMMPS == LIGGGHTS for fluid and grains (1e-10)
+  couple_restart EXE ENGINE  the coupled scene split by write_restart/read_restart at step 100 == unbroken (1e-9)
+  couple_momentum EXE ENGINE  (drag schiller-naumann, torque yes, superficial no) sum of the fluid forces
+                           on the grains + sum of the reactions on the fluid = 0 (1e-10 of the former),
+                           grains feel a force, porosity < 1 where they are
+  couple_badkw EXE ENGINE  bad sph/couple input stops with a message naming the keyword and the choices
+  settling EXE ENGINE INPUT  examples/settling shortened to t = 0.02 s: settling speed vs the
+                           Schiller-Naumann ODE (3 %)
 Differences are relative to the largest magnitude of each column (x, y, vx, vy, rho).
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -365,6 +376,233 @@ def test_probe(exe, engine):
     return 0
 
 
+# ---- fix sph/couple ------------------------------------------------------------------------------
+# The tiny dam break with three atom types and 6 grains (d = 6 mm, rho_p 2500, mass per unit depth)
+# inside the water column; every 2 sub-cycling: the engine timestep is half the fluid step.
+COUPLE_CREATE = CREATE.replace("create_box 2 box", "create_box 3 box").replace(
+    "timestep 1e-4\n", "") + """create_atoms 3 single 0.06 0.08 0.0 units box
+create_atoms 3 single 0.09 0.08 0.0 units box
+create_atoms 3 single 0.12 0.08 0.0 units box
+create_atoms 3 single 0.06 0.12 0.0 units box
+create_atoms 3 single 0.09 0.12 0.0 units box
+create_atoms 3 single 0.12 0.12 0.0 units box
+group grains type 3
+group moving type 1 3
+set group grains diameter 0.006
+set group grains mass 0.0706858347
+timestep 5e-5
+"""
+COUPLE_FIX = ("fix water fluid sph/fluid rho0 1000 h 0.013 c0 15 gravity 0 -9.81 0 visc artificial 0.05 "
+              "wall walls hydrostatic 0.2 every 2\n"
+              "fix couple grains sph/couple water mu 1e-3 {extra}\n"
+              "fix grav grains gravity 9.81 vector 0 -1 0\n"
+              "fix nvs grains nve/sphere\n")
+COUPLE_THERMO = ("thermo_style custom step f_couple[1] f_couple[2] f_couple[4] f_couple[5] f_couple[7] f_couple[8] "
+                 "f_couple[10] f_couple[14]\nthermo 50\n")
+COUPLE_NSTEPS = 400
+COUPLE_DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
+                  "liggghts": 'dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"'}
+COUPLE_DUMP = ("dump d moving custom {every} final.* id x y vx vy f_water[1] f_water[3] f_couple[1] f_couple[2]\n"
+               "{fmt}\n")
+
+
+def couple_scene(engine, extra="", steps=COUPLE_NSTEPS):
+    return (HEAD + COUPLE_CREATE + NEIGH + COUPLE_FIX.format(extra=extra) + COUPLE_THERMO +
+            COUPLE_DUMP.format(every=COUPLE_NSTEPS, fmt=COUPLE_DUMPFMT[engine]) + "run %d\n" % steps)
+
+
+def compare_cols(a, b, names):
+    """max over columns of max|a-b| / max|column| (any number of columns)"""
+    if sorted(a) != sorted(b):
+        print("FAIL: different atom ids")
+        return float("inf")
+    worst = 0.0
+    for c, name in enumerate(names):
+        scale = max(max(abs(r[c]) for r in a.values()), max(abs(r[c]) for r in b.values()), 1e-300)
+        d = max(abs(a[t][c] - b[t][c]) for t in a) / scale
+        print("  %-6s max relative difference %.3e" % (name, d))
+        worst = max(worst, d)
+    return worst
+
+
+COUPLE_COLS = ["x", "y", "vx", "vy", "rho", "eps", "Fx", "Fy"]
+
+
+def grains_moved(rows):
+    """the grains (ids above the fluid and walls: rho column 0) must have moved and felt the fluid"""
+    g = [r for r in rows.values() if r[4] == 0.0]
+    if len(g) != 6:
+        print("FAIL: expected 6 grains in the dump, found %d" % len(g))
+        return False
+    vmax = max(abs(r[3]) for r in g)
+    fmax = max(abs(r[7]) for r in g)
+    print("  grains: max |vy| %.4g m/s, max |Fy fluid| %.4g N (per unit depth)" % (vmax, fmax))
+    return vmax > 1e-3 and fmax > 0
+
+
+def test_every(exe, engine):
+    wd = "every_" + engine
+    must_run([exe], wd + "/none", scene(engine))
+    must_run([exe], wd + "/every1", scene(engine, "every 1"))
+    a, b = final_dump(wd + "/none"), final_dump(wd + "/every1")
+    if not moved(a):
+        print("FAIL: the fluid did not move")
+        return 1
+    fails = verdict(compare(a, b, "every 1"), 0.0, "every 1 vs no keyword (%s)" % engine)
+    half = scene(engine, "every 2", steps=2 * STEPS).replace("timestep 1e-4", "timestep 5e-5").replace(
+        "dump d fluid custom %d" % STEPS, "dump d fluid custom %d" % (2 * STEPS))
+    must_run([exe], wd + "/every2", half)
+    c = read_dump(os.path.join(wd, "every2", "final.%d" % (2 * STEPS)))
+    fails += verdict(compare(a, c, "every 2"), 0.0, "every 2 at dt/2 vs every 1 at dt (%s)" % engine)
+    return 1 if fails else 0
+
+
+def couple_final(workdir):
+    return read_dump(os.path.join(workdir, "final.%d" % COUPLE_NSTEPS))
+
+
+def test_couple_same(lmp, lig):
+    must_run([lmp], "couple_same/lammps", couple_scene("lammps"))
+    must_run([lig], "couple_same/liggghts", couple_scene("liggghts"))
+    a, b = couple_final("couple_same/lammps"), couple_final("couple_same/liggghts")
+    if not grains_moved(a):
+        print("FAIL: the grains did not move or felt no fluid force")
+        return 1
+    return verdict(compare_cols(a, b, COUPLE_COLS), 1e-10, "coupled scene, LAMMPS vs LIGGGHTS")
+
+
+def test_couple_restart(exe, engine):
+    wd = "couple_restart_" + engine
+    must_run([exe], wd + "/unbroken", couple_scene(engine))
+    half = COUPLE_NSTEPS // 2
+    first = (HEAD + COUPLE_CREATE + NEIGH + COUPLE_FIX.format(extra="") + COUPLE_THERMO +
+             "run %d\nwrite_restart half.restart\n" % half)
+    must_run([exe], wd + "/split", first)
+    second = ("read_restart half.restart\natom_modify sort 50 0.02\ntimestep 5e-5\n" + NEIGH +
+              COUPLE_FIX.format(extra="") + COUPLE_THERMO +
+              COUPLE_DUMP.format(every=COUPLE_NSTEPS, fmt=COUPLE_DUMPFMT[engine]) + "run %d\n" % half)
+    must_run([exe], wd + "/split", second)
+    a, b = couple_final(wd + "/unbroken"), couple_final(wd + "/split")
+    if not grains_moved(a):
+        print("FAIL: the grains did not move or felt no fluid force")
+        return 1
+    return verdict(compare_cols(a, b, COUPLE_COLS), 1e-9,
+                   "coupled restart at step %d vs unbroken (%s)" % (half, engine))
+
+
+def test_couple_momentum(exe, engine):
+    wd = "couple_momentum_" + engine
+    # the other drag law paths, torque and the porosity reported only (superficial no)
+    out = must_run([exe], wd, couple_scene(engine, "drag schiller-naumann torque yes superficial no"))
+    rows = thermo_rows(out)
+    if len(rows) < 5:
+        print("FAIL: no thermo rows")
+        return 1
+    worst, fmax, epsmin, ngr = 0.0, 0.0, 1.0, 0
+    for r in rows:
+        step, fgx, fgy, ffx, ffy, fnx, fny, eps, ng = r[:9]
+        f = max(abs(fgx), abs(fgy))
+        fmax = max(fmax, f)
+        if f > 0:
+            worst = max(worst, max(abs(fnx), abs(fny)) / f,
+                        max(abs(fgx + ffx), abs(fgy + ffy)) / f)
+        epsmin = min(epsmin, eps)
+        ngr = int(ng)
+    print("coupled scene (%s): max |F grains| %.4g N, max |net| / |F grains| %.2e, min porosity %.4f, %d grains"
+          % (engine, fmax, worst, epsmin, ngr))
+    ok = fmax > 0 and worst <= 1e-10 and epsmin < 0.999 and ngr == 6
+    print("%s momentum balance of the coupling (bound 1e-10)" % ("PASS" if ok else "FAIL"))
+    return 0 if ok else 1
+
+
+def test_couple_badkw(exe, engine):
+    cases = [
+        ("drag foo", "Fix sph/couple: drag must be ergun-wenyu, difelice, schiller-naumann or none (got 'foo')"),
+        ("superficial maybe", "Fix sph/couple: superficial must be yes or no (got 'maybe')"),
+        ("torque 1", "Fix sph/couple: torque must be yes or no (got '1')"),
+        ("eps_min 1.5", "Fix sph/couple: eps_min must be in (0, 1) (got 1.5)"),
+        ("hc -1", "Fix sph/couple: hc must be > 0 (got -1)"),
+        ("mu abc", "Fix sph/couple: mu expects a number, got 'abc' (usage: mu V)"),
+        ("dmax", "Fix sph/couple: missing value for dmax (usage: dmax V)"),
+        ("bogus 1", "Fix sph/couple: unknown keyword 'bogus'; keywords are drag, mu, hc, eps_min, superficial, "
+                    "torque, dmax"),
+    ]
+    fails = 0
+    for i, (extra, want) in enumerate(cases):
+        rc, out = run([exe], "couple_badkw_%s/%d" % (engine, i), couple_scene(engine, extra, steps=1), timeout=60)
+        ok = rc != 0 and want in out
+        print("%s '%s' -> exit %d, %s" % ("PASS" if ok else "FAIL", extra, rc,
+                                           "message found" if want in out else "MISSING: " + want))
+        if not ok:
+            print(out[-1500:])
+            fails += 1
+    base = couple_scene(engine, steps=1)
+    scripts = [
+        ("fluid fix missing", base.replace("sph/couple water", "sph/couple nosuch"),
+         "Fix sph/couple: fix ID 'nosuch' does not exist"),
+        ("not a fluid fix", base.replace("sph/couple water", "sph/couple grav"),
+         "Fix sph/couple: fix 'grav' is not a fix sph/fluid (its style is gravity)"),
+        ("no viscosity", base.replace("sph/couple water mu 1e-3", "sph/couple water"),
+         "Fix sph/couple: drag ergun-wenyu needs the fluid viscosity: give mu V, or use visc morris MU"),
+        ("defined before the fluid", base.replace("fix couple grains sph/couple water mu 1e-3 \n", "").replace(
+            "fix water fluid", "fix couple grains sph/couple water mu 1e-3\nfix water fluid"),
+         "Fix sph/couple: define fix couple after fix sph/fluid water"),
+        ("grains overlap the fluid", base.replace("fix couple grains sph/couple", "fix couple moving sph/couple"),
+         "Fix sph/couple: the grain group moving overlaps the fluid or wall group of fix sph/fluid water"),
+        ("two couplers", base.replace("fix grav grains", "fix couple2 grains sph/couple water mu 1e-3\n"
+                                                         "fix grav grains"),
+         "is already coupled by another fix sph/couple"),
+        ("every 0", base.replace("hydrostatic 0.2 every 2", "hydrostatic 0.2 every 0"),
+         "Fix sph/fluid: every expects an integer N >= 1, got '0' (usage: every N)"),
+    ]
+    for i, (what, script, want) in enumerate(scripts):
+        rc, out = run([exe], "couple_badkw_%s/s%d" % (engine, i), script, timeout=60)
+        ok = rc != 0 and want in out
+        print("%s %s -> exit %d, %s" % ("PASS" if ok else "FAIL", what, rc,
+                                         "message found" if want in out else "MISSING: " + want))
+        if not ok:
+            print(out[-1500:])
+            fails += 1
+    return 1 if fails else 0
+
+
+def settling_ode(t_end, d=0.001, rhop=2500.0, rhof=1000.0, mu=8.9e-4, g=9.81, dt=1e-6):
+    """Schiller-Naumann single-sphere ODE (shared/reference/README.md), RK4; downward speed at t_end"""
+    def acc(v):
+        re = rhof * d * abs(v) / mu
+        cdw = 24.0 * mu / (rhof * d) * (1.0 + 0.15 * re ** 0.687) if re > 0 else 24.0 * mu / (rhof * d)
+        return g * (rhop - rhof) / rhop - 0.75 * rhof * v * cdw / (d * rhop)
+    v, t = 0.0, 0.0
+    while t < t_end - 0.5 * dt:
+        k1 = acc(v)
+        k2 = acc(v + 0.5 * dt * k1)
+        k3 = acc(v + 0.5 * dt * k2)
+        k4 = acc(v + dt * k3)
+        v += dt * (k1 + 2 * k2 + 2 * k3 + k4) / 6.0
+        t += dt
+    return v
+
+
+def test_settling(exe, engine, inp):
+    wd = "settling_" + engine
+    os.makedirs(wd, exist_ok=True)
+    rc, out = run([exe, "-var", "tend", "0.02"], wd, open(inp).read(), timeout=400)
+    if rc != 0:
+        print("FAIL: settling run exited %d:\n%s" % (rc, out[-3000:]))
+        return 1
+    rows = []
+    with open(os.path.join(wd, "settling.dat")) as f:
+        for l in f:
+            if not l.startswith("#") and l.strip():
+                rows.append([float(w) for w in l.split()])
+    t, vz = rows[-1][1], rows[-1][3]
+    exact = settling_ode(t)
+    err = abs(-vz - exact) / exact
+    print("settling (%s): t = %.4f s, v = %.5f m/s, Schiller-Naumann ODE %.5f m/s, error %.2f%% (bound 3%%)"
+          % (engine, t, -vz, exact, 100 * err))
+    return verdict(err, 0.03, "settling speed vs ODE")
+
+
 def main(argv):
     what = argv[1]
     if what == "same":
@@ -385,6 +623,18 @@ def main(argv):
         return test_probe(argv[2], argv[3])
     if what == "plugin":
         return test_plugin(argv[2], argv[3], argv[4])
+    if what == "every":
+        return test_every(argv[2], argv[3])
+    if what == "couple_same":
+        return test_couple_same(argv[2], argv[3])
+    if what == "couple_restart":
+        return test_couple_restart(argv[2], argv[3])
+    if what == "couple_momentum":
+        return test_couple_momentum(argv[2], argv[3])
+    if what == "couple_badkw":
+        return test_couple_badkw(argv[2], argv[3])
+    if what == "settling":
+        return test_settling(argv[2], argv[3], argv[4])
     print(__doc__)
     return 2
 
