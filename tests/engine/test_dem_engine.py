@@ -6,6 +6,8 @@
                1000 steps with the stock style and its /gpu twin; the final x, v, omega must agree
                to round-off (max difference / column magnitude < 1e-12) and thermo (ke, press, pxy:
                the virial) must print the same
+  example LMP INPUT  examples/dem_drop shortened to 20000 steps (-var steps): runs with the stock
+               style and with /gpu, thermo (ke, mean and max height, press) identical
   errors LMP [MPIRUN]  an unsupported argument, a bad dampflag and 2 MPI ranks stop with a message
                naming the cause
 Python 3 only; exits 0 on pass, 1 on failure.
@@ -162,10 +164,35 @@ def errors(lmp, mpirun=None):
     return ok
 
 
+def example(lmp, inp):
+    outs = {}
+    for tag, style in (("stock", "gran/hertz/history"), ("gpu", "gran/hertz/history/gpu")):
+        wd = os.path.join("dem_example", tag)
+        os.makedirs(wd, exist_ok=True)
+        env = dict(os.environ)
+        env.setdefault("OMP_NUM_THREADS", "1")
+        p = subprocess.run([lmp, "-in", os.path.abspath(inp), "-var", "style", style, "-var", "steps", "20000",
+                            "-log", "log.test"], cwd=wd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           timeout=240)
+        out = p.stdout.decode(errors="replace")
+        if p.returncode != 0 or "ERROR" in out:
+            print("FAIL %s: rc %d\n%s" % (style, p.returncode, out[-1500:]))
+            return False
+        outs[tag] = thermo(out)
+    ok = outs["stock"] == outs["gpu"] and len(outs["stock"]) >= 3
+    print("dem_drop, 20000 steps: %d thermo rows, identical: %s" % (len(outs["stock"]), ok))
+    if not ok:
+        for a, b in zip(outs["stock"], outs["gpu"]):
+            print(" ".join(a), "|", " ".join(b))
+    return ok
+
+
 if __name__ == "__main__":
     mode = sys.argv[1]
     if mode == "same":
         sys.exit(0 if same(sys.argv[2]) else 1)
+    if mode == "example":
+        sys.exit(0 if example(sys.argv[2], sys.argv[3]) else 1)
     if mode == "errors":
         sys.exit(0 if errors(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None) else 1)
     print(__doc__)
