@@ -525,6 +525,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
       TRY(up(c, D->uidx, c->huidx, 4 * (size_t)n));
       c->host_tags_valid = 1;
     }
+    TRY(sphdem_couple_fluid_rebuilt(c)); /* coupling: porosity array sized to the new set */
   } else {
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }

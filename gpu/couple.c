@@ -131,6 +131,22 @@ static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
   return SPHDEM_OK;
 }
 
+/* The fluid set was rebuilt (set_fluid with new particles): the porosity array must cover it before any
+ * pass reads it (reductions of the next sort read eps through eos_density); 1 until the next porosity pass. */
+int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  if (!D->couple || !D->eps) return SPHDEM_OK;
+  TRYC(ensure_couple_fluid(c, D->nf));
+  if (D->nf == 0) return SPHDEM_OK;
+  double *ones = (double *)malloc(8 * (size_t)D->nf);
+  if (!ones) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate %lld doubles", (long long)D->nf);
+  for (int64_t i = 0; i < D->nf; i++) ones[i] = 1.0;
+  int rc = c->ops->h2d(c, D->eps, ones, 8 * (size_t)D->nf);
+  free(ones);
+  if (!rc) rc = c->ops->memset0(c, D->fr, 24 * (size_t)D->nf); /* grain forces are kept (until compute_rates) */
+  return rc;
+}
+
 void sphdem_couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   free_grains(c);

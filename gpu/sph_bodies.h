@@ -179,7 +179,9 @@ SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
       double W = wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
       sw += W;
       spw += D->p[f] * W;
-      for (int d = 0; d < 3; d++) { srr[d] += D->rho[f] * r[d] * W; sv[d] += D->v[3 * f + d] * W; }
+      /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
+      double rf = eos_density(D, f, D->rho[f]);
+      for (int d = 0; d < 3; d++) { srr[d] += rf * r[d] * W; sv[d] += D->v[3 * f + d] * W; }
     }
   }
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
@@ -450,7 +452,7 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
   s2 = separation(D, x, D->x0 + 3 * i, rr);
   r->v2max = fmax(r->v2max, v2);
   r->a2max = fmax(r->a2max, a2);
-  r->rhoerr = fmax(r->rhoerr, fabs(D->rho[i] / D->P.rho0 - 1.0));
+  r->rhoerr = fmax(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / D->P.rho0 - 1.0)); /* intrinsic when coupled */
   r->disp2max = fmax(r->disp2max, s2);
   r->ke += 0.5 * D->mass[i] * v2;
   r->nnan += bad;

@@ -165,6 +165,7 @@ int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
 int sphdem_couple_prepare(struct sphdem_ctx_s *c);
 int sphdem_couple_finish(struct sphdem_ctx_s *c);
 void sphdem_couple_release(struct sphdem_ctx_s *c);
+int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c);
 /* CPU coupling passes (couple_cpu.c) */
 int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);
 int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c);
