@@ -10,7 +10,7 @@ BIN=${1:?bin dir}; OUT=${2:?out dir}; shift 2
 SIZES=${*:-1e5 1e6}
 export PATH=$PATH:/usr/local/cuda/bin
 export SPHDEM_REFERENCE_DIR=${SPHDEM_REFERENCE_DIR:-$BIN/reference}
-mkdir -p "$OUT"
+mkdir -p "$OUT"; LOGS=$OUT; OUT=$OUT/logs; mkdir -p "$OUT"
 step() { # name limit command...
   local name=$1 lim=$2; shift 2
   local t0=$(date +%s.%N)
@@ -19,14 +19,19 @@ step() { # name limit command...
 }
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
 export SPHDEM_TEST_DEVICE=gpu
-for t in unit_kernel unit_eos unit_neighbors unit_api verify_hydrostatic verify_poiseuille verify_couette verify_dambreak2d; do
-  (cd "$OUT" && step "$t" 300 "$BIN/$t")
+for t in "$BIN"/unit_* "$BIN"/verify_*; do
+  (cd "$OUT" && step "$(basename "$t")" 300 "$t")
 done
 unset SPHDEM_TEST_DEVICE
-(cd "$OUT" && step twin 300 "$BIN/twin_cpu_cuda")
-(cd "$OUT" && step memcheck 400 compute-sanitizer --tool memcheck --leak-check full "$BIN/twin_cpu_cuda")
-(cd "$OUT" && step racecheck 400 compute-sanitizer --tool racecheck "$BIN/twin_cpu_cuda")
+for t in "$BIN"/twin_*; do
+  n=$(basename "$t")
+  (cd "$OUT" && step "$n" 300 "$t")
+  (cd "$OUT" && step "memcheck_$n" 150 compute-sanitizer --tool memcheck --leak-check full "$t")
+  (cd "$OUT" && step "racecheck_$n" 150 compute-sanitizer --tool racecheck "$t")
+done
 for n in $SIZES; do
   step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
   grep BENCH "$OUT/bench3d_gpu_$n.log"
 done
+tail -n 4 "$OUT"/twin_*.log
+(cd "$LOGS" && tar czf logs.tgz logs && rm -rf logs)
