@@ -4,6 +4,10 @@
 
 #include "dem_bodies.h"
 
+/* Below this many grains or pairs a loop runs on one thread: the fork/join of a parallel region
+ * costs more than the work (and much more when the cores are shared). */
+#define DEM_OMP_MIN 2048
+
 static int c_alloc(struct sphdem_dem_s *m, void **ptr, size_t bytes) {
   *ptr = malloc(bytes ? bytes : 1);
   if (!*ptr) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes", bytes);
@@ -27,7 +31,7 @@ static int c_cells(struct sphdem_dem_s *m) {
   int64_t n = D->n;
   memset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells);
   memset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n > DEM_OMP_MIN)
   for (int64_t i = 0; i < n; i++) D->cell[i] = dem_cell_of(D, D->x + 3 * i);
   /* cend as counts, then exclusive offsets in cstart */
   for (int64_t i = 0; i < n; i++) D->cend[D->cell[i]]++;
@@ -47,7 +51,7 @@ static int c_cells(struct sphdem_dem_s *m) {
 static int c_count(struct sphdem_dem_s *m, int64_t *np) {
   dem_dev *D = &m->D;
   int64_t n = D->n;
-#pragma omp parallel for schedule(dynamic, 256)
+#pragma omp parallel for schedule(dynamic, 256) if (n > DEM_OMP_MIN)
   for (int64_t s = 0; s < n; s++) D->cnt[s] = dem_scan_slot(D, s, 0);
   int64_t acc = 0; /* exclusive prefix sum (Yu 2024 Fig. 2) */
   for (int64_t s = 0; s < n; s++) {
@@ -74,7 +78,7 @@ static int cmp_pb(const void *a, const void *b) {
 static int c_fill(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
   int64_t n = D->n, np = D->np;
-#pragma omp parallel for schedule(dynamic, 256)
+#pragma omp parallel for schedule(dynamic, 256) if (n > DEM_OMP_MIN)
   for (int64_t s = 0; s < n; s++) dem_scan_slot(D, s, 1);
   /* sort the list by key (keys are unique); rlist and rkey serve as scratch */
   int32_t *perm = D->rlist;
@@ -93,7 +97,7 @@ static int c_fill(struct sphdem_dem_s *m) {
   memcpy(D->pa, D->rkey, sizeof(int32_t) * (size_t)np);
   for (int64_t p = 0; p < np; p++) D->rkey[p] = D->pb[perm[p]];
   memcpy(D->pb, D->rkey, sizeof(int32_t) * (size_t)np);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (np > DEM_OMP_MIN)
   for (int64_t p = 0; p < np; p++) dem_carry_body(D, p);
   return SPHDEM_OK;
 }
@@ -123,13 +127,13 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
     memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
     memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (np > DEM_OMP_MIN)
     for (int64_t p = 0; p < np; p++) dem_pair_force_body(D, p);
   } else {
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for schedule(dynamic, 64) if (n > DEM_OMP_MIN)
     for (int64_t i = 0; i < n; i++) dem_particle_force_body(D, i);
   }
-#pragma omp parallel for reduction(+ : nt) schedule(static)
+#pragma omp parallel for reduction(+ : nt) schedule(static) if (np > DEM_OMP_MIN)
   for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
   *ntouch = nt;
   return SPHDEM_OK;
