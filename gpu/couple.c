@@ -19,7 +19,12 @@
  * floor caps the fluid->grain search at 4 layers for tiny grains). Fluid->grain: ceil(2 hc / grain cell)
  * layers; grain->fluid: ceil((2 hc + skin/2) / SPH cell) layers (1 when hc = h). The search range of
  * both directions is the coupling support 2 hc (centre to centre), so the paper's ceil(2h/d) and
- * ceil(d/2h) (for hc = h, d <= 2h) are the special cases. */
+ * ceil(d/2h) (for hc = h, d <= 2h) are the special cases.
+ *
+ * Not exchanged: the reaction of the optional rotational-drag torque (angular momentum goes to the grains
+ * only). Wall particles carry no porosity (eps = 1 in eqs 13-15). Coupling time is counted in SPHDEM_T_RATES.
+ * A fluid that starts inside a packed bed should be uploaded with rho = eps rho_f (get_porosity after a
+ * first compute_rates), else the EOS sees a compression of 1/eps and pushes the fluid out of the bed. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
