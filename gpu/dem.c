@@ -34,12 +34,16 @@ void sphdem_dem_params_default(sphdem_dem_params *p) {
 
 int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen) {
   if (!p) BAD("params: NULL");
-  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HERTZ_MINDLIN)
-    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin)", p->model);
+  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HERTZ_LIGGGHTS)
+    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts)", p->model);
   if (p->algo != SPHDEM_DEM_PAIR_PARALLEL && p->algo != SPHDEM_DEM_PARTICLE_PARALLEL)
     BAD("algo: %d is not a sphdem_dem_algo (0 pair-parallel, 1 particle-parallel)", p->algo);
   if (!(p->en >= 0.0 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside [0, 1]", p->en);
-  if (p->model != SPHDEM_DEM_HERTZ_MINDLIN) {
+  if (p->model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
+    if (!(p->E > 0.0)) BAD("E: Young's modulus must be > 0 (got %g)", p->E);
+    if (!(p->nu >= 0.0 && p->nu <= 0.5)) BAD("nu: Poisson ratio %g outside [0, 0.5]", p->nu);
+    if (!(p->en > 0.05 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside (0.05, 1]", p->en);
+  } else if (p->model != SPHDEM_DEM_HERTZ_MINDLIN) {
     if (!(p->kn > 0.0)) BAD("kn: normal stiffness must be > 0 (got %g)", p->kn);
     if (!(p->kt >= 0.0)) BAD("kt: tangential stiffness must be >= 0 (got %g)", p->kt);
     if (!(p->gamman >= 0.0)) BAD("gamman: normal damping must be >= 0 (got %g)", p->gamman);
@@ -76,6 +80,12 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->Estar = p->E / (2.0 * (1.0 - p->nu * p->nu));    /* He eq 21, one material */
   D->tmax_fac = (2.0 - p->nu) / (2.0 - 2.0 * p->nu) * p->mu; /* He eq 22 */
   for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+  /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
+  const double Y = p->E, v = p->nu;
+  D->Yeff = 1. / ((1. - pow(v, 2.)) / Y + (1. - pow(v, 2.)) / Y);
+  D->Geff = 1. / (2. * (2. - v) * (1. + v) / Y + 2. * (2. - v) * (1. + v) / Y);
+  const double lg = p->en > 0.0 ? log(p->en) : 0.0;
+  D->betaeff = lg / sqrt(pow(lg, 2.) + pow(M_PI, 2.));
 }
 
 int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {

@@ -147,6 +147,133 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
 
 /* ---- contact laws ------------------------------------------------------------------------------------ */
 
+/* LIGGGHTS' granular model "hertz tangential history [rolling_friction cdt]" (surface model default:
+ * lever arms r - delta/2), term by term, for one material: k_n = 4/3 Y* sqrt(R* delta),
+ * k_t = 8 G* sqrt(R* delta), gamma = -2 sqrt(5/6) beta sqrt(S m_eff) with S_n = 2 Y* sqrt(R* delta),
+ * S_t = k_t; the tangential spring is capped at mu |F_n| (without damping when sliding); the
+ * constant rolling torque mu_r k_n delta R* opposes the relative rotation, its normal part removed. */
+SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const double *del, double r, double ra,
+                                    double rb, double radsum, double meff, double *Fa, double *Ta, double *Tb,
+                                    double *hout) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
+  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const double zero[3] = {0.0, 0.0, 0.0};
+  const double *vb = wall ? zero : D->v + 3 * (int64_t)b, *wb = wall ? zero : D->om + 3 * (int64_t)b;
+  const double rinv = 1.0 / r;
+  const double en[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+  const double vr1 = va[0] - vb[0], vr2 = va[1] - vb[1], vr3 = va[2] - vb[2];
+  const double vn = vr1 * en[0] + vr2 * en[1] + vr3 * en[2];
+  const double vt1 = vr1 - vn * en[0], vt2 = vr2 - vn * en[1], vt3 = vr3 - vn * en[2];
+  const double deltan = radsum - r;
+  double wr1, wr2, wr3, cri, crj = 0.0;
+  if (wall) {
+    cri = ra - 0.5 * deltan;
+    wr1 = cri * wa[0] * rinv;
+    wr2 = cri * wa[1] * rinv;
+    wr3 = cri * wa[2] * rinv;
+  } else {
+    cri = ra - 0.5 * deltan;
+    crj = rb - 0.5 * deltan;
+    wr1 = (cri * wa[0] + crj * wb[0]) * rinv;
+    wr2 = (cri * wa[1] + crj * wb[1]) * rinv;
+    wr3 = (cri * wa[2] + crj * wb[2]) * rinv;
+  }
+  const double vtr1 = vt1 - (del[2] * wr2 - del[1] * wr3);
+  const double vtr2 = vt2 - (del[0] * wr3 - del[2] * wr1);
+  const double vtr3 = vt3 - (del[1] * wr1 - del[0] * wr2);
+  /* normal */
+  const double reff = wall ? ra : (ra * rb / (ra + rb));
+  const double sqrtval = sqrt(reff * deltan);
+  const double Sn = 2. * D->Yeff * sqrtval, St = 8. * D->Geff * sqrtval;
+  const double kn = 4. / 3. * D->Yeff * sqrtval, kt = St;
+  const double sqrtFiveOverSix = 0.91287092917527685576161630466800355658790782499663875;
+  const double gamman = -2. * sqrtFiveOverSix * D->betaeff * sqrt(Sn * meff);
+  const double gammat = -2. * sqrtFiveOverSix * D->betaeff * sqrt(St * meff);
+  double Fn = -gamman * vn + kn * deltan;
+  if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
+  for (int d = 0; d < 3; d++) Fa[d] = Fn * en[d];
+  /* tangential history */
+  double shear[3] = {hin[0], hin[1], hin[2]};
+  if (D->update) {
+    shear[0] += vtr1 * D->dt;
+    shear[1] += vtr2 * D->dt;
+    shear[2] += vtr3 * D->dt;
+    const double rsht = shear[0] * en[0] + shear[1] * en[1] + shear[2] * en[2];
+    shear[0] -= rsht * en[0];
+    shear[1] -= rsht * en[1];
+    shear[2] -= rsht * en[2];
+  }
+  const double shrmag = sqrt(shear[0] * shear[0] + shear[1] * shear[1] + shear[2] * shear[2]);
+  double Ft1 = -(kt * shear[0]), Ft2 = -(kt * shear[1]), Ft3 = -(kt * shear[2]);
+  const double Ft_shear = kt * shrmag, Ft_friction = D->P.mu * fabs(Fn);
+  if (Ft_shear > Ft_friction) {
+    if (shrmag != 0.0) {
+      const double ratio = Ft_friction / Ft_shear;
+      Ft1 *= ratio;
+      Ft2 *= ratio;
+      Ft3 *= ratio;
+      if (D->update) {
+        shear[0] = -Ft1 / kt;
+        shear[1] = -Ft2 / kt;
+        shear[2] = -Ft3 / kt;
+      }
+    } else {
+      Ft1 = Ft2 = Ft3 = 0.0;
+    }
+  } else {
+    Ft1 -= (gammat * vtr1);
+    Ft2 -= (gammat * vtr2);
+    Ft3 -= (gammat * vtr3);
+  }
+  const double tor1 = en[1] * Ft3 - en[2] * Ft2, tor2 = en[2] * Ft1 - en[0] * Ft3, tor3 = en[0] * Ft2 - en[1] * Ft1;
+  Ta[0] = -cri * tor1;
+  Ta[1] = -cri * tor2;
+  Ta[2] = -cri * tor3;
+  Tb[0] = -crj * tor1;
+  Tb[1] = -crj * tor2;
+  Tb[2] = -crj * tor3;
+  Fa[0] += Ft1;
+  Fa[1] += Ft2;
+  Fa[2] += Ft3;
+  /* rolling friction, constant directional torque (cdt) */
+  if (D->P.mu_r > 0.0) {
+    const double rmu = D->P.mu_r;
+    double rt[3] = {0.0, 0.0, 0.0};
+    if (wall) {
+      const double wrmag = sqrt(wr1 * wr1 + wr2 * wr2 + wr3 * wr3);
+      if (wrmag > 0.) {
+        const double F = deltan * kn;
+        rt[0] = rmu * F * wr1 / wrmag * reff;
+        rt[1] = rmu * F * wr2 / wrmag * reff;
+        rt[2] = rmu * F * wr3 / wrmag * reff;
+      }
+    } else {
+      const double w[3] = {wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]};
+      const double wmag = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      if (wmag > 0.) {
+        const double sc = rmu * kn * deltan * reff / wmag;
+        rt[0] = w[0] * sc;
+        rt[1] = w[1] * sc;
+        rt[2] = w[2] * sc;
+      }
+    }
+    const double rtn = rt[0] * en[0] + rt[1] * en[1] + rt[2] * en[2];
+    const double rn[3] = {en[0] * rtn, en[1] * rtn, en[2] * rtn};
+    for (int d = 0; d < 3; d++) {
+      rt[d] = rt[d] - rn[d];
+      Ta[d] -= rt[d];
+      Tb[d] += rt[d];
+    }
+  }
+  if (hout) {
+    hout[0] = shear[0];
+    hout[1] = shear[1];
+    hout[2] = shear[2];
+    hout[3] = 1.0;
+  }
+}
+
 /* Force and torques of pair p. Fa: force on a (b gets -Fa); Ta, Tb torques on a and b; hout (NULL: not
  * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
  * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
@@ -199,6 +326,18 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
       wrel[d] = wa[d];
     }
     meff = ma;
+  }
+  if (D->P.model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
+    dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
+    if (!wall) {
+      vir[0] = del[0] * Fa[0];
+      vir[1] = del[1] * Fa[1];
+      vir[2] = del[2] * Fa[2];
+      vir[3] = del[0] * Fa[1];
+      vir[4] = del[0] * Fa[2];
+      vir[5] = del[1] * Fa[2];
+    }
+    return 1;
   }
   const double delta = radsum - r;
   /* normal and tangential relative velocity at the contact point */

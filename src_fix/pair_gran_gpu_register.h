@@ -1,5 +1,6 @@
 /* pair_gran_gpu_register.h - registers the GPU granular pair styles of the engine being built
- * (LAMMPS: gran/hooke/history/gpu, gran/hertz/history/gpu; LIGGGHTS: none yet). */
+ * (LAMMPS: gran/hooke/history/gpu, gran/hertz/history/gpu in pair_gran_hooke_history_gpu.cpp;
+ * LIGGGHTS: gran/gpu in pair_gran_gpu.cpp). */
 #ifndef SPHDEM_PAIR_GRAN_GPU_REGISTER_H
 #define SPHDEM_PAIR_GRAN_GPU_REGISTER_H
 

@@ -206,7 +206,9 @@ int64_t sphdem_debug_couple_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpai
 typedef enum {
   SPHDEM_DEM_HOOKE = 0,         /* linear spring-dashpot (Yu 2024 eqs 7-13; LAMMPS gran/hooke/history) */
   SPHDEM_DEM_HERTZ = 1,         /* LAMMPS gran/hertz/history: the Hooke law times sqrt(delta R*) */
-  SPHDEM_DEM_HERTZ_MINDLIN = 2  /* Hertz normal + Mindlin-Deresiewicz tangential (He 2018 eqs 18-23) */
+  SPHDEM_DEM_HERTZ_MINDLIN = 2, /* Hertz normal + Mindlin-Deresiewicz tangential (He 2018 eqs 18-23) */
+  SPHDEM_DEM_HERTZ_LIGGGHTS = 3 /* LIGGGHTS model hertz tangential history [rolling_friction cdt]: stiffness
+                                   and damping from E, nu, en (Y*, G*, beta of its material model) */
 } sphdem_dem_model;
 
 typedef enum {
@@ -223,7 +225,7 @@ typedef struct {
                            eta = 2 sqrt(k m_eff) |ln e| / sqrt(pi^2 + ln^2 e), tangential alike with kt);
                            HERTZ_MINDLIN: c_n of He eq 23. 0: use gamman, gammat (HOOKE/HERTZ) */
   double ct;            /* HERTZ_MINDLIN tangential damping coefficient c_t (eq 21); < 0: equal to c_n */
-  double E, nu;         /* HERTZ_MINDLIN Young's modulus (Pa) and Poisson ratio (one material) */
+  double E, nu;         /* HERTZ_MINDLIN, HERTZ_LIGGGHTS: Young's modulus (Pa), Poisson ratio (one material) */
   double mu;            /* sliding friction coefficient (Coulomb limit) */
   double mu_r;          /* constant-torque rolling friction (He eq 25); 0 = off */
   int limit_damping;    /* 1: the normal force is never attractive (LAMMPS limit_damping) */

@@ -6,6 +6,10 @@
                1000 steps with the stock style and its /gpu twin; the final x, v, omega must agree
                to round-off (max difference / column magnitude < 1e-12) and thermo (ke, press, pxy:
                the virial) must print the same
+  same_liggghts LIG  the same scenes through liggghts_sphdem: stock 'pair_style gran model hertz
+               tangential history [rolling_friction cdt | limitForce on]' vs 'gran/gpu' with the same
+               words (material from fix property/global): final x, v, omega < 1e-12, thermo identical
+  errors_liggghts LIG  unsupported words (model hooke, cohesion sjkr, a missing material) stop naming them
   example LMP INPUT  examples/dem_drop shortened to 20000 steps (-var steps): runs with the stock
                style and with /gpu, thermo (ke, mean and max height, press) identical
   errors LMP [MPIRUN]  an unsupported argument, a bad dampflag and 2 MPI ranks stop with a message
@@ -77,6 +81,61 @@ STYLES = {
 }
 
 
+LIG_HEAD = """units si
+atom_style granular
+boundary {boundary}
+newton off
+atom_modify map array sort 50 0.005
+communicate single vel yes
+region box block {box} units box
+create_box 1 box
+neighbor 0.001 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 5e6
+fix m2 all property/global poissonsRatio peratomtype 0.45
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
+pair_style {style} {args}
+pair_coeff * *
+"""
+LIG_TAIL = """set atom * diameter 0.01
+set atom * density 2500
+{velocities}
+fix 1 {integrate} nve/sphere
+{extra}
+timestep 1e-6
+thermo_style custom step ke
+thermo_modify format float %.12g
+thermo 250
+run 1000
+dump d all custom 1 final.dump id x y z vx vy vz omegax omegay omegaz
+dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+run 0
+"""
+LIG_SCENES = {
+    "headon": dict(boundary="f f f", box="-0.05 0.05 -0.05 0.05 -0.05 0.05", integrate="all", extra="",
+                   atoms=SCENES["headon"]["atoms"].split("velocity")[0],
+                   velocities="group g1 id 1\ngroup g2 id 2\nvelocity g1 set 1.0 0 0\nvelocity g2 set -1.0 0 0"),
+    "oblique": dict(boundary="f f f", box="-0.05 0.05 -0.05 0.05 -0.05 0.05", integrate="all", extra="",
+                    atoms=SCENES["oblique"]["atoms"].split("velocity")[0],
+                    velocities="group g1 id 1\ngroup g2 id 2\nvelocity g1 set 1.5 -0.3 0\n"
+                               "velocity g2 set 0 0.2 0.1"),  # LIGGGHTS' set has no omega: spin from friction
+    "pile": dict(boundary="p f p", box=SCENES["pile"]["box"], integrate="mobile",
+                 extra=SCENES["pile"]["extra"],
+                 atoms=SCENES["pile"]["atoms"].split("velocity")[0],
+                 velocities="velocity mobile set 0.05 -0.5 0.01\n"
+                            "velocity mobile ramp vx -0.3 0.3 y 0.01 0.04 sum yes units box"),
+}
+LIG_ARGS = ["model hertz tangential history rolling_friction cdt", "model hertz tangential history limitForce on"]
+
+
+def lig_script(scene, style, args):
+    s = LIG_SCENES[scene]
+    return (LIG_HEAD.format(boundary=s["boundary"], box=s["box"], style=style, args=args) + s["atoms"] +
+            LIG_TAIL.format(velocities=s["velocities"], integrate=s["integrate"], extra=s["extra"]))
+
+
 def script(scene, style, args):
     s = SCENES[scene]
     return (HEAD.format(boundary=s["boundary"], box=s["box"]) + s["atoms"] +
@@ -98,7 +157,7 @@ def run(cmd, workdir, text, timeout=120):
 
 
 def load_dump(path):
-    lines = open(path).read().splitlines()
+    lines = [l.strip() for l in open(path).read().splitlines()]
     i = lines.index("ITEM: ATOMS id x y z vx vy vz omegax omegay omegaz")
     return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
 
@@ -116,14 +175,17 @@ def thermo(out):
     return rows
 
 
-def same(lmp):
+def same(lmp, liggghts=False):
     ok = True
-    for scene in SCENES:
-        for style, args in STYLES.items():
+    runs = [(sc, "gran", a) for sc in LIG_SCENES for a in LIG_ARGS] if liggghts else \
+           [(sc, st, a) for sc in SCENES for st, a in STYLES.items()]
+    for scene, style, args in runs:
             res = {}
             for tag, st in (("stock", style), ("gpu", style + "/gpu")):
-                wd = os.path.join("dem_same", scene, style.replace("/", "_"), tag)
-                rc, out = run([lmp], wd, script(scene, st, args))
+                wd = os.path.join("dem_same_lig" if liggghts else "dem_same", scene,
+                                  (args if liggghts else style).replace("/", "_").replace(" ", "_"), tag)
+                text = lig_script(scene, st, args) if liggghts else script(scene, st, args)
+                rc, out = run([lmp], wd, text)
                 if rc != 0 or "ERROR" in out:
                     print("FAIL %s %s: rc %d\n%s" % (scene, st, rc, out[-1500:]))
                     return False
@@ -139,7 +201,7 @@ def same(lmp):
             nz = len(th) > 1 and float(th[0][1]) != float(th[-1][1])
             status = worst < 1e-12 and th_same and nz and len(a) == len(b)
             print("%-8s %-20s %2d grains: max |difference| / magnitude %.3g; thermo identical: %s%s" %
-                  (scene, style, len(a), worst, th_same, "" if status else "  <-- FAIL"))
+                  (scene, args if liggghts else style, len(a), worst, th_same, "" if status else "  <-- FAIL"))
             ok &= status
     return ok
 
@@ -187,10 +249,33 @@ def example(lmp, inp):
     return ok
 
 
+def errors_liggghts(lig):
+    ok = True
+    cases = [("model hooke tangential history", "model 'hooke' is not supported"),
+             ("model hertz tangential history cohesion sjkr", "cohesion 'sjkr' is not supported"),
+             ("model hertz tangential history rolling_friction epsd2", "rolling_friction 'epsd2' is not supported")]
+    for k, (args, want) in enumerate(cases):
+        rc, out = run([lig], os.path.join("dem_err_lig", str(k)), lig_script("headon", "gran/gpu", args))
+        good = rc != 0 and "ERROR" in out and want in out
+        print("gran/gpu '%s': %s" % (args, "stops naming it" if good else "FAIL\n" + out[-800:]))
+        ok &= good
+    # no coefficientRollingFriction while rolling_friction cdt is asked for: the engine's own message
+    text = lig_script("headon", "gran/gpu", LIG_ARGS[0]).replace(
+        "fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05\n", "")
+    rc, out = run([lig], os.path.join("dem_err_lig", "material"), text)
+    good = rc != 0 and "coefficientRollingFriction" in out
+    print("missing coefficientRollingFriction: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
+    return ok and good
+
+
 if __name__ == "__main__":
     mode = sys.argv[1]
     if mode == "same":
         sys.exit(0 if same(sys.argv[2]) else 1)
+    if mode == "same_liggghts":
+        sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
+    if mode == "errors_liggghts":
+        sys.exit(0 if errors_liggghts(sys.argv[2]) else 1)
     if mode == "example":
         sys.exit(0 if example(sys.argv[2], sys.argv[3]) else 1)
     if mode == "errors":

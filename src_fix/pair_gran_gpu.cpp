@@ -1,0 +1,224 @@
+/* pair_gran_gpu.cpp - pair_style gran/gpu (LIGGGHTS syntax): the stock "model hertz tangential history
+ * [rolling_friction cdt]" contacts computed by the sphdem DEM core (CPU or CUDA), with the shear
+ * history kept there per pair keyed by the two atom tags. Material from fix property/global
+ * (youngsModulus, poissonsRatio, coefficientRestitution, coefficientFriction,
+ * coefficientRollingFriction), one material. No physics here. */
+#include "pair_gran_gpu.h"
+
+#include <cstring>
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "fix.h"
+#include "fix_property_global.h"
+#include "force.h"
+#include "memory.h"
+#include "modify.h"
+#include "neighbor.h"
+#include "pair_gran_gpu_register.h"
+#include "sphdem_compat.h"
+#include "update.h"
+
+using namespace LAMMPS_NS;
+
+static const char *const USAGE =
+    "model hertz tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
+    "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle]";
+
+PairGranGPU::PairGranGPU(LAMMPS *lmp)
+    : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
+      maxrad_(0), freeze_group_bit_(0), dem_(nullptr) {
+  single_enable = 0;
+  no_virial_fdotr_compute = 1;
+  for (int d = 0; d < 3; d++) box_lo_[d] = box_hi_[d] = 0.0, box_per_[d] = 0;
+  sphdem_dem_params_default(&prm_);
+}
+
+PairGranGPU::~PairGranGPU() {
+  sphdem_dem_destroy(&dem_);
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(cutsq);
+  }
+}
+
+void PairGranGPU::fail(const std::string &msg) {
+  sphdem_compat::error_all(error, __FILE__, __LINE__, "Pair gran/gpu: " + msg);
+}
+
+void PairGranGPU::settings(int narg, char **arg) {
+  bool model = false, tangential = false;
+  for (int k = 0; k < narg; k++) {
+    std::string kw = arg[k];
+    std::string val = k + 1 < narg ? arg[k + 1] : "";
+    if (k + 1 >= narg) fail("keyword '" + kw + "' needs a value (usage: " + USAGE + ")");
+    k++;
+    if (kw == "model") {
+      if (val != "hertz") fail("model '" + val + "' is not supported (only hertz)");
+      model = true;
+    } else if (kw == "tangential") {
+      if (val != "history") fail("tangential '" + val + "' is not supported (only history)");
+      tangential = true;
+    } else if (kw == "rolling_friction") {
+      if (val == "cdt") rolling_ = 1;
+      else if (val == "off") rolling_ = 0;
+      else fail("rolling_friction '" + val + "' is not supported (cdt or off)");
+    } else if (kw == "limitForce") {
+      if (val == "on") limit_force_ = 1;
+      else if (val == "off") limit_force_ = 0;
+      else fail("limitForce must be on or off (got '" + val + "')");
+    } else if (kw == "tangential_damping") {
+      if (val != "on") fail("tangential_damping '" + val + "' is not supported (only on, the default)");
+    } else if (kw == "cohesion") {
+      if (val != "off") fail("cohesion '" + val + "' is not supported (only off)");
+    } else if (kw == "surface") {
+      if (val != "default") fail("surface '" + val + "' is not supported (only default)");
+    } else if (kw == "device") {
+      if (val == "auto") device_ = SPHDEM_DEVICE_AUTO;
+      else if (val == "cpu") device_ = SPHDEM_DEVICE_CPU;
+      else if (val == "gpu") device_ = SPHDEM_DEVICE_GPU;
+      else fail("device must be auto, cpu or gpu (got '" + val + "')");
+    } else if (kw == "algo") {
+      if (val == "pair") algo_ = SPHDEM_DEM_PAIR_PARALLEL;
+      else if (val == "particle") algo_ = SPHDEM_DEM_PARTICLE_PARALLEL;
+      else fail("algo must be pair or particle (got '" + val + "')");
+    } else {
+      fail("unsupported keyword '" + kw + "' (usage: " + USAGE + ")");
+    }
+  }
+  if (!model) fail("needs 'model hertz' (usage: " + std::string(USAGE) + ")");
+  if (!tangential) fail("needs 'tangential history' (usage: " + std::string(USAGE) + ")");
+}
+
+void PairGranGPU::coeff(int narg, char **arg) {
+  if (narg != 2 || std::strcmp(arg[0], "*") != 0 || std::strcmp(arg[1], "*") != 0)
+    fail("use pair_coeff * * (the material comes from fix property/global)");
+  if (!allocated) {
+    allocated = 1;
+    int n = atom->ntypes;
+    memory->create(setflag, n + 1, n + 1, "pair:setflag");
+    memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
+  }
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) setflag[i][j] = 1;
+}
+
+/* One material: the per-type (or per-type-pair) values of a fix property/global, all equal. */
+double PairGranGPU::material(const char *name, const char *kind) {
+  const int nt = atom->ntypes;
+  const bool pair = std::strcmp(kind, "peratomtypepair") == 0;
+  Fix *f = modify->find_fix_property(name, "property/global", kind, nt, pair ? nt : 0, "pair gran/gpu");
+  FixPropertyGlobal *g = static_cast<FixPropertyGlobal *>(f);
+  if (!g) fail(std::string("needs fix property/global ") + name + " " + kind);
+  double v0 = pair ? g->compute_array(0, 0) : g->compute_vector(0);
+  for (int i = 0; i < nt; i++)
+    for (int j = 0; j < (pair ? nt : 1); j++) {
+      double v = pair ? g->compute_array(i, j) : g->compute_vector(i);
+      if (v != v0) fail(std::string(name) + " differs between atom types: gran/gpu supports one material");
+    }
+  return v0;
+}
+
+void PairGranGPU::init_style() {
+  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    fail("requires atom attributes radius, rmass, omega, torque (atom_style granular or sphere)");
+  if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
+  if (domain->triclinic) fail("triclinic boxes are not supported");
+  if (force->nktv2p != 1.0) fail("needs units si or cgs (nktv2p = 1)");
+  freeze_group_bit_ = 0;
+  for (int i = 0; i < modify->nfix; i++) {
+    Fix *f = modify->fix[i];
+    if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
+    if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
+  }
+  double mr = 0.0;
+  for (int i = 0; i < atom->nlocal; i++) mr = atom->radius[i] > mr ? atom->radius[i] : mr;
+  maxrad_ = mr;
+  sync_params();
+  if (!dem_) {
+    char msg[512];
+    int rc = sphdem_dem_create(&dem_, &prm_, (sphdem_device)device_, msg, sizeof msg);
+    if (rc) fail(std::string("cannot start the DEM core: ") + msg);
+    if (comm->me == 0)
+      sphdem_compat::logmesg(lmp, std::string("Pair gran/gpu: sphdem DEM core on the ") +
+                                      (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
+                                      (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
+  }
+}
+
+void PairGranGPU::sync_params() {
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ_LIGGGHTS;
+  p.algo = algo_;
+  p.E = material("youngsModulus", "peratomtype");
+  p.nu = material("poissonsRatio", "peratomtype");
+  p.en = material("coefficientRestitution", "peratomtypepair");
+  p.mu = material("coefficientFriction", "peratomtypepair");
+  p.mu_r = rolling_ ? material("coefficientRollingFriction", "peratomtypepair") : 0.0;
+  p.limit_damping = limit_force_;
+  p.skin = neighbor->skin;
+  for (int d = 0; d < 3; d++) {
+    p.boxlo[d] = box_lo_[d] = domain->boxlo[d];
+    p.boxhi[d] = box_hi_[d] = domain->boxhi[d];
+    p.periodic[d] = box_per_[d] = domain->periodicity[d];
+  }
+  char msg[512];
+  if (sphdem_dem_params_check(&p, msg, sizeof msg)) fail(std::string("material: ") + msg);
+  prm_ = p;
+  if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
+}
+
+double PairGranGPU::init_one(int, int) { return 2.0 * maxrad_; }
+
+void PairGranGPU::compute(int eflag, int vflag) {
+  if (eflag || vflag) ev_setup(eflag, vflag);
+  else evflag = vflag_fdotr = vflag_global = vflag_atom = 0;
+  if (vflag_atom) fail("per-atom virial is not supported");
+  const int n = atom->nlocal;
+  bool box_changed = false;
+  for (int d = 0; d < 3; d++)
+    box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
+  if (box_changed) sync_params();
+  tags_.resize(n);
+  xbuf_.resize(3 * (size_t)n);
+  vbuf_.resize(3 * (size_t)n);
+  wbuf_.resize(3 * (size_t)n);
+  fbuf_.resize(3 * (size_t)n);
+  tbuf_.resize(3 * (size_t)n);
+  rbuf_.resize(n);
+  mbuf_.resize(n);
+  flags_.resize(n);
+  for (int i = 0; i < n; i++) {
+    tags_[i] = atom->tag[i];
+    for (int d = 0; d < 3; d++) {
+      xbuf_[3 * i + d] = atom->x[i][d];
+      vbuf_[3 * i + d] = atom->v[i][d];
+      wbuf_[3 * i + d] = atom->omega[i][d];
+    }
+    rbuf_[i] = atom->radius[i];
+    mbuf_[i] = atom->rmass[i];
+    flags_[i] = (atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0;
+  }
+  double vir[6];
+  int rc = sphdem_dem_compute(dem_, n, tags_.data(), xbuf_.data(), vbuf_.data(), wbuf_.data(), rbuf_.data(),
+                              mbuf_.data(), flags_.data(), update->dt, update->setupflag ? 0 : 1, fbuf_.data(),
+                              tbuf_.data(), vflag_global ? vir : nullptr);
+  if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
+  for (int i = 0; i < n; i++)
+    for (int d = 0; d < 3; d++) {
+      atom->f[i][d] += fbuf_[3 * i + d];
+      atom->torque[i][d] += tbuf_[3 * i + d];
+    }
+  if (vflag_global)
+    for (int k = 0; k < 6; k++) virial[k] += vir[k];
+}
+
+double PairGranGPU::memory_usage() {
+  return (double)(xbuf_.capacity() * 7) * sizeof(double);
+}
+
+static Pair *pair_gran_gpu_creator(LAMMPS *lmp) { return new PairGranGPU(lmp); }
+
+void sphdem_register_pair_gran_gpu(LAMMPS *lmp) { (*lmp->force->pair_map)["gran/gpu"] = &pair_gran_gpu_creator; }

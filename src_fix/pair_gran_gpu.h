@@ -1,0 +1,49 @@
+/* pair_gran_gpu.h - pair_style gran/gpu (LIGGGHTS): "model hertz tangential history
+ * [rolling_friction cdt]" with the material of fix property/global, evaluated by the sphdem DEM core. */
+#ifdef PAIR_CLASS
+PairStyle(gran/gpu,PairGranGPU)
+#else
+
+#ifndef SPHDEM_PAIR_GRAN_GPU_H
+#define SPHDEM_PAIR_GRAN_GPU_H
+
+#include <string>
+#include <vector>
+
+#include "pair.h"
+#include "sphdem.h"
+
+namespace LAMMPS_NS {
+
+class PairGranGPU : public Pair {
+ public:
+  explicit PairGranGPU(class LAMMPS *);
+  ~PairGranGPU() override;
+  void compute(int, int) override;
+  void settings(int, char **) override;
+  void coeff(int, char **) override;
+  void init_style() override;
+  double init_one(int, int) override;
+  double memory_usage() override;
+
+ private:
+  int rolling_, limit_force_, device_, algo_;
+  double maxrad_;
+  int freeze_group_bit_;
+  sphdem_dem dem_;
+  sphdem_dem_params prm_;
+  double box_lo_[3], box_hi_[3];
+  int box_per_[3];
+  std::vector<int64_t> tags_;
+  std::vector<double> xbuf_, vbuf_, wbuf_, rbuf_, mbuf_, fbuf_, tbuf_;
+  std::vector<int> flags_;
+
+  [[noreturn]] void fail(const std::string &msg);
+  double material(const char *name, const char *kind);
+  void sync_params();
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
+#endif
