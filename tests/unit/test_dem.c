@@ -51,6 +51,7 @@ static void test_bad_params(void) {
   q = p; q.model = SPHDEM_DEM_HERTZ; q.en = 0.5; expect_arg(q, "en");
   q = p; q.model = SPHDEM_DEM_HERTZ_MINDLIN; q.en = 0.5; q.E = 0; expect_arg(q, "E");
   q = p; q.model = SPHDEM_DEM_HERTZ_MINDLIN; q.en = 0.5; q.E = 1e7; q.nu = 0.7; expect_arg(q, "nu");
+  q = p; q.model = SPHDEM_DEM_HERTZ_LIGGGHTS; q.en = 0.02; q.E = 1e7; expect_arg(q, "en");
   /* call arguments */
   sphdem_dem d = make(&p);
   sphdem_dem_wall w = {{0, 0, 0}, {0, 2, 0}};
@@ -290,15 +291,16 @@ static void test_single_contacts(void) {
   sphdem_dem_params p;
   sphdem_dem_params_default(&p);
   p.kn = 1e5; p.kt = 1e4; p.mu = 0.3;
-  const char *names[3] = {"hooke", "hertz", "hertz_mindlin"};
-  for (int model = 0; model < 3; model++) {
+  const char *names[4] = {"hooke", "hertz", "hertz_mindlin", "hertz_liggghts"};
+  for (int model = 0; model < 4; model++) {
     p.model = model;
-    if (model == SPHDEM_DEM_HERTZ_MINDLIN) { p.E = 1e8; p.nu = 0.25; p.en = 0.5; }
+    if (model >= SPHDEM_DEM_HERTZ_MINDLIN) { p.E = 1e8; p.nu = 0.25; p.en = 0.5; }
     sphdem_dem d = make(&p);
     int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    /* He eqs 18, 21 and LIGGGHTS' k_n = 4/3 Y* sqrt(R* delta) are the same Hertz law at rest */
     double expect = model == 0 ? p.kn * delta
                   : model == 1 ? p.kn * delta * sqrt(delta * reff)
-                               : 4.0 / 3.0 * p.E / (2 * (1 - p.nu * p.nu)) * sqrt(reff) * pow(delta, 1.5); /* He eqs 18, 21 */
+                               : 4.0 / 3.0 * p.E / (2 * (1 - p.nu * p.nu)) * sqrt(reff) * pow(delta, 1.5);
     /* grain 1 (tag 3) is at +x: it is pushed to +x */
     TEST_ASSERT(rc == 0 && fabs(f[3] / expect - 1) < 1e-12 && f[0] == -f[3], "%s normal force %.15g vs %.15g",
                 names[model], f[3], expect);

@@ -1,5 +1,6 @@
 /* test_dem_twin.c - GPU DEM: the CUDA backend against the CPU backend on the same input, step by step
- * (both force algorithms, Hertz with friction and rolling friction, periodic axes and walls). Exits 77
+ * (both force algorithms; LAMMPS Hertz, Hertz-Mindlin and LIGGGHTS Hertz with friction and rolling friction;
+ * periodic axes and walls). Exits 77
  * (skipped) where no GPU is usable. The trajectory is advanced with the CPU forces and fed to both. */
 #include <math.h>
 #include <stdint.h>
@@ -38,14 +39,14 @@ int main(void) {
     }
   }
   sphdem_dem_wall walls[2] = {{{0, 0.02, 0}, {0, 1, 0}}, {{0, 1.45, 0}, {0, -1, 0}}};
-  for (int model = 1; model <= 2; model++)
+  for (int model = 1; model <= 3; model++)
     for (int algo = 0; algo < 2; algo++) {
       sphdem_dem_params p;
       sphdem_dem_params_default(&p);
       p.model = model;
       p.algo = algo;
       if (model == SPHDEM_DEM_HERTZ) { p.kn = 2e6; p.kt = 2.0 / 7.0 * 2e6; p.gamman = 50; p.gammat = 25; }
-      else { p.E = 1e7; p.nu = 0.3; p.en = 0.7; }
+      else { p.E = 1e7; p.nu = 0.3; p.en = 0.7; } /* Hertz-Mindlin, LIGGGHTS Hertz */
       p.mu = 0.5; p.mu_r = 0.02; p.skin = 0.01;
       p.periodic[0] = p.periodic[2] = 1;
       for (int d = 0; d < 3; d++) { p.boxlo[d] = 0; p.boxhi[d] = L[d]; }
