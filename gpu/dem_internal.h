@@ -6,7 +6,7 @@
 
 #define SPHDEM_DEM_NHIST 4      /* per pair: tangential displacement xyz, touch flag */
 #define SPHDEM_DEM_MAX_CELLS (1 << 24)
-#define SPHDEM_DEM_MAX_WALLS 64
+#define SPHDEM_DEM_MAX_WALLS 16 /* the walls travel in the kernel parameters: keep dem_dev small */
 #define SPHDEM_DEM_MAX_TAG 2147483647LL
 
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the
