@@ -63,6 +63,9 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
   if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  if (p->first_contact != 0 && p->first_contact != 1) BAD("first_contact: must be 0 or 1 (got %d)", p->first_contact);
+  if (p->first_contact && p->model != SPHDEM_DEM_HOOKE && p->model != SPHDEM_DEM_HERTZ)
+    BAD("first_contact: Yu eq 12 applies to the hooke and hertz models");
   for (int d = 0; d < 3; d++) {
     if (p->periodic[d] != 0 && p->periodic[d] != 1) BAD("periodic[%d]: must be 0 or 1", d);
     if (p->periodic[d] && !(p->boxhi[d] > p->boxlo[d]))

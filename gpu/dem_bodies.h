@@ -349,8 +349,15 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
   vtr[2] = vt[2] - (del[1] * wr[0] - del[0] * wr[1]);
   /* tangential displacement: accumulate (eq 13), then rotate onto the current tangent plane */
   double s[3] = {hin[0], hin[1], hin[2]};
-  if (D->update)
-    for (int d = 0; d < 3; d++) s[d] += vtr[d] * D->dt;
+  if (D->update) {
+    double h = D->dt;
+    /* Yu eq 12: a new contact has been touching for delta / |v_n| of the step, not the whole step */
+    if (D->P.first_contact && hin[3] == 0.0 && vnnr < 0.0) {
+      const double tin = delta * r / -vnnr; /* |v_n| = -vnnr / r */
+      if (tin < h) h = tin;
+    }
+    for (int d = 0; d < 3; d++) s[d] += vtr[d] * h;
+  }
   const double shrmag = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
   const double rsht = (s[0] * del[0] + s[1] * del[1] + s[2] * del[2]) * rsqinv;
   if (D->update)

@@ -229,6 +229,8 @@ typedef struct {
   double mu;            /* sliding friction coefficient (Coulomb limit) */
   double mu_r;          /* constant-torque rolling friction (He eq 25); 0 = off */
   int limit_damping;    /* 1: the normal force is never attractive (LAMMPS limit_damping) */
+  int first_contact;    /* HOOKE / HERTZ: 1 starts the tangential displacement of a new contact at
+                           v_t min(delta / |v_n|, dt) (Yu eq 12), 0 (default, as LAMMPS) at v_t dt */
   double skin;          /* search gap: cells of d_max + skin; pairs rebuilt when a grain moved skin/2 */
   double boxlo[3], boxhi[3];
   int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */

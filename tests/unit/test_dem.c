@@ -46,6 +46,7 @@ static void test_bad_params(void) {
   q = p; q.algo = 3; expect_arg(q, "algo");
   q = p; q.mu = -0.1; expect_arg(q, "mu");
   q = p; q.mu_r = -0.1; expect_arg(q, "mu_r");
+  q = p; q.first_contact = 1; q.model = SPHDEM_DEM_HERTZ_MINDLIN; q.E = 1e7; q.en = 0.5; expect_arg(q, "first_contact");
   q = p; q.skin = -1; expect_arg(q, "skin");
   q = p; q.periodic[1] = 1; expect_arg(q, "boxhi[1]");
   q = p; q.model = SPHDEM_DEM_HERTZ; q.en = 0.5; expect_arg(q, "en");
@@ -366,8 +367,29 @@ static void test_threaded(void) {
   free_grains(&g);
 }
 
+/* Yu eq 12: a new contact's tangential displacement starts at v_t min(delta/|v_n|, dt), not v_t dt */
+static void test_first_contact(void) {
+  int64_t tag[2] = {1, 2};
+  double ra = 0.01, rb = 0.01, delta = 2e-6, vn = 1.0, vt = 0.3, dt = 1e-5; /* delta/vn = 2e-6 < dt */
+  double x[6] = {0, 0, 0, ra + rb - delta, 0, 0}, v[6] = {vn, vt, 0, 0, 0, 0}, om[6] = {0}, r[2] = {ra, rb};
+  double m[2] = {1e-3, 1e-3}, f[6], t[6], h[4];
+  for (int fc = 0; fc <= 1; fc++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.kn = 1e5; p.kt = 2e4; p.mu = 0.5; p.first_contact = fc;
+    sphdem_dem d = make(&p);
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    rc |= sphdem_dem_debug_history(d, 1, 2, h);
+    double expect = vt * (fc ? delta / vn : dt);
+    TEST_ASSERT(rc == 0 && fabs(h[1] / expect - 1) < 1e-9 && h[3] == 1.0, "first_contact %d: shear %.6g vs %.6g", fc,
+                h[1], expect);
+    sphdem_dem_destroy(&d);
+  }
+}
+
 int main(void) {
   test_bad_params();
+  test_first_contact();
   test_threaded();
   test_detection();
   test_single_contacts();
