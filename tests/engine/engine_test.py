@@ -15,7 +15,8 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   probe   EXE ENGINE       compute sph/probe on the hydrostatic start: p = rho0 g depth (2 %), and a
                            probe naming a fix that is not sph/fluid stops with a clear message
   every   EXE ENGINE       'every 1' == no keyword (0), and 'every 2' at dt/2 == 'every 1' at dt (0: the
-                           fluid steps are then the same floating-point operations)
+                           fluid steps are then the same floating-point operations); 'every 3' at a
+                           dt whose 3 dt exceeds the stable step stops with the message for N dt
   couple_same LMP LIG      the tiny dam break with 6 grains (fix sph/couple, every 2, nve/sphere, gravity):
                            LAMMPS == LIGGGHTS for fluid and grains (1e-10)
   couple_restart EXE ENGINE  the coupled scene split by write_restart/read_restart at step 100 == unbroken (1e-9)
@@ -454,7 +455,14 @@ def test_every(exe, engine):
     must_run([exe], wd + "/every2", half)
     c = read_dump(os.path.join(wd, "every2", "final.%d" % (2 * STEPS)))
     fails += verdict(compare(a, c, "every 2"), 0.0, "every 2 at dt/2 vs every 1 at dt (%s)" % engine)
-    return 1 if fails else 0
+    # the stability check judges the fluid step N dt: 3e-4 s exceeds the stable 2.2e-4 s of this scene
+    rc, out = run([exe], wd + "/every3", scene(engine, "every 3", steps=10), timeout=60)
+    want = "With every 3 the fluid step is 3 x timestep: set the timestep to"
+    ok = rc != 0 and "exceeds the stable SPH time step" in out and want in out
+    print("%s every 3 at dt 1e-4 stops with the N dt stability message (%s)" % ("PASS" if ok else "FAIL", engine))
+    if not ok:
+        print(out[-1500:])
+    return 1 if fails or not ok else 0
 
 
 def couple_final(workdir):
