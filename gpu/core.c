@@ -416,6 +416,7 @@ static int sort_set(sphdem_ctx c, int set) {
     TRY(c->ops->d2d(c, D->x0, D->x, 24 * (size_t)n));
     /* coupling: the porosity follows its particles (read by get_porosity, probe and get_fluid's pressure) */
     if (D->eps && c->cap_cf >= n) TRY(c->ops->gather(c, D->eps, 8, n));
+    if (D->fr && c->cap_cf >= n) TRY(c->ops->gather(c, D->fr, 24, n)); /* last reaction, read by the wall pass */
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};

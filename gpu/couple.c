@@ -22,9 +22,12 @@
  * ceil(d/2h) (for hc = h, d <= 2h) are the special cases.
  *
  * Not exchanged: the reaction of the optional rotational-drag torque (angular momentum goes to the grains
- * only). Wall particles carry no porosity (eps = 1 in eqs 13-15). Coupling time is counted in SPHDEM_T_RATES.
- * A fluid that starts inside a packed bed should be uploaded with rho = eps rho_f (get_porosity after a
- * first compute_rates), else the EOS sees a compression of 1/eps and pushes the fluid out of the bed. */
+ * only). With superficial density, wall particles get the porosity of the fluid beside them (Shepard
+ * average, as eqs 13-14 extrapolate velocity and pressure) and act with the superficial density eps_w rho_w
+ * (eq 15). Coupling time is counted in SPHDEM_T_RATES.
+ * A fluid that starts inside a packed bed should be uploaded consistently: rho = eps rho_f and mass =
+ * eps rho_f V (V its lattice volume; eps from get_porosity after a first compute_rates), else the EOS
+ * sees a compression of 1/eps and pushes the fluid out of the bed (unit_couple's packed bed does this). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -133,7 +136,7 @@ static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
   TRYC(calloc_dev(c, (void **)&c->D.eps, 8 * m));
   TRYC(calloc_dev(c, (void **)&c->D.fr, 24 * m));
   c->cap_cf = (int64_t)m;
-  return SPHDEM_OK;
+  return c->ops->memset0(c, c->D.fr, 24 * m); /* read by the wall pass before the first reaction pass */
 }
 
 /* The fluid set was rebuilt (set_fluid with new particles): the porosity array must cover it before any
@@ -154,6 +157,8 @@ int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
 
 void sphdem_couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
+  free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+  c->cap_cw = 0;
   free_grains(c);
   free_dev(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
   free_dev(c, (void **)&D->gcend, 4 * (size_t)c->cap_gcells);
@@ -313,6 +318,15 @@ static void set_layers(sphdem_dev *D) {
 int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
+  if (D->couple_eos && (D->nw > c->cap_cw || !D->weps)) { /* wall porosity, written by the wall-state pass */
+    free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+    c->cap_cw = 0;
+    TRYC(calloc_dev(c, (void **)&D->weps, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
+    c->cap_cw = D->nw > 0 ? D->nw : 1;
+  } else if (!D->couple_eos && D->weps) {
+    free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+    c->cap_cw = 0;
+  }
   if (c->grains_dirty || D->gncells == 0) TRYC(sort_grains(c));
   set_layers(D);
   TRYC(c->ops->couple_porosity(c));

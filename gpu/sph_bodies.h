@@ -168,7 +168,7 @@ SPHDEM_HD void predict_body(const sphdem_dev *D, int64_t i) {
 /* Adami generalized wall condition at wall particle w (eqs 13-15). */
 SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
   const double *xw = D->wx + 3 * w;
-  double sw = 0.0, spw = 0.0, srr[3] = {0, 0, 0}, sv[3] = {0, 0, 0}, r[3];
+  double sw = 0.0, spw = 0.0, srr[3] = {0, 0, 0}, sv[3] = {0, 0, 0}, r[3], se = 0.0;
   int32_t cells[27];
   int nn = neighbor_cells(D, D->wcell[w], cells);
   for (int k = 0; k < nn; k++) {
@@ -182,8 +182,12 @@ SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
       /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
       double rf = eos_density(D, f, D->rho[f]);
       for (int d = 0; d < 3; d++) { srr[d] += rf * r[d] * W; sv[d] += D->v[3 * f + d] * W; }
+      if (D->weps) se += fluid_eps(D, f) * W;
     }
   }
+  /* coupled, superficial density: the wall particle carries the porosity of the fluid beside it (extrapolated
+   * like eqs 13-14), so that fluid-wall pairs see the same mixture as fluid-fluid pairs */
+  if (D->weps) D->weps[w] = sw > 0.0 ? se / sw : 1.0;
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
   double pw = 0.0;
   if (sw > 0.0) {
@@ -303,13 +307,13 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double rr = sqrt(r2), q = rr * D->inv_h;
   double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
   /* wall particles keep their volume V_w = m_w / rho0 (Adami 2012); their density follows eq 15 */
-  double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0;
+  double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0, rw = D->wrho[w];
+  if (D->weps) { mb *= D->weps[w]; rw *= D->weps[w]; } /* coupled: superficial wall density eps_w rho_w */
   for (int d = 0; d < 3; d++) {
     vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
   }
   R->drho += mb * vdotr * F;
-  double rw = D->wrho[w];
   pair_momentum(D, mb, R->pra, R->rhoa, D->wp[w] / (rw * rw), rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv, R->acc);
   if (D->P.rep_D > 0.0 && rr < D->P.rep_r0) {
     /* Monaghan 1994 repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 */

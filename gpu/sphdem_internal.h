@@ -52,6 +52,7 @@ typedef struct {
   double hc, inv_hc, alphaC, support2c; /* coupling kernel (support 2 hc) */
   double *eps;         /* porosity at fluid particles (eq 26, before the floor), device order */
   double *fr;          /* reaction force m_a S_a on fluid particles (eq 33), 3 per particle */
+  double *weps;        /* porosity at wall particles (superficial density only; extrapolated from the fluid) */
   /* grains, in grain-grid (cell-sorted) order; gtag = upload index + 1 */
   int64_t ng;
   double *gx, *gv, *grad, *gom;
@@ -144,7 +145,7 @@ struct sphdem_ctx_s {
   void *backend_data;
   /* SPH-DEM coupling (couple.c) */
   sphdem_couple_params cp;      /* as set (hc 0 = fluid h) */
-  int64_t cap_g, cap_gcells, cap_cf; /* capacities: grains, grain cells, fluid coupling arrays */
+  int64_t cap_g, cap_gcells, cap_cf, cap_cw; /* capacities: grains, grain cells, fluid and wall coupling arrays */
   int grains_dirty;             /* uploaded but not yet sorted */
   double gbb_lo[3], gbb_hi[3], gdmax; /* bounding box and largest diameter of the uploaded grains */
   int64_t nforces;              /* grains seen by the last compute_rates */
