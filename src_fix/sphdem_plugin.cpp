@@ -5,6 +5,8 @@
 #include "fix_sph_couple.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
+#include "pair_gran_hertz_history_gpu.h"
+#include "pair_gran_hooke_history_gpu.h"
 #include "lammpsplugin_decl.h"
 #include "sphdem.h"
 
@@ -18,6 +20,14 @@ static void *sph_couple_creator(void *lmp, int argc, char **argv) {
 
 static void *sph_probe_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::ComputeSPHProbe(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+}
+
+static void *pair_hooke_gpu_creator(void *lmp) {
+  return new LAMMPS_NS::PairGranHookeHistoryGPU(static_cast<LAMMPS_NS::LAMMPS *>(lmp));
+}
+
+static void *pair_hertz_gpu_creator(void *lmp) {
+  return new LAMMPS_NS::PairGranHertzHistoryGPU(static_cast<LAMMPS_NS::LAMMPS *>(lmp));
 }
 
 /* One registration per style; add later sphdem styles here as in sphdem_register.cpp. */
@@ -40,5 +50,14 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   plugin.name = "sph/probe";
   plugin.info = "sphdem " SPHDEM_VERSION " fluid fields at fixed points";
   plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_probe_creator;
+  (*register_plugin)(&plugin, lmp);
+  plugin.style = "pair";
+  plugin.name = "gran/hooke/history/gpu";
+  plugin.info = "sphdem " SPHDEM_VERSION " granular Hooke contacts with history on the sphdem DEM core (CPU or GPU)";
+  plugin.creator.v1 = (lammpsplugin_factory1 *)&pair_hooke_gpu_creator;
+  (*register_plugin)(&plugin, lmp);
+  plugin.name = "gran/hertz/history/gpu";
+  plugin.info = "sphdem " SPHDEM_VERSION " granular Hertz contacts with history on the sphdem DEM core (CPU or GPU)";
+  plugin.creator.v1 = (lammpsplugin_factory1 *)&pair_hertz_gpu_creator;
   (*register_plugin)(&plugin, lmp);
 }

@@ -237,7 +237,23 @@ def test_plugin(host, plugin, lmp):
         print("FAIL: the plugin did not register fix sph/fluid")
         return 1
     a, b = final_dump("plugin/launcher"), final_dump("plugin/plugin")
-    return verdict(compare(a, b, "plugin"), 1e-12, "sphdemplugin.so vs lmp_sphdem")
+    fails = verdict(compare(a, b, "plugin"), 1e-12, "sphdemplugin.so vs lmp_sphdem")
+    # the GPU DEM pair styles through the plugin: examples/dem_drop shortened, thermo equal to the launcher's
+    import re
+    inp = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples", "dem_drop", "in.dem_drop")
+    with open(inp) as f:
+        text = re.sub(r"(?m)^variable steps index \S+", "variable steps index 3000", f.read())
+    text = re.sub(r"(?m)^thermo\s+\S+", "thermo 500", text)
+    out_l = must_run([lmp], "plugin/dem_launcher", text)
+    out_p = must_run([host, plugin], "plugin/dem_plugin", text)
+    if "registered pair gran/hertz/history/gpu" not in out_p:
+        print("FAIL: the plugin did not register pair gran/hertz/history/gpu")
+        return 1
+    rl, rp = thermo_rows(out_l), thermo_rows(out_p)
+    same = len(rl) >= 6 and rl == rp
+    print("%s dem_drop (pair gran/hertz/history/gpu) via the plugin: %d thermo rows %s the launcher's" %
+          ("PASS" if same else "FAIL", len(rp), "identical to" if same else "differ from"))
+    return fails + (0 if same else 1)
 
 
 def thermo_rows(log_text):

@@ -11,6 +11,7 @@
 #include "input.h"
 #include "lammps.h"
 #include "lammpsplugin_decl.h"
+#include "force.h"
 #include "modify.h"
 
 using namespace LAMMPS_NS;
@@ -19,10 +20,11 @@ static int nregistered = 0;
 
 static void register_plugin(lammpsplugin_t *p, void *ptr) {
   LAMMPS *lmp = static_cast<LAMMPS *>(ptr);
-  if (std::strcmp(p->style, "fix") != 0) return;
   if (std::strcmp(p->version, lmp->version) != 0)
     std::fprintf(stderr, "plugin_host: plugin version '%s' differs from LAMMPS '%s'\n", p->version, lmp->version);
-  (*lmp->modify->fix_map)[p->name] = (Modify::FixCreator)p->creator.v2;
+  if (std::strcmp(p->style, "fix") == 0) (*lmp->modify->fix_map)[p->name] = (Modify::FixCreator)p->creator.v2;
+  else if (std::strcmp(p->style, "pair") == 0) (*lmp->force->pair_map)[p->name] = (Force::PairCreator)p->creator.v1;
+  else return;
   std::printf("plugin_host: registered %s %s (%s)\n", p->style, p->name, p->info);
   nregistered++;
 }
