@@ -18,6 +18,7 @@
                naming the cause
 Python 3 only; exits 0 on pass, 1 on failure.
 """
+import math
 import os
 import subprocess
 import sys
@@ -296,8 +297,76 @@ def errors_liggghts(lig):
     return ok and good
 
 
+PILE = """# ~1000 grains settling on a floor in a periodic box (issue 5: packing fraction vs the stock style)
+units           si
+atom_style      sphere
+boundary        p p f
+newton          off
+atom_modify     map array sort 1000 0.002
+comm_modify     vel yes
+region          box block 0 0.06 0 0.06 0 0.08 units box
+create_box      1 box
+lattice         bcc 0.006
+region          ins block 0.001 0.059 0.001 0.059 0.003 0.033 units box
+create_atoms    1 region ins
+set             type 1 diameter 0.005
+set             type 1 density 2500
+velocity        all create 1e-4 4928 dist gaussian
+pair_style      STYLE 2e7 NULL 5e3 NULL 0.5 1
+pair_coeff      * *
+neighbor        0.001 bin
+neigh_modify    delay 0 every 1 check yes
+fix             floor all wall/gran hertz/history 2e7 NULL 5e3 NULL 0.5 1 zplane 0 NULL
+fix             g all gravity 9.81 vector 0 0 -1
+fix             integrate all nve/sphere
+timestep        2e-6
+thermo_style    custom step ke
+thermo_modify   format float %.10g
+thermo          5000
+dump            d all custom NSTEPS dump.pile.* id x y z radius
+dump_modify     d sort id
+run             NSTEPS
+"""
+
+
+def pile(lmp, nsteps=150000):
+    """Stock gran/hertz/history vs gran/hertz/history/gpu on a ~1000-grain settling pile: the packing
+    fraction of the settled bed (grain volume / (box area x bed height), bed height = 95th percentile
+    of z + r) within 1 %, and the kinetic energy of both decayed to below 1e-3 of its peak. The KE
+    histories are printed side by side (no run-to-run scatter estimate yet)."""
+    res = {}
+    for style in ("gran/hertz/history", "gran/hertz/history/gpu"):
+        wd = "pile_" + style.replace("/", "_")
+        rc, out = run([lmp], wd, PILE.replace("STYLE", style).replace("NSTEPS", str(nsteps)), timeout=900)
+        if rc != 0:
+            print("FAIL: %s pile run exited %d:\n%s" % (style, rc, out[-2000:]))
+            return False
+        lines = open(os.path.join(wd, "dump.pile.%d" % nsteps)).read().splitlines()
+        i = next(k for k, l in enumerate(lines) if l.startswith("ITEM: ATOMS")) + 1
+        at = [[float(v) for v in l.split()] for l in lines[i:] if l.strip()]
+        z = sorted(a[3] for a in at)
+        r = at[0][4]
+        hbed = z[int(0.95 * (len(z) - 1))] + r
+        phi = len(at) * 4.0 / 3.0 * math.pi * r ** 3 / (0.06 * 0.06 * hbed)
+        kes = [float(row[1]) for row in thermo(out)]
+        res[style] = (phi, kes[-1] / max(kes), len(at), kes)
+        print("  %-24s %d grains, bed height %.4f m, packing fraction %.4f, final KE / peak KE %.2e" %
+              (style, len(at), hbed, phi, kes[-1] / max(kes)))
+    a, b = res["gran/hertz/history"], res["gran/hertz/history/gpu"]
+    print("  KE every 5000 steps, stock vs /gpu: " +
+          ", ".join("%.3g/%.3g" % (x, y) for x, y in zip(a[3][::4], b[3][::4])))
+    dphi = abs(b[0] / a[0] - 1)
+    settled = a[1] < 1e-3 and b[1] < 1e-3
+    ok = a[2] >= 900 and dphi < 0.01 and settled
+    print("%s settling pile: packing fraction /gpu vs stock differs by %.3f %% (bound 1 %%); KE decayed below "
+          "1e-3 of its peak in both: %s" % ("PASS" if ok else "FAIL", 100 * dphi, settled))
+    return ok
+
+
 if __name__ == "__main__":
     mode = sys.argv[1]
+    if mode == "pile":
+        sys.exit(0 if pile(sys.argv[2]) else 1)
     if mode == "same":
         sys.exit(0 if same(sys.argv[2]) else 1)
     if mode == "same_liggghts":
