@@ -265,19 +265,20 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
 
 static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
   dem_dev *D = &m->D;
-  /* keep the current list (sorted by key) and its history for the carry */
-  int64_t npold = m->nbuilds ? D->np : 0;
-  if (npold > m->cap_pold) {
+  /* keep the current list (sorted by key) and its history for the carry, unless a restart seeded it */
+  int64_t npold = m->seeded ? D->np_old : m->nbuilds ? D->np : 0;
+  if (!m->seeded && npold > m->cap_pold) {
     int64_t cap = npold + npold / 4 + 16;
     TRY(grow(m, (void **)&D->key_old, sizeof(uint64_t), npold, cap));
     TRY(grow(m, (void **)&D->hist_old, sizeof(double) * SPHDEM_DEM_NHIST, npold, cap));
     m->cap_pold = cap;
   }
-  if (npold) {
+  if (npold && !m->seeded) {
     TRY(m->ops->d2d(m, D->key_old, D->key, sizeof(uint64_t) * npold));
     TRY(m->ops->d2d(m, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
   }
   D->np_old = npold;
+  m->seeded = 0;
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
@@ -410,4 +411,58 @@ int sphdem_dem_debug_history(sphdem_dem m, int64_t ta, int64_t tb, double hist[4
   free(h);
   if (rc) return rc;
   return found ? SPHDEM_OK : sphdem_dem_fail(m, SPHDEM_ERR_ARG, "pair (%lld, %lld): not in the pair list", (long long)ta, (long long)tb);
+}
+
+#if SPHDEM_DEM_NHIST != SPHDEM_DEM_HIST_DOUBLES
+#error "SPHDEM_DEM_HIST_DOUBLES (sphdem.h) must equal SPHDEM_DEM_NHIST (dem_internal.h)"
+#endif
+
+int64_t sphdem_dem_get_history(sphdem_dem m, uint64_t *keys, double *hist, int64_t max) {
+  if (!m || max < 0 || (max > 0 && (!keys || !hist))) return -SPHDEM_ERR_ARG;
+  int64_t np = m->nbuilds ? m->D.np : 0, k = np < max ? np : max;
+  if (k > 0) {
+    int rc = m->ops->d2h(m, keys, m->D.key, sizeof(uint64_t) * k);
+    if (!rc) rc = m->ops->d2h(m, hist, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * k);
+    if (rc) return -rc;
+  }
+  return np;
+}
+
+typedef struct { uint64_t key; int64_t i; } key_index;
+static int cmp_key_index(const void *a, const void *b) {
+  uint64_t ka = ((const key_index *)a)->key, kb = ((const key_index *)b)->key;
+  return ka < kb ? -1 : ka > kb;
+}
+
+int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if (n < 0 || (n > 0 && (!keys || !hist))) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: n %lld, keys/hist missing", (long long)n);
+  dem_dev *D = &m->D;
+  if (n > m->cap_pold) {
+    TRY(grow(m, (void **)&D->key_old, sizeof(uint64_t), 0, n + 16));
+    TRY(grow(m, (void **)&D->hist_old, sizeof(double) * SPHDEM_DEM_NHIST, 0, n + 16));
+    m->cap_pold = n + 16;
+  }
+  /* the carry looks keys up by bisection: sort (key, history) by key on the host */
+  key_index *idx = (key_index *)malloc(sizeof(key_index) * (size_t)(n ? n : 1));
+  uint64_t *ks = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)(n ? n : 1));
+  double *hs = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)(n ? n : 1));
+  if (!idx || !ks || !hs) { free(idx); free(ks); free(hs); return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "set_history: %lld pairs", (long long)n); }
+  for (int64_t i = 0; i < n; i++) idx[i].key = keys[i], idx[i].i = i;
+  qsort(idx, (size_t)n, sizeof(key_index), cmp_key_index);
+  int dup = 0;
+  for (int64_t i = 0; i < n; i++) {
+    ks[i] = idx[i].key;
+    if (i && ks[i] == ks[i - 1]) dup = 1;
+    for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hs[SPHDEM_DEM_NHIST * i + q] = hist[SPHDEM_DEM_NHIST * idx[i].i + q];
+  }
+  int rc = dup ? sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: a pair key appears twice") : SPHDEM_OK;
+  if (!rc && n) rc = m->ops->h2d(m, D->key_old, ks, sizeof(uint64_t) * (size_t)n);
+  if (!rc && n) rc = m->ops->h2d(m, D->hist_old, hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)n);
+  free(idx); free(ks); free(hs);
+  if (rc) return rc;
+  D->np_old = n;
+  m->seeded = 1;
+  m->need_build = 1;
+  return SPHDEM_OK;
 }

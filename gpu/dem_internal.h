@@ -79,6 +79,7 @@ struct sphdem_dem_s {
   char err[1024];
   int64_t cap_n, cap_p, cap_pold, cap_cells;
   int need_build;
+  int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
   int tags_valid;              /* device tag array matches htag */
   int64_t nbuilds, ncontacts;
   /* host copies for the rebuild decision */

@@ -25,6 +25,8 @@ class PairGranHookeHistoryGPU : public Pair {
   void init_style() override;
   double init_one(int, int) override;
   double memory_usage() override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *) override;
 
  protected:
   /* the stock arguments (pair_gran_hooke_history semantics) */
@@ -43,6 +45,10 @@ class PairGranHookeHistoryGPU : public Pair {
   std::vector<int64_t> tags;
   std::vector<double> xbuf, vbuf, wbuf, rbuf, mbuf, fbuf, tbuf;
   std::vector<int> flags;
+  /* contact history read from a restart file, handed to the core once it exists (init_style) */
+  bool have_pending_history;
+  std::vector<uint64_t> pending_keys;
+  std::vector<double> pending_hist;
 
   void allocate();
   [[noreturn]] void fail(const std::string &msg);

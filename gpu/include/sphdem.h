@@ -271,6 +271,14 @@ int sphdem_dem_stats_get(sphdem_dem dem, sphdem_dem_stats *s);
  * (tag_b = -1 - w for a wall): 4 doubles (tangential displacement xyz, touch flag); 0 if found. */
 int64_t sphdem_dem_debug_pairs(sphdem_dem dem, int64_t *pairs, int64_t maxpairs);
 int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, double hist[4]);
+/* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls
+ * 0xffffffff - w) and SPHDEM_DEM_HIST_DOUBLES doubles per pair. get: returns the pair count; writes
+ * at most max pairs (keys/hist may be NULL with max 0 to ask the count). set: the given list (any
+ * order) becomes the history that the next pair-list build carries over, as if it were the list of
+ * the previous build; call before the first sphdem_dem_compute after a restart. */
+#define SPHDEM_DEM_HIST_DOUBLES 4
+int64_t sphdem_dem_get_history(sphdem_dem dem, uint64_t *keys, double *hist, int64_t max);
+int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist);
 
 #ifdef __cplusplus
 }

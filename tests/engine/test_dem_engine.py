@@ -20,6 +20,7 @@ Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
 import os
+import shutil
 import subprocess
 import sys
 
@@ -329,6 +330,53 @@ run             NSTEPS
 """
 
 
+RESTART_TAIL = """fix             floor all wall/gran hertz/history 2e7 NULL 5e3 NULL 0.5 1 zplane 0 NULL
+fix             g all gravity 9.81 vector 0 0 -1
+fix             integrate all nve/sphere
+timestep        2e-6
+thermo_style    custom step ke
+thermo_modify   format float %.10g
+thermo          1000
+"""
+
+
+def restart(lmp):
+    """write_restart + read_restart continues the unbroken run: a settling pile (many persistent
+    contacts with tangential history), stock gran/hertz/history and /gpu side by side."""
+    head = PILE.split("fix             floor")[0].replace("region          ins block 0.001 0.059 0.001 0.059 0.003 0.033",
+                                                           "region          ins block 0.001 0.059 0.001 0.059 0.003 0.015")
+    ok = True
+    for style in ("gran/hertz/history", "gran/hertz/history/gpu"):
+        tag = style.replace("/", "_")
+        base = head.replace("STYLE", style) + RESTART_TAIL
+        dump = "dump            d all custom 4000 dump.r.* id x y z vx vy vz omegax omegay omegaz\ndump_modify     d sort id\n"
+        rc1, o1 = run([lmp], "restart_%s/unbroken" % tag, base + "run 20000\n" + dump + "run 4000\n", timeout=600)
+        rc2, o2 = run([lmp], "restart_%s/first" % tag, base + "run 20000\nwrite_restart pile.restart\n", timeout=600)
+        if rc1 or rc2:
+            print("FAIL: %s runs exited %d/%d:\n%s" % (style, rc1, rc2, (o1 + o2)[-2000:]))
+            return False
+        shutil.copy(os.path.join("restart_%s/first" % tag, "pile.restart"), "restart_%s/pile.restart" % tag)
+        cont = ("read_restart    ../pile.restart\nneighbor        0.001 bin\nneigh_modify    delay 0 every 1 check yes\n"
+                "comm_modify     vel yes\n" + RESTART_TAIL + dump + "run 4000\n")
+        rc3, o3 = run([lmp], "restart_%s/second" % tag, cont, timeout=600)
+        if rc3:
+            print("FAIL: %s restart run exited %d:\n%s" % (style, rc3, o3[-2000:]))
+            return False
+        a = load_dump(os.path.join("restart_%s/unbroken" % tag, "dump.r.24000"))
+        b = load_dump(os.path.join("restart_%s/second" % tag, "dump.r.24000"))
+        worst = 0.0
+        for c in range(1, 10):
+            scale = max(max(abs(r[c]) for r in a), 1e-300)
+            worst = max(worst, max(abs(x[c] - y[c]) for x, y in zip(a, b)) / scale)
+        vmax = max(abs(r[6]) for r in a)
+        print("  %-24s restart vs unbroken after 4000 more steps: max relative difference %.3e (max |vz| %.3g)" %
+              (style, worst, vmax))
+        if style.endswith("/gpu"):
+            ok = worst < 1e-9 and len(a) > 200
+    print("%s /gpu restart continues the unbroken run (bound 1e-9)" % ("PASS" if ok else "FAIL"))
+    return ok
+
+
 def pile(lmp, nsteps=150000):
     """Stock gran/hertz/history vs gran/hertz/history/gpu on a ~1000-grain settling pile: the packing
     fraction of the settled bed (grain volume / (box area x bed height), bed height = 95th percentile
@@ -365,6 +413,8 @@ def pile(lmp, nsteps=150000):
 
 if __name__ == "__main__":
     mode = sys.argv[1]
+    if mode == "restart":
+        sys.exit(0 if restart(sys.argv[2]) else 1)
     if mode == "pile":
         sys.exit(0 if pile(sys.argv[2]) else 1)
     if mode == "same":
