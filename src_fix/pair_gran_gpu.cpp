@@ -31,6 +31,7 @@ PairGranGPU::PairGranGPU(LAMMPS *lmp)
       maxrad_(0), freeze_group_bit_(0), dem_(nullptr) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;
+  restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
   for (int d = 0; d < 3; d++) box_lo_[d] = box_hi_[d] = 0.0, box_per_[d] = 0;
   sphdem_dem_params_default(&prm_);
 }
@@ -145,6 +146,59 @@ void PairGranGPU::init_style() {
                                       (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
                                       (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
   }
+  if (have_pending_history_) {
+    int rc = sphdem_dem_set_history(dem_, (int64_t)pending_keys_.size(), pending_keys_.data(), pending_hist_.data());
+    if (rc) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
+    have_pending_history_ = false;
+    pending_keys_.clear();
+    pending_hist_.clear();
+  }
+}
+
+/* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
+ * of atom tags). The material stays in the fix property/global commands, given again after read_restart. */
+void PairGranGPU::write_restart(FILE *fp) {
+  int iv[4] = {rolling_, limit_force_, device_, algo_};
+  fwrite(iv, sizeof(int), 4, fp);
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) fwrite(&setflag[i][j], sizeof(int), 1, fp);
+  int64_t np = dem_ ? sphdem_dem_get_history(dem_, nullptr, nullptr, 0) : 0;
+  if (np < 0) fail("reading the contact history for the restart file failed");
+  std::vector<uint64_t> keys((size_t)np);
+  std::vector<double> hist((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
+  if (np > 0 && sphdem_dem_get_history(dem_, keys.data(), hist.data(), np) != np)
+    fail("reading the contact history for the restart file failed");
+  fwrite(&np, sizeof(int64_t), 1, fp);
+  if (np > 0) {
+    fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
+    fwrite(hist.data(), sizeof(double), hist.size(), fp);
+  }
+}
+
+void PairGranGPU::read_restart(FILE *fp, const int, const int) {
+  if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
+  auto rd = [&](void *p, size_t sz, size_t n) {
+    if (n && fread(p, sz, n, fp) != n) fail("restart file ends inside the pair style's data");
+  };
+  if (!allocated) {
+    allocated = 1;
+    int n = atom->ntypes;
+    memory->create(setflag, n + 1, n + 1, "pair:setflag");
+    memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
+  }
+  int iv[4];
+  rd(iv, sizeof(int), 4);
+  rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3];
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) rd(&setflag[i][j], sizeof(int), 1);
+  int64_t np = 0;
+  rd(&np, sizeof(int64_t), 1);
+  if (np < 0) fail("restart file: bad contact-history count");
+  pending_keys_.resize((size_t)np);
+  pending_hist_.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
+  rd(pending_keys_.data(), sizeof(uint64_t), (size_t)np);
+  rd(pending_hist_.data(), sizeof(double), pending_hist_.size());
+  have_pending_history_ = true;
 }
 
 void PairGranGPU::sync_params() {

@@ -25,6 +25,8 @@ class PairGranGPU : public Pair {
   void init_style() override;
   double init_one(int, int) override;
   double memory_usage() override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *, const int major, const int minor) override; /* LIGGGHTS signature */
 
  private:
   int rolling_, limit_force_, device_, algo_;
@@ -37,6 +39,10 @@ class PairGranGPU : public Pair {
   std::vector<int64_t> tags_;
   std::vector<double> xbuf_, vbuf_, wbuf_, rbuf_, mbuf_, fbuf_, tbuf_;
   std::vector<int> flags_;
+  /* contact history read from a restart file, handed to the core in init_style */
+  bool have_pending_history_ = false;
+  std::vector<uint64_t> pending_keys_;
+  std::vector<double> pending_hist_;
 
   [[noreturn]] void fail(const std::string &msg);
   double material(const char *name, const char *kind);

@@ -377,6 +377,43 @@ def restart(lmp):
     return ok
 
 
+def restart_liggghts(lig):
+    """LIGGGHTS gran/gpu: write_restart + read_restart continues the unbroken run (pile scene with
+    persistent contacts, rolling friction on). LIGGGHTS does not keep fixes or the timestep in the
+    restart file: the material fixes, integrator, freeze, gravity and timestep are given again."""
+    sc = LIG_SCENES["pile"]
+    args = LIG_ARGS[0]
+    head = LIG_HEAD.format(boundary=sc["boundary"], box=sc["box"], style="gran/gpu", args=args,
+                           neigh="neighbor 0.001 bin\nneigh_modify delay 0") + sc["atoms"]
+    fixes = "fix 1 mobile nve/sphere\n" + sc["extra"] + "\ntimestep 1e-6\nthermo_style custom step ke\nthermo 500\n"
+    base = head + "set atom * diameter 0.01\nset atom * density 2500\n" + sc["velocities"] + "\n" + fixes + "run 3000\n"
+    dump = ("dump d all custom 1000 dump.r.* id x y z vx vy vz omegax omegay omegaz\n"
+            'dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"\n')
+    rc1, o1 = run([lig], "restart_lig/unbroken", base + dump + "run 2000\n")
+    rc2, o2 = run([lig], "restart_lig/first", base + "write_restart pile.restart\n")
+    if rc1 or rc2:
+        print("FAIL: runs exited %d/%d:\n%s" % (rc1, rc2, (o1 + o2)[-2000:]))
+        return False
+    shutil.copy("restart_lig/first/pile.restart", "restart_lig/pile.restart")
+    mats = "".join(l + "\n" for l in LIG_HEAD.splitlines() if l.startswith("fix m"))
+    cont = ("read_restart ../pile.restart\nneighbor 0.001 bin\nneigh_modify delay 0\ncommunicate single vel yes\n" +
+            mats + fixes + dump + "run 2000\n")
+    rc3, o3 = run([lig], "restart_lig/second", cont)
+    if rc3:
+        print("FAIL: restart run exited %d:\n%s" % (rc3, o3[-2000:]))
+        return False
+    a = load_dump("restart_lig/unbroken/dump.r.5000")
+    b = load_dump("restart_lig/second/dump.r.5000")
+    worst = 0.0
+    for c in range(1, 10):
+        scale = max(max(abs(r[c]) for r in a), 1e-300)
+        worst = max(worst, max(abs(x[c] - y[c]) for x, y in zip(a, b)) / scale)
+    ok = worst < 1e-9 and len(a) == 20
+    print("%s gran/gpu (LIGGGHTS) restart vs unbroken after 2000 more steps: max relative difference %.3e "
+          "(bound 1e-9)" % ("PASS" if ok else "FAIL", worst))
+    return ok
+
+
 def pile(lmp, nsteps=150000):
     """Stock gran/hertz/history vs gran/hertz/history/gpu on a ~1000-grain settling pile: the packing
     fraction of the settled bed (grain volume / (box area x bed height), bed height = 95th percentile
@@ -413,6 +450,8 @@ def pile(lmp, nsteps=150000):
 
 if __name__ == "__main__":
     mode = sys.argv[1]
+    if mode == "restart_liggghts":
+        sys.exit(0 if restart_liggghts(sys.argv[2]) else 1)
     if mode == "restart":
         sys.exit(0 if restart(sys.argv[2]) else 1)
     if mode == "pile":
