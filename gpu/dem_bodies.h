@@ -7,6 +7,16 @@
 #include "dem_internal.h"
 
 /* Atomic add: CUDA atomicAdd on the device, an OpenMP atomic on the host. */
+/* Pair virial (xx yy zz xy xz yz) of the force Fa on a with the separation del = x_a - x_b. */
+SPHDEM_HD void dem_pair_virial(const double *del, const double *Fa, double *vir) {
+  vir[0] = del[0] * Fa[0];
+  vir[1] = del[1] * Fa[1];
+  vir[2] = del[2] * Fa[2];
+  vir[3] = del[0] * Fa[1];
+  vir[4] = del[0] * Fa[2];
+  vir[5] = del[1] * Fa[2];
+}
+
 SPHDEM_HD void dem_add(double *p, double v) {
 #ifdef __CUDA_ARCH__
   atomicAdd(p, v);
@@ -330,12 +340,7 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
   if (D->P.model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
     dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
     if (!wall) {
-      vir[0] = del[0] * Fa[0];
-      vir[1] = del[1] * Fa[1];
-      vir[2] = del[2] * Fa[2];
-      vir[3] = del[0] * Fa[1];
-      vir[4] = del[0] * Fa[2];
-      vir[5] = del[1] * Fa[2];
+      dem_pair_virial(del, Fa, vir);
     }
     return 1;
   }
@@ -448,12 +453,7 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
     }
   }
   if (!wall) {
-    vir[0] = del[0] * Fa[0];
-    vir[1] = del[1] * Fa[1];
-    vir[2] = del[2] * Fa[2];
-    vir[3] = del[0] * Fa[1];
-    vir[4] = del[0] * Fa[2];
-    vir[5] = del[1] * Fa[2];
+    dem_pair_virial(del, Fa, vir);
   }
   if (hout) {
     hout[0] = s[0];

@@ -92,15 +92,17 @@ void PairGranGPU::settings(int narg, char **arg) {
   if (!tangential) fail("needs 'tangential history' (usage: " + std::string(USAGE) + ")");
 }
 
+void PairGranGPU::allocate() {
+  allocated = 1;
+  int n = atom->ntypes;
+  memory->create(setflag, n + 1, n + 1, "pair:setflag");
+  memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
+}
+
 void PairGranGPU::coeff(int narg, char **arg) {
   if (narg != 2 || std::strcmp(arg[0], "*") != 0 || std::strcmp(arg[1], "*") != 0)
     fail("use pair_coeff * * (the material comes from fix property/global)");
-  if (!allocated) {
-    allocated = 1;
-    int n = atom->ntypes;
-    memory->create(setflag, n + 1, n + 1, "pair:setflag");
-    memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
-  }
+  if (!allocated) allocate();
   for (int i = 1; i <= atom->ntypes; i++)
     for (int j = i; j <= atom->ntypes; j++) setflag[i][j] = 1;
 }
@@ -146,13 +148,7 @@ void PairGranGPU::init_style() {
                                       (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
                                       (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
   }
-  if (have_pending_history_) {
-    int rc = sphdem_dem_set_history(dem_, (int64_t)pending_keys_.size(), pending_keys_.data(), pending_hist_.data());
-    if (rc) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
-    have_pending_history_ = false;
-    pending_keys_.clear();
-    pending_hist_.clear();
-  }
+  if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
 }
 
 /* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
@@ -160,45 +156,18 @@ void PairGranGPU::init_style() {
 void PairGranGPU::write_restart(FILE *fp) {
   int iv[4] = {rolling_, limit_force_, device_, algo_};
   fwrite(iv, sizeof(int), 4, fp);
-  for (int i = 1; i <= atom->ntypes; i++)
-    for (int j = i; j <= atom->ntypes; j++) fwrite(&setflag[i][j], sizeof(int), 1, fp);
-  int64_t np = dem_ ? sphdem_dem_get_history(dem_, nullptr, nullptr, 0) : 0;
-  if (np < 0) fail("reading the contact history for the restart file failed");
-  std::vector<uint64_t> keys((size_t)np);
-  std::vector<double> hist((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  if (np > 0 && sphdem_dem_get_history(dem_, keys.data(), hist.data(), np) != np)
-    fail("reading the contact history for the restart file failed");
-  fwrite(&np, sizeof(int64_t), 1, fp);
-  if (np > 0) {
-    fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
-    fwrite(hist.data(), sizeof(double), hist.size(), fp);
-  }
+  sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
+  if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
 }
 
 void PairGranGPU::read_restart(FILE *fp, const int, const int) {
   if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
-  auto rd = [&](void *p, size_t sz, size_t n) {
-    if (n && fread(p, sz, n, fp) != n) fail("restart file ends inside the pair style's data");
-  };
-  if (!allocated) {
-    allocated = 1;
-    int n = atom->ntypes;
-    memory->create(setflag, n + 1, n + 1, "pair:setflag");
-    memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
-  }
+  if (!allocated) allocate();
   int iv[4];
-  rd(iv, sizeof(int), 4);
+  if (!sphdem_restart::read_items(fp, iv, sizeof(int), 4) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
+      !pending_history_.read(fp))
+    fail("restart file ends inside the pair style's data");
   rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3];
-  for (int i = 1; i <= atom->ntypes; i++)
-    for (int j = i; j <= atom->ntypes; j++) rd(&setflag[i][j], sizeof(int), 1);
-  int64_t np = 0;
-  rd(&np, sizeof(int64_t), 1);
-  if (np < 0) fail("restart file: bad contact-history count");
-  pending_keys_.resize((size_t)np);
-  pending_hist_.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  rd(pending_keys_.data(), sizeof(uint64_t), (size_t)np);
-  rd(pending_hist_.data(), sizeof(double), pending_hist_.size());
-  have_pending_history_ = true;
 }
 
 void PairGranGPU::sync_params() {

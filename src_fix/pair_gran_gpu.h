@@ -11,6 +11,7 @@ PairStyle(gran/gpu,PairGranGPU)
 #include <vector>
 
 #include "pair.h"
+#include "pair_gran_gpu_restart.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -39,11 +40,9 @@ class PairGranGPU : public Pair {
   std::vector<int64_t> tags_;
   std::vector<double> xbuf_, vbuf_, wbuf_, rbuf_, mbuf_, fbuf_, tbuf_;
   std::vector<int> flags_;
-  /* contact history read from a restart file, handed to the core in init_style */
-  bool have_pending_history_ = false;
-  std::vector<uint64_t> pending_keys_;
-  std::vector<double> pending_hist_;
+  sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
 
+  void allocate();
   [[noreturn]] void fail(const std::string &msg);
   double material(const char *name, const char *kind);
   void sync_params();

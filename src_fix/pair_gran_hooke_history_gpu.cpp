@@ -28,7 +28,7 @@ static const char *const USAGE =
 PairGranHookeHistoryGPU::PairGranHookeHistoryGPU(LAMMPS *lmp)
     : Pair(lmp), kn(0), kt(0), gamman(0), gammat(0), xmu(0), dampflag(0), limit_damping(0),
       model(SPHDEM_DEM_HOOKE), style("gran/hooke/history/gpu"), maxrad(0), freeze_group_bit(0), dem(nullptr),
-      device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL), have_pending_history(false) {
+      device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
@@ -140,13 +140,7 @@ void PairGranHookeHistoryGPU::init_style() {
                                       (sphdem_dem_backend(dem) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
                                       (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
   }
-  if (have_pending_history) {
-    int rc = sphdem_dem_set_history(dem, (int64_t)pending_keys.size(), pending_keys.data(), pending_hist.data());
-    if (rc) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem));
-    have_pending_history = false;
-    pending_keys.clear();
-    pending_hist.clear();
-  }
+  if (pending_history.apply(dem)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem));
 }
 
 /* Restart: the stock arguments (as parsed), pair_coeff flags and the core's contact history
@@ -156,44 +150,21 @@ void PairGranHookeHistoryGPU::write_restart(FILE *fp) {
   int iv[4] = {dampflag, limit_damping, device_, algo_};
   fwrite(d, sizeof(double), 5, fp);
   fwrite(iv, sizeof(int), 4, fp);
-  for (int i = 1; i <= atom->ntypes; i++)
-    for (int j = i; j <= atom->ntypes; j++) fwrite(&setflag[i][j], sizeof(int), 1, fp);
-  int64_t np = dem ? sphdem_dem_get_history(dem, nullptr, nullptr, 0) : 0;
-  if (np < 0) fail("reading the contact history for the restart file failed");
-  std::vector<uint64_t> keys((size_t)np);
-  std::vector<double> hist((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  if (np > 0 && sphdem_dem_get_history(dem, keys.data(), hist.data(), np) != np)
-    fail("reading the contact history for the restart file failed");
-  fwrite(&np, sizeof(int64_t), 1, fp);
-  if (np > 0) {
-    fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
-    fwrite(hist.data(), sizeof(double), hist.size(), fp);
-  }
+  sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
+  if (!sphdem_restart::write_history(fp, dem)) fail("reading the contact history for the restart file failed");
 }
 
 void PairGranHookeHistoryGPU::read_restart(FILE *fp) {
   if (comm->nprocs > 1)
     fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
   if (!allocated) allocate();
-  auto rd = [&](void *p, size_t sz, size_t n) {
-    if (n && fread(p, sz, n, fp) != n) fail("restart file ends inside the pair style's data");
-  };
   double d[5];
   int iv[4];
-  rd(d, sizeof(double), 5);
-  rd(iv, sizeof(int), 4);
+  if (!sphdem_restart::read_items(fp, d, sizeof(double), 5) || !sphdem_restart::read_items(fp, iv, sizeof(int), 4) ||
+      !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) || !pending_history.read(fp))
+    fail("restart file ends inside the pair style's data");
   kn = d[0], kt = d[1], gamman = d[2], gammat = d[3], xmu = d[4];
   dampflag = iv[0], limit_damping = iv[1], device_ = iv[2], algo_ = iv[3];
-  for (int i = 1; i <= atom->ntypes; i++)
-    for (int j = i; j <= atom->ntypes; j++) rd(&setflag[i][j], sizeof(int), 1);
-  int64_t np = 0;
-  rd(&np, sizeof(int64_t), 1);
-  if (np < 0) fail("restart file: bad contact-history count");
-  pending_keys.resize((size_t)np);
-  pending_hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  rd(pending_keys.data(), sizeof(uint64_t), (size_t)np);
-  rd(pending_hist.data(), sizeof(double), pending_hist.size());
-  have_pending_history = true;
 }
 
 /* Core parameters from the stock arguments, the neighbor skin and the current box. */

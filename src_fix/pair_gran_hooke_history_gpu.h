@@ -11,6 +11,7 @@ PairStyle(gran/hooke/history/gpu,PairGranHookeHistoryGPU)
 #include <vector>
 
 #include "pair.h"
+#include "pair_gran_gpu_restart.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -45,10 +46,7 @@ class PairGranHookeHistoryGPU : public Pair {
   std::vector<int64_t> tags;
   std::vector<double> xbuf, vbuf, wbuf, rbuf, mbuf, fbuf, tbuf;
   std::vector<int> flags;
-  /* contact history read from a restart file, handed to the core once it exists (init_style) */
-  bool have_pending_history;
-  std::vector<uint64_t> pending_keys;
-  std::vector<double> pending_hist;
+  sphdem_restart::PendingHistory pending_history; /* from read_restart, handed to the core in init_style */
 
   void allocate();
   [[noreturn]] void fail(const std::string &msg);
