@@ -280,6 +280,109 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
 int64_t sphdem_dem_get_history(sphdem_dem dem, uint64_t *keys, double *hist, int64_t max);
 int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist);
 
+/* ---- Coarse-grid gas phase for CFD-DEM (Yu 2024 §2.1-2.4) ----------------------------------------
+ * A structured staggered (MAC) grid over a box: voidage and pressure at cell centres, gas velocity
+ * normal to each cell face. Volume-averaged incompressible gas (eqs 1-2, constant density, model A:
+ * -eps grad p in the gas, -V_p grad p on a grain), first-order upwind convection, explicit viscous
+ * term, drag implicit in the gas velocity, projection with a Jacobi-preconditioned conjugate-gradient
+ * pressure solve, so div(eps u) + d eps/dt = 0 holds in every cell to the solver tolerance.
+ * Interphase force: Gidaspow (eqs 14-17; Ergun below eps 0.8, Wen-Yu above) or Wen-Yu alone. The
+ * gas drag on face f is sum_i w_if K_i (u_f - v_i) with the same weights w_if that interpolate the
+ * gas velocity to grain i, so the drag on the grains and on the gas (plus the share taken by boundary
+ * faces, whose velocity is prescribed) sum to zero to round-off (Newton's third law). */
+typedef enum {
+  SPHDEM_CFD_NOSLIP = 0,   /* wall, u = 0 */
+  SPHDEM_CFD_SLIP = 1,     /* wall, normal u = 0, tangential stress 0 */
+  SPHDEM_CFD_INLET = 2,    /* superficial velocity eps u_n = inlet_u (into the domain), tangential u = 0 */
+  SPHDEM_CFD_OUTLET = 3    /* pressure outlet p = 0, zero-gradient velocity */
+} sphdem_cfd_bc;
+typedef enum { SPHDEM_CFD_VOID_CENTROID = 0, SPHDEM_CFD_VOID_SMOOTH = 1 } sphdem_cfd_voidage;
+typedef enum { SPHDEM_CFD_DRAG_GIDASPOW = 0, SPHDEM_CFD_DRAG_WENYU = 1, SPHDEM_CFD_DRAG_NONE = 2 } sphdem_cfd_drag;
+
+#define SPHDEM_CFD_MAX_PATCH 4
+typedef struct {
+  int side;             /* 0 xlo, 1 xhi, 2 ylo, 3 yhi, 4 zlo, 5 zhi; must be an inlet side */
+  double lo[2], hi[2];  /* rectangle in the two other coordinates (in x,y,z order), box units */
+  double u;             /* superficial inflow velocity through the patch (faces whose centre is inside) */
+} sphdem_cfd_patch;
+
+typedef struct {
+  int nc[3];            /* cells per axis (>= 1) */
+  double boxlo[3], boxhi[3];
+  double rho_g, mu_g;   /* gas density (kg/m^3) and dynamic viscosity (Pa s) */
+  double gravity[3];    /* body acceleration on the gas (rho_g eps g) */
+  int bc[6];            /* per side (xlo xhi ylo yhi zlo zhi): sphdem_cfd_bc; at least one OUTLET */
+  double inlet_u[6];    /* superficial inflow velocity on INLET sides (m/s, > 0 flows into the box) */
+  int npatch;           /* patches (spouts) on inlet sides with their own velocity */
+  sphdem_cfd_patch patch[SPHDEM_CFD_MAX_PATCH];
+  int voidage;          /* sphdem_cfd_voidage: centroid (eq 3) or smooth (trilinear spread to 8 cells) */
+  int drag;             /* sphdem_cfd_drag */
+  double eps_min;       /* floor of the voidage in the gas equations and the drag law (default 0.2) */
+  int ddt_eps;          /* 1 (default): continuity keeps d eps / dt (eq 1); 0: div(eps u) = 0 */
+  int pressure_force;   /* 1 (default): f = -V_p grad p on grains (buoyancy included); 0: drag only */
+  double tol;           /* pressure solve: relative residual |r| / |b| (default 1e-10) */
+  int maxiter;          /* pressure solve iteration limit (default 2000); reaching it is an error */
+  double cfl_max;       /* stop when dt max |u_d| / h_d exceeds it (eq 18; default 1) */
+} sphdem_cfd_params;
+
+typedef struct sphdem_cfd_s *sphdem_cfd;
+
+typedef struct {
+  int64_t nsteps;       /* gas steps so far */
+  int iters;            /* pressure-solve iterations of the last step */
+  double residual;      /* its final relative residual */
+  double mass_err;      /* max over cells of |div(eps u) + d eps/dt| * dt (dimensionless) after the step */
+  double eps_min;       /* smallest cell voidage (before the floor) */
+  double eps_mean;      /* mean cell voidage */
+  double umax;          /* largest |u| at a face (interstitial) */
+  double cfl;           /* dt max |u_d| / h_d of the last step */
+  double dp;            /* mean pressure of the first minus the last cell layer along the flow axis */
+  int flow_axis;        /* axis of the first inlet side (2 if none) */
+  double f_grains[3];   /* sum of the drag forces on the grains (last step) */
+  double f_gas[3];      /* sum of the drag reaction on the gas at interior faces (face-based) */
+  double f_bound[3];    /* the share of boundary faces (prescribed velocity): f_grains + f_gas = f_bound */
+  double f_pg[3];       /* sum of the pressure-gradient forces on the grains */
+} sphdem_cfd_stats;
+
+/* Wall-clock time per phase (s): voidage + drag coefficients (coupling), momentum predictor,
+ * pressure solve, correction + grain forces, host<->device transfers. */
+enum { SPHDEM_CFD_T_COUPLE = 0, SPHDEM_CFD_T_PREDICT, SPHDEM_CFD_T_SOLVE, SPHDEM_CFD_T_CORRECT,
+       SPHDEM_CFD_T_TRANSFER, SPHDEM_CFD_NTIMERS };
+
+void sphdem_cfd_params_default(sphdem_cfd_params *p);
+int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen);
+int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device dev, char *msg, size_t msglen);
+int sphdem_cfd_destroy(sphdem_cfd *c);
+const char *sphdem_cfd_last_error(sphdem_cfd c);
+int sphdem_cfd_backend(sphdem_cfd c);
+/* Change parameters between steps: everything but nc and the box (e.g. inlet_u for a sweep). */
+int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p);
+int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p);
+/* Advance the gas by dt with n grains (x, v 3n; radius n). Voidage and drag coefficients from the
+ * grains (slip of the previous gas field), momentum predictor with implicit drag, pressure solve,
+ * correction. Then the force on each grain from the new field: fdrag = K_i (u_g(x_i) - v_i),
+ * fpg = -V_i grad p(x_i); 3n each, either may be NULL. n may change between calls; grains outside
+ * the box are clamped into the boundary cells. Errors: CFL above cfl_max, solver not converged,
+ * non-finite field (the message names the likely cause). */
+int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
+                    double *fdrag, double *fpg);
+int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s);
+/* Cell fields, x fastest (index i + nx (j + ny k)): voidage (before the floor), pressure, gas
+ * velocity at the cell centre (interstitial, 3 per cell, mean of the two faces). Any may be NULL. */
+int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u);
+/* Gas state for restart files: SPHDEM_CFD state_size() doubles (face velocities, pressure, voidage). */
+int64_t sphdem_cfd_state_size(sphdem_cfd c);
+int sphdem_cfd_get_state(sphdem_cfd c, double *state);
+int sphdem_cfd_set_state(sphdem_cfd c, const double *state);
+/* Set the gas to a uniform interstitial velocity u (boundary faces keep their conditions), p = 0. */
+int sphdem_cfd_set_velocity(sphdem_cfd c, const double u[3]);
+void sphdem_cfd_timers(sphdem_cfd c, double t[SPHDEM_CFD_NTIMERS]);
+void sphdem_cfd_timers_reset(sphdem_cfd c);
+size_t sphdem_cfd_device_bytes(sphdem_cfd c);
+/* Drag law of eqs 15-17 as the coefficient K = beta V_p / (1 - eps) (N s/m) of f = K (u - v), for a
+ * grain of diameter d, voidage eps, slip speed |u - v|; drag is a sphdem_cfd_drag. */
+double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho_g, double mu_g);
+
 #ifdef __cplusplus
 }
 #endif
