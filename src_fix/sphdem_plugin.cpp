@@ -2,6 +2,7 @@
  * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package; the plugin record
  * is declared in lammpsplugin_decl.h. */
 #include "compute_sph_probe.h"
+#include "fix_cfd_grid.h"
 #include "fix_sph_couple.h"
 #include "fix_sph_fluid.h"
 #include "lammps.h"
@@ -16,6 +17,10 @@ static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
 
 static void *sph_couple_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::FixSPHCouple(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+}
+
+static void *cfd_grid_creator(void *lmp, int argc, char **argv) {
+  return new LAMMPS_NS::FixCFDGrid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
 }
 
 static void *sph_probe_creator(void *lmp, int argc, char **argv) {
@@ -45,6 +50,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   plugin.name = "sph/couple";
   plugin.info = "sphdem " SPHDEM_VERSION " SPH-DEM coupling (fluid force on grains, reaction on the fluid)";
   plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_couple_creator;
+  (*register_plugin)(&plugin, lmp);
+  plugin.name = "cfd/grid";
+  plugin.info = "sphdem " SPHDEM_VERSION " coarse-grid gas of CFD-DEM (drag and pressure-gradient force on grains)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *)&cfd_grid_creator;
   (*register_plugin)(&plugin, lmp);
   plugin.style = "compute";
   plugin.name = "sph/probe";

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "compute_sph_probe.h"
+#include "fix_cfd_grid.h"
 #include "fix_sph_couple.h"
 #include "fix_sph_fluid.h"
 #include "input.h"
@@ -21,6 +22,7 @@ void sphdem_register_styles(LAMMPS *lmp) {
   sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
   fixes["sph/fluid"] = &sphdem_compat::fix_creator<FixSPHFluid>;
   fixes["sph/couple"] = &sphdem_compat::fix_creator<FixSPHCouple>;
+  fixes["cfd/grid"] = &sphdem_compat::fix_creator<FixCFDGrid>;
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   computes["sph/probe"] = &sphdem_compat::compute_creator<ComputeSPHProbe>;
   sphdem_register_pair_gran_gpu(lmp); /* pair styles of this engine (pair_gran_gpu_register.h) */

@@ -1,0 +1,666 @@
+/* fix_cfd_grid.cpp - fix cfd/grid: parses the gas keywords into sphdem_cfd_params, advances the coarse-grid
+ * gas of CFD-DEM (Yu 2024 §2.1-2.4) every N engine steps with the grains of its group, holds the gas
+ * forces on them between gas steps and adds them to atom->f every step; VTK output of the cell fields.
+ * No physics here (gpu/cfd.c). */
+#include "fix_cfd_grid.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "group.h"
+#include "input.h"
+#include "memory.h"
+#include "modify.h"
+#include "sphdem_compat.h"
+#include "update.h"
+#include "variable.h"
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+const char *const SYNTAX =
+    "fix ID group cfd/grid grid NX NY NZ rho V mu V [box xlo xhi ylo yhi zlo zhi] [gravity gx gy gz] "
+    "[bc SIDE noslip|slip|inlet U|outlet] [patch SIDE A0 A1 B0 B1 U] [every N] [drag gidaspow|wenyu|none] "
+    "[voidage centroid|smooth] [eps_min V] [ddt_eps yes|no] [pressure_force yes|no] [tol V] [maxiter N] "
+    "[cfl V] [device auto|gpu|cpu] [init_u ux uy uz] [vtk N PREFIX]";
+const char *const KEYWORDS =
+    "grid, box, rho, mu, gravity, bc, patch, every, drag, voidage, eps_min, ddt_eps, pressure_force, tol, "
+    "maxiter, cfl, device, init_u, vtk";
+const char *const SIDES = "xlo, xhi, ylo, yhi, zlo or zhi";
+const char *const SIDE_NAME[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
+const char *const BCS = "noslip, slip, inlet U (a number or v_name) or outlet";
+const char *const DRAGS = "gidaspow, wenyu or none";
+const char *const BC_NAME[4] = {"noslip", "slip", "inlet", "outlet"};
+const char *const DRAG_NAME[3] = {"gidaspow", "wenyu", "none"};
+const char *const TIMER_NAME[SPHDEM_CFD_NTIMERS] = {"couple", "predict", "solve", "correct", "transfer"};
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+int side_index(const std::string &s) {
+  for (int k = 0; k < 6; k++)
+    if (s == SIDE_NAME[k]) return k;
+  return -1;
+}
+
+/* restart record: a version tag, the gas step count, the state size, the state */
+constexpr double RESTART_TAG = 20260001.0;
+}  // namespace
+
+/* ---------------------------------------------------------------------------------------------- */
+
+FixCFDGrid::FixCFDGrid(LAMMPS *lmp, int narg, char **arg)
+    : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), have_box_(false), every_(1), have_init_u_(false),
+      vtk_every_(0), pvd_loaded_(false), ctx_(nullptr), announced_(false), have_pending_(false), fa_(nullptr),
+      nmax_(0), ngas_steps_(0), host_time_(0.0) {
+  for (int s = 0; s < 6; s++) inlet_ivar_[s] = -1;
+  for (int d = 0; d < 3; d++) init_u_[d] = 0.0;
+  std::memset(&stats_, 0, sizeof stats_);
+  parse_args(narg, arg);
+
+  nevery = 1;
+  peratom_flag = 1;
+  size_peratom_cols = NCOL;
+  peratom_freq = 1;
+  vector_flag = 1;
+  size_vector = NVEC;
+  global_freq = 1;
+  extvector = 0;
+  restart_peratom = 1;
+  restart_global = 1;
+  create_attribute = 1;
+
+  grow_arrays(atom->nmax);
+  atom->add_callback(0);
+  atom->add_callback(1);
+}
+
+FixCFDGrid::~FixCFDGrid() {
+  atom->delete_callback(id, 0);
+  atom->delete_callback(id, 1);
+  memory->destroy(fa_);
+  sphdem_cfd_destroy(&ctx_);
+}
+
+int FixCFDGrid::setmask() { return POST_FORCE | POST_RUN; }
+
+void FixCFDGrid::fail(const std::string &msg) {
+  sphdem_compat::error_all(error, FLERR, std::string("Fix cfd/grid: ") + msg);
+}
+
+/* Every non-OK core code ends the run with the core's message. */
+void FixCFDGrid::check(int rc, const char *what) {
+  if (rc == SPHDEM_OK) return;
+  fail(std::string(what) + ": " + (ctx_ ? sphdem_cfd_last_error(ctx_) : "no gas context") + " (" +
+       sphdem_strerror(rc) + ")");
+}
+
+double FixCFDGrid::parse_number(const char *kw, const char *s, const char *usage) {
+  double v;
+  if (!sphdem_compat::to_double(s, &v))
+    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
+  return v;
+}
+
+/* ---- arguments --------------------------------------------------------------------------------- */
+
+void FixCFDGrid::parse_args(int narg, char **arg) {
+  sphdem_cfd_params_default(&prm_);
+  prm_.gravity[0] = 0.0;
+  prm_.gravity[1] = 0.0;
+  prm_.gravity[2] = -9.81;
+  for (int s = 0; s < 6; s++) {
+    prm_.bc[s] = SPHDEM_CFD_NOSLIP;
+    prm_.inlet_u[s] = 0.0;
+  }
+  prm_.npatch = 0;
+  if (domain->triclinic) fail("triclinic boxes are not supported");
+  bool have_grid = false, have_rho = false, have_mu = false;
+
+  int iarg = 3;
+  auto need = [&](int n, const char *usage) {
+    if (iarg + n >= narg) fail(std::string("missing value(s) for ") + arg[iarg] + " (usage: " + usage + ")");
+  };
+  auto yes_no = [&](const std::string &kw) -> int {
+    if (iarg + 1 >= narg) fail(kw + " must be yes or no");
+    const std::string v = arg[iarg + 1];
+    if (v != "yes" && v != "no") fail(kw + " must be yes or no (got '" + v + "')");
+    return v == "yes";
+  };
+  auto integer = [&](const std::string &kw, const char *s, long nmin, const char *usage) -> long {
+    long n;
+    if (!sphdem_compat::to_int(s, &n) || n < nmin)
+      fail(kw + " expects an integer >= " + std::to_string(nmin) + ", got '" + s + "' (usage: " + usage + ")");
+    return n;
+  };
+
+  while (iarg < narg) {
+    const std::string kw = arg[iarg];
+    if (kw == "grid") {
+      const char *usage = "grid NX NY NZ, integers >= 1";
+      need(3, usage);
+      for (int d = 0; d < 3; d++) prm_.nc[d] = (int)integer("grid", arg[iarg + 1 + d], 1, usage);
+      have_grid = true;
+      iarg += 4;
+    } else if (kw == "box") {
+      const char *usage = "box xlo xhi ylo yhi zlo zhi";
+      need(6, usage);
+      for (int d = 0; d < 3; d++) {
+        prm_.boxlo[d] = parse_number("box", arg[iarg + 1 + 2 * d], usage);
+        prm_.boxhi[d] = parse_number("box", arg[iarg + 2 + 2 * d], usage);
+        if (!(prm_.boxhi[d] > prm_.boxlo[d]))
+          fail(std::string("box: ") + "xyz"[d] + "hi must be > " + "xyz"[d] + "lo (usage: " + usage + ")");
+      }
+      have_box_ = true;
+      iarg += 7;
+    } else if (kw == "rho" || kw == "mu" || kw == "eps_min" || kw == "tol" || kw == "cfl") {
+      const std::string usage = kw + " V";
+      need(1, usage.c_str());
+      const double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
+      if (kw == "rho") {
+        if (!(v > 0)) fail("rho must be > 0 (got " + std::string(arg[iarg + 1]) + ")");
+        prm_.rho_g = v;
+        have_rho = true;
+      } else if (kw == "mu") {
+        if (!(v > 0)) fail("mu must be > 0 (got " + std::string(arg[iarg + 1]) + ")");
+        prm_.mu_g = v;
+        have_mu = true;
+      } else if (kw == "eps_min") {
+        if (!(v > 0 && v < 1)) fail("eps_min must be in (0, 1) (got " + std::string(arg[iarg + 1]) + ")");
+        prm_.eps_min = v;
+      } else if (kw == "tol") {
+        if (!(v > 0 && v < 1)) fail("tol must be in (0, 1) (got " + std::string(arg[iarg + 1]) + ")");
+        prm_.tol = v;
+      } else {
+        if (!(v > 0)) fail("cfl must be > 0 (got " + std::string(arg[iarg + 1]) + ")");
+        prm_.cfl_max = v;
+      }
+      iarg += 2;
+    } else if (kw == "gravity" || kw == "init_u") {
+      const std::string usage = kw == "gravity" ? "gravity gx gy gz" : "init_u ux uy uz";
+      need(3, usage.c_str());
+      double *dst = kw == "gravity" ? prm_.gravity : init_u_;
+      for (int d = 0; d < 3; d++) dst[d] = parse_number(kw.c_str(), arg[iarg + 1 + d], usage.c_str());
+      if (kw == "init_u") have_init_u_ = true;
+      iarg += 4;
+    } else if (kw == "bc") {
+      if (iarg + 1 >= narg) fail(std::string("bc SIDE must be ") + SIDES + " (usage: bc SIDE TYPE [U])");
+      const int s = side_index(arg[iarg + 1]);
+      if (s < 0) fail(std::string("bc SIDE must be ") + SIDES + " (got '" + arg[iarg + 1] + "')");
+      if (iarg + 2 >= narg) fail(std::string("bc ") + SIDE_NAME[s] + ": TYPE must be " + BCS);
+      const std::string type = arg[iarg + 2];
+      inlet_var_[s].clear();
+      prm_.inlet_u[s] = 0.0;
+      if (type == "noslip") prm_.bc[s] = SPHDEM_CFD_NOSLIP;
+      else if (type == "slip") prm_.bc[s] = SPHDEM_CFD_SLIP;
+      else if (type == "outlet") prm_.bc[s] = SPHDEM_CFD_OUTLET;
+      else if (type == "inlet") {
+        prm_.bc[s] = SPHDEM_CFD_INLET;
+        if (iarg + 3 >= narg)
+          fail(std::string("bc ") + SIDE_NAME[s] + " inlet needs the superficial velocity U (a number or v_name)");
+        const std::string u = arg[iarg + 3];
+        if (u.compare(0, 2, "v_") == 0 && u.size() > 2) {
+          inlet_var_[s] = u.substr(2);
+        } else {
+          double v;
+          if (!sphdem_compat::to_double(u.c_str(), &v))
+            fail(std::string("bc ") + SIDE_NAME[s] + " inlet U expects a number or v_name (an equal-style " +
+                 "variable), got '" + u + "'");
+          prm_.inlet_u[s] = v;
+        }
+        iarg += 1;
+      } else {
+        fail(std::string("bc ") + SIDE_NAME[s] + ": TYPE must be " + BCS + " (got '" + type + "')");
+      }
+      iarg += 3;
+    } else if (kw == "patch") {
+      const char *usage = "patch SIDE A0 A1 B0 B1 U (a rectangle on an inlet side, the other two axes in x,y,z order)";
+      need(6, usage);
+      const int s = side_index(arg[iarg + 1]);
+      if (s < 0) fail(std::string("patch SIDE must be ") + SIDES + " (got '" + arg[iarg + 1] + "')");
+      if (prm_.npatch >= SPHDEM_CFD_MAX_PATCH)
+        fail("at most " + std::to_string(SPHDEM_CFD_MAX_PATCH) + " patch keywords are allowed");
+      sphdem_cfd_patch &pt = prm_.patch[prm_.npatch++];
+      pt.side = s;
+      pt.lo[0] = parse_number("patch", arg[iarg + 2], usage);
+      pt.hi[0] = parse_number("patch", arg[iarg + 3], usage);
+      pt.lo[1] = parse_number("patch", arg[iarg + 4], usage);
+      pt.hi[1] = parse_number("patch", arg[iarg + 5], usage);
+      pt.u = parse_number("patch", arg[iarg + 6], usage);
+      if (!(pt.hi[0] > pt.lo[0] && pt.hi[1] > pt.lo[1]))
+        fail(std::string("patch: need A1 > A0 and B1 > B0 (usage: ") + usage + ")");
+      iarg += 7;
+    } else if (kw == "every" || kw == "maxiter") {
+      const std::string usage = kw + " N";
+      need(1, usage.c_str());
+      const long n = integer(kw, arg[iarg + 1], 1, usage.c_str());
+      if (kw == "every") every_ = n;
+      else prm_.maxiter = (int)n;
+      iarg += 2;
+    } else if (kw == "drag") {
+      if (iarg + 1 >= narg) fail(std::string("drag must be ") + DRAGS);
+      const std::string v = arg[iarg + 1];
+      if (v == "gidaspow") prm_.drag = SPHDEM_CFD_DRAG_GIDASPOW;
+      else if (v == "wenyu") prm_.drag = SPHDEM_CFD_DRAG_WENYU;
+      else if (v == "none") prm_.drag = SPHDEM_CFD_DRAG_NONE;
+      else fail(std::string("drag must be ") + DRAGS + " (got '" + v + "')");
+      iarg += 2;
+    } else if (kw == "voidage") {
+      if (iarg + 1 >= narg) fail("voidage must be centroid or smooth");
+      const std::string v = arg[iarg + 1];
+      if (v == "centroid") prm_.voidage = SPHDEM_CFD_VOID_CENTROID;
+      else if (v == "smooth") prm_.voidage = SPHDEM_CFD_VOID_SMOOTH;
+      else fail("voidage must be centroid or smooth (got '" + v + "')");
+      iarg += 2;
+    } else if (kw == "ddt_eps" || kw == "pressure_force") {
+      (kw == "ddt_eps" ? prm_.ddt_eps : prm_.pressure_force) = yes_no(kw);
+      iarg += 2;
+    } else if (kw == "device") {
+      if (iarg + 1 >= narg) fail("device must be auto, gpu or cpu");
+      const std::string v = arg[iarg + 1];
+      if (v == "auto") device_ = SPHDEM_DEVICE_AUTO;
+      else if (v == "gpu") device_ = SPHDEM_DEVICE_GPU;
+      else if (v == "cpu") device_ = SPHDEM_DEVICE_CPU;
+      else fail("device must be auto, gpu or cpu (got '" + v + "')");
+      iarg += 2;
+    } else if (kw == "vtk") {
+      const char *usage = "vtk N PREFIX (a file PREFIX_<step>.vti every N gas steps, PREFIX.pvd)";
+      need(2, usage);
+      vtk_every_ = integer("vtk", arg[iarg + 1], 1, usage);
+      vtk_prefix_ = arg[iarg + 2];
+      iarg += 3;
+    } else {
+      fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
+    }
+  }
+
+  if (!have_grid || !have_rho || !have_mu) {
+    std::string missing;
+    if (!have_grid) missing += " grid";
+    if (!have_rho) missing += " rho";
+    if (!have_mu) missing += " mu";
+    fail("missing required keyword(s):" + missing + " (syntax: " + SYNTAX + ")");
+  }
+  bool outlet = false;
+  for (int s = 0; s < 6; s++) outlet = outlet || prm_.bc[s] == SPHDEM_CFD_OUTLET;
+  if (!outlet)
+    fail("no side is an outlet: give at least one 'bc SIDE outlet' (SIDE: " + std::string(SIDES) +
+         "); the gas leaves the box there at p = 0, the other sides default to noslip walls");
+  for (int k = 0; k < prm_.npatch; k++)
+    if (prm_.bc[prm_.patch[k].side] != SPHDEM_CFD_INLET)
+      fail(std::string("patch on side ") + SIDE_NAME[prm_.patch[k].side] + " needs 'bc " +
+           SIDE_NAME[prm_.patch[k].side] + " inlet U' (a patch is a spout on an inlet side)");
+  if (!have_box_)
+    for (int d = 0; d < 3; d++) {
+      prm_.boxlo[d] = domain->boxlo[d];
+      prm_.boxhi[d] = domain->boxhi[d];
+    }
+  char msg[512] = "";
+  if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+}
+
+/* ---- run set-up ---------------------------------------------------------------------------------- */
+
+void FixCFDGrid::init() {
+  if (comm->nprocs > 1) fail("running on more than one MPI rank is not supported yet (use mpirun -np 1)");
+  if (!atom->radius_flag) fail("the atom style must define a per-atom radius (atom_style sphere or granular)");
+  if (update->dt <= 0) fail("the timestep must be > 0");
+  for (int s = 0; s < 6; s++) {
+    inlet_ivar_[s] = -1;
+    if (inlet_var_[s].empty()) continue;
+    std::string name = inlet_var_[s];
+    const int iv = input->variable->find(&name[0]);
+    const std::string what = std::string("bc ") + SIDE_NAME[s] + " inlet v_" + inlet_var_[s];
+    if (iv < 0) fail(what + ": variable " + inlet_var_[s] + " does not exist");
+    if (!input->variable->equalstyle(iv)) fail(what + ": variable " + inlet_var_[s] + " is not equal-style");
+    inlet_ivar_[s] = iv;
+  }
+}
+
+/* Inlet velocities given as v_name: evaluated before each gas step; the core's parameters are updated
+ * when a value changed (or always with force, before the context exists). */
+void FixCFDGrid::update_inlets(bool force) {
+  bool changed = false;
+  bool any = false;
+  for (int s = 0; s < 6; s++) {
+    if (inlet_ivar_[s] < 0) continue;
+    if (!any) modify->clearstep_compute();
+    any = true;
+    const double u = input->variable->compute_equal(inlet_ivar_[s]);
+    if (!std::isfinite(u))
+      fail(std::string("bc ") + SIDE_NAME[s] + " inlet v_" + inlet_var_[s] + " evaluated to a non-finite value");
+    if (u != prm_.inlet_u[s]) changed = true;
+    prm_.inlet_u[s] = u;
+  }
+  if (any) modify->addstep_compute(update->ntimestep + every_);
+  if (ctx_ && (changed || force)) check(sphdem_cfd_set_params(ctx_, &prm_), "set_params");
+}
+
+void FixCFDGrid::setup(int) {
+  if (!ctx_) {
+    update_inlets(false);
+    char msg[512] = "";
+    if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+    const int rc = sphdem_cfd_create(&ctx_, &prm_, device_, msg, sizeof msg);
+    if (rc != SPHDEM_OK) {
+      ctx_ = nullptr;
+      fail(std::string(msg) + " (" + sphdem_strerror(rc) + ")");
+    }
+    if (have_pending_) { /* a restart file: its gas state wins over init_u */
+      const int64_t ns = sphdem_cfd_state_size(ctx_);
+      if (ns != (int64_t)pending_state_.size())
+        fail("the gas state in the restart file has " + std::to_string(pending_state_.size()) +
+             " values, this grid needs " + std::to_string(ns) + " (re-issue the fix with the grid, box and bc "
+             "of the run that wrote it)");
+      check(sphdem_cfd_set_state(ctx_, pending_state_.data()), "set_state");
+      pending_state_.clear();
+      have_pending_ = false;
+    } else if (have_init_u_) {
+      check(sphdem_cfd_set_velocity(ctx_, init_u_), "set_velocity");
+    }
+  } else {
+    update_inlets(true); /* a later run: timestep or variables may have changed */
+  }
+  if (sphdem_cfd_stats_get(ctx_, &stats_) != SPHDEM_OK) std::memset(&stats_, 0, sizeof stats_);
+  sphdem_cfd_timers_reset(ctx_);
+  host_time_ = 0.0;
+
+  /* the held forces (an earlier run or a restart file) act from the first step on */
+  const int *mask = atom->mask;
+  double **f = atom->f;
+  double rmax = 0.0;
+  for (int i = 0; i < nloop(); i++) {
+    if (!(mask[i] & groupbit)) continue;
+    for (int d = 0; d < 3; d++) f[i][d] += fa_[i][C_FDRAG + d] + fa_[i][C_FPG + d];
+    rmax = std::max(rmax, atom->radius[i]);
+  }
+
+  if (comm->me == 0 && !announced_) {
+    double hc[3];
+    for (int d = 0; d < 3; d++) hc[d] = (prm_.boxhi[d] - prm_.boxlo[d]) / prm_.nc[d];
+    const double hmin = std::min(hc[0], std::min(hc[1], hc[2]));
+    char dia[128] = "no grains yet";
+    if (rmax > 0) snprintf(dia, sizeof dia, "%.3g grain diameters (largest d %g)", hmin / (2 * rmax), 2 * rmax);
+    char line[1024];
+    snprintf(line, sizeof line,
+             "Fix cfd/grid: %s backend; grid %d x %d x %d cells of %g x %g x %g (smallest = %s); gas step %g "
+             "(every %ld x timestep); drag %s; bc %s %s %s %s %s %s; %.0f device bytes\n",
+             sphdem_cfd_backend(ctx_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU", prm_.nc[0], prm_.nc[1], prm_.nc[2],
+             hc[0], hc[1], hc[2], dia, every_ * update->dt, every_, DRAG_NAME[prm_.drag], BC_NAME[prm_.bc[0]],
+             BC_NAME[prm_.bc[1]], BC_NAME[prm_.bc[2]], BC_NAME[prm_.bc[3]], BC_NAME[prm_.bc[4]],
+             BC_NAME[prm_.bc[5]], (double)sphdem_cfd_device_bytes(ctx_));
+    sphdem_compat::logmesg(lmp, line);
+    announced_ = true;
+  }
+}
+
+int FixCFDGrid::nloop() const {
+  return (atom->firstgroup >= 0 && igroup == atom->firstgroup) ? atom->nfirst : atom->nlocal;
+}
+
+/* ---- the gas step ---------------------------------------------------------------------------------- */
+
+void FixCFDGrid::gas_step() {
+  const double t0 = wall_seconds();
+  update_inlets(false);
+  const int *mask = atom->mask;
+  gidx_.clear();
+  for (int i = 0; i < nloop(); i++)
+    if (mask[i] & groupbit) gidx_.push_back(i);
+  const size_t n = gidx_.size();
+  gx_.resize(3 * n);
+  gv_.resize(3 * n);
+  grad_.resize(n);
+  gfd_.resize(3 * n);
+  gfp_.resize(3 * n);
+  double **x = atom->x, **v = atom->v;
+  for (size_t k = 0; k < n; k++) {
+    const int i = gidx_[k];
+    grad_[k] = atom->radius[i];
+    for (int d = 0; d < 3; d++) {
+      gx_[3 * k + d] = x[i][d];
+      gv_[3 * k + d] = v[i][d];
+    }
+  }
+  const double t1 = wall_seconds();
+  const double dt_gas = (double)every_ * update->dt;
+  const int rc = sphdem_cfd_step(ctx_, dt_gas, (int)n, gx_.data(), gv_.data(), grad_.data(), gfd_.data(), gfp_.data());
+  if (rc != SPHDEM_OK) {
+    char where[128];
+    snprintf(where, sizeof where, "gas step at timestep " BIGINT_FORMAT " (gas dt %g)", update->ntimestep, dt_gas);
+    check(rc, where);
+  }
+  const double t2 = wall_seconds();
+  for (size_t k = 0; k < n; k++) {
+    double *row = fa_[gidx_[k]];
+    for (int d = 0; d < 3; d++) {
+      row[C_FDRAG + d] = gfd_[3 * k + d];
+      row[C_FPG + d] = gfp_[3 * k + d];
+    }
+  }
+  check(sphdem_cfd_stats_get(ctx_, &stats_), "stats_get");
+  ngas_steps_++;
+  if (vtk_every_ > 0 && ngas_steps_ % vtk_every_ == 0) write_vtk();
+  host_time_ += (t1 - t0) + (wall_seconds() - t2);
+}
+
+/* ---- every engine step: add the held forces ------------------------------------------------------- */
+
+void FixCFDGrid::post_force(int) {
+  if (update->ntimestep % every_ == 0) gas_step();
+  const int *mask = atom->mask;
+  double **f = atom->f;
+  for (int i = 0; i < nloop(); i++) {
+    if (!(mask[i] & groupbit)) continue;
+    for (int d = 0; d < 3; d++) f[i][d] += fa_[i][C_FDRAG + d] + fa_[i][C_FPG + d];
+  }
+}
+
+void FixCFDGrid::post_run() { print_timers(); }
+
+/* One line: the core's time per phase of this run and the fix's own share (gather, scatter, VTK). */
+void FixCFDGrid::print_timers() {
+  if (!ctx_ || comm->me != 0) return;
+  double t[SPHDEM_CFD_NTIMERS];
+  sphdem_cfd_timers(ctx_, t);
+  double total = host_time_;
+  for (int k = 0; k < SPHDEM_CFD_NTIMERS; k++) total += t[k];
+  std::string line = "Fix cfd/grid: gas time " + std::to_string(stats_.nsteps) + " gas steps so far;";
+  char buf[128];
+  for (int k = 0; k < SPHDEM_CFD_NTIMERS; k++) {
+    snprintf(buf, sizeof buf, " %s %.4g s (%.1f%%)%s", TIMER_NAME[k], t[k], total > 0 ? 100 * t[k] / total : 0.0,
+             k + 1 < SPHDEM_CFD_NTIMERS ? "," : "");
+    line += buf;
+  }
+  snprintf(buf, sizeof buf, "; fix host side %.4g s (%.1f%%); total %.4g s this run\n", host_time_,
+           total > 0 ? 100 * host_time_ / total : 0.0, total);
+  line += buf;
+  sphdem_compat::logmesg(lmp, line);
+}
+
+/* ---- VTK output ------------------------------------------------------------------------------------- */
+
+/* PREFIX_<step>.vti (VTK XML ImageData, ASCII cell data) and PREFIX.pvd listing every file with its time.
+ * An existing PREFIX.pvd (a run continued from a restart file) keeps its entries of earlier times. */
+void FixCFDGrid::write_vtk() {
+  if (comm->me != 0) return;
+  const int nx = prm_.nc[0], ny = prm_.nc[1], nz = prm_.nc[2];
+  const size_t nc = (size_t)nx * ny * nz;
+  std::vector<double> eps(nc), p(nc), u(3 * nc);
+  check(sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data()), "get_fields");
+  const double time = update->atime + (double)(update->ntimestep - update->atimestep) * update->dt;
+
+  const std::string file = vtk_prefix_ + "_" + std::to_string((long long)update->ntimestep) + ".vti";
+  FILE *fp = fopen(file.c_str(), "w");
+  if (!fp) fail("vtk: cannot open " + file + " for writing");
+  double h[3];
+  for (int d = 0; d < 3; d++) h[d] = (prm_.boxhi[d] - prm_.boxlo[d]) / prm_.nc[d];
+  fprintf(fp, "<?xml version=\"1.0\"?>\n");
+  fprintf(fp, "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n");
+  fprintf(fp, "  <ImageData WholeExtent=\"0 %d 0 %d 0 %d\" Origin=\"%.17g %.17g %.17g\" Spacing=\"%.17g %.17g %.17g\">\n",
+          nx, ny, nz, prm_.boxlo[0], prm_.boxlo[1], prm_.boxlo[2], h[0], h[1], h[2]);
+  fprintf(fp, "    <FieldData>\n");
+  fprintf(fp, "      <DataArray type=\"Float64\" Name=\"TIME\" NumberOfTuples=\"1\" format=\"ascii\">%.17g</DataArray>\n",
+          time);
+  fprintf(fp, "    </FieldData>\n");
+  fprintf(fp, "    <Piece Extent=\"0 %d 0 %d 0 %d\">\n", nx, ny, nz);
+  fprintf(fp, "      <CellData Scalars=\"voidage\" Vectors=\"velocity\">\n");
+  auto scalars = [&](const char *name, const std::vector<double> &a, int ncomp) {
+    fprintf(fp, "        <DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"%d\" format=\"ascii\">\n", name,
+            ncomp);
+    for (size_t k = 0; k < a.size(); k++) fprintf(fp, "%.10g%c", a[k], (k + 1) % (size_t)(6 * ncomp) ? ' ' : '\n');
+    fprintf(fp, "\n        </DataArray>\n");
+  };
+  scalars("voidage", eps, 1);
+  scalars("pressure", p, 1);
+  scalars("velocity", u, 3);
+  fprintf(fp, "      </CellData>\n    </Piece>\n  </ImageData>\n</VTKFile>\n");
+  if (fclose(fp) != 0) fail("vtk: error writing " + file);
+
+  const std::string pvd = vtk_prefix_ + ".pvd";
+  if (!pvd_loaded_) { /* entries of earlier times from a previous run (restart) */
+    std::ifstream in(pvd);
+    std::string l;
+    while (std::getline(in, l)) {
+      const size_t a = l.find("timestep=\""), b = l.find("file=\"");
+      if (a == std::string::npos || b == std::string::npos) continue;
+      const double t = std::atof(l.c_str() + a + 10);
+      const size_t e = l.find('"', b + 6);
+      if (e == std::string::npos) continue;
+      if (t < time * (1 - 1e-12) - 1e-300) pvd_.emplace_back(t, l.substr(b + 6, e - b - 6));
+    }
+    pvd_loaded_ = true;
+  }
+  const size_t slash = file.find_last_of('/');
+  pvd_.emplace_back(time, slash == std::string::npos ? file : file.substr(slash + 1));
+  FILE *fq = fopen(pvd.c_str(), "w");
+  if (!fq) fail("vtk: cannot open " + pvd + " for writing");
+  fprintf(fq, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
+              "  <Collection>\n");
+  for (const auto &e : pvd_)
+    fprintf(fq, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n", e.first, e.second.c_str());
+  fprintf(fq, "  </Collection>\n</VTKFile>\n");
+  if (fclose(fq) != 0) fail("vtk: error writing " + pvd);
+}
+
+/* ---- output ------------------------------------------------------------------------------------------ */
+
+double FixCFDGrid::compute_vector(int n) {
+  const sphdem_cfd_stats &s = stats_;
+  switch (n) {
+    case 0: return s.dp;
+    case 1: return (double)s.iters;
+    case 2: return s.residual;
+    case 3: return s.eps_min;
+    case 4: return s.eps_mean;
+    case 5: return s.umax;
+    case 6: return s.cfl;
+    case 7: return s.mass_err;
+    default: break;
+  }
+  if (n >= 8 && n < 11) return s.f_grains[n - 8];
+  if (n >= 11 && n < 14) return s.f_gas[n - 11];
+  if (n >= 14 && n < 17) return s.f_bound[n - 14];
+  if (n >= 17 && n < 20) return s.f_pg[n - 17];
+  return 0.0;
+}
+
+double FixCFDGrid::memory_usage() {
+  return (double)atom->nmax * NCOL * sizeof(double) +
+         (double)(gx_.capacity() + gv_.capacity() + grad_.capacity() + gfd_.capacity() + gfp_.capacity() +
+                  pending_state_.capacity()) *
+             sizeof(double) +
+         (double)gidx_.capacity() * sizeof(int);
+}
+
+/* global restart state: tag, gas steps, state size, the gas state (face velocities, pressure, voidage) */
+void FixCFDGrid::write_restart(FILE *fp) {
+  std::vector<double> list(3);
+  if (ctx_) {
+    const int64_t ns = sphdem_cfd_state_size(ctx_);
+    if (ns < 0) check((int)-ns, "state_size");
+    list.resize(3 + (size_t)ns);
+    if (ns > 0) check(sphdem_cfd_get_state(ctx_, list.data() + 3), "get_state");
+  } else if (have_pending_) { /* read from a restart file, no run since */
+    list.insert(list.end(), pending_state_.begin(), pending_state_.end());
+  }
+  list[0] = RESTART_TAG;
+  list[1] = (double)ngas_steps_;
+  list[2] = (double)(list.size() - 3);
+  if (comm->me == 0) {
+    int size = (int)(list.size() * sizeof(double));
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(list.data(), sizeof(double), list.size(), fp);
+  }
+}
+
+void FixCFDGrid::restart(char *buf) {
+  double head[3];
+  std::memcpy(head, buf, sizeof head);
+  if (head[0] != RESTART_TAG) fail("the restart data of this fix are not from fix cfd/grid of this version");
+  ngas_steps_ = (int64_t)head[1];
+  const size_t ns = (size_t)head[2];
+  pending_state_.resize(ns);
+  if (ns) std::memcpy(pending_state_.data(), buf + sizeof head, ns * sizeof(double));
+  have_pending_ = ns > 0;
+  if (ctx_) { /* not reached in practice: restart data arrive when the fix is created */
+    check(sphdem_cfd_set_state(ctx_, pending_state_.data()), "set_state");
+    have_pending_ = false;
+  }
+}
+
+/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
+
+void FixCFDGrid::grow_arrays(int nmax) {
+  memory->grow(fa_, nmax, NCOL, "cfd/grid:fa");
+  for (int i = nmax_ < nmax ? nmax_ : nmax; i < nmax; i++)
+    for (int c = 0; c < NCOL; c++) fa_[i][c] = 0.0;
+  nmax_ = nmax;
+  array_atom = fa_;
+}
+
+void FixCFDGrid::copy_arrays(int i, int j, int) {
+  for (int c = 0; c < NCOL; c++) fa_[j][c] = fa_[i][c];
+}
+
+void FixCFDGrid::set_arrays(int i) {
+  for (int c = 0; c < NCOL; c++) fa_[i][c] = 0.0;
+}
+
+int FixCFDGrid::pack_exchange(int i, double *buf) {
+  for (int c = 0; c < NCOL; c++) buf[c] = fa_[i][c];
+  return NCOL;
+}
+
+int FixCFDGrid::unpack_exchange(int nlocal, double *buf) {
+  for (int c = 0; c < NCOL; c++) fa_[nlocal][c] = buf[c];
+  return NCOL;
+}
+
+int FixCFDGrid::pack_restart(int i, double *buf) {
+  buf[0] = NCOL + 1;
+  for (int c = 0; c < NCOL; c++) buf[c + 1] = fa_[i][c];
+  return NCOL + 1;
+}
+
+void FixCFDGrid::unpack_restart(int nlocal, int nth) {
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
+  m++;
+  for (int c = 0; c < NCOL; c++) fa_[nlocal][c] = extra[nlocal][m++];
+}
+
+int FixCFDGrid::size_restart(int) { return NCOL + 1; }
+
+int FixCFDGrid::maxsize_restart() { return NCOL + 1; }
