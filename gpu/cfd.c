@@ -1,22 +1,510 @@
-/* cfd.c - placeholder while the gas grid is written (replaced in the next commit). */
+/* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag,
+ * predictor, Jacobi-preconditioned conjugate-gradient pressure solve, correction, grain forces),
+ * statistics, fields and restart state. The loops are in cfd_bodies.h, run by a backend. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
-#include "sphdem.h"
-void sphdem_cfd_params_default(sphdem_cfd_params *p) { memset(p, 0, sizeof *p); }
-int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *m, size_t l) { (void)p; (void)m; (void)l; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_create(sphdem_cfd *o, const sphdem_cfd_params *p, sphdem_device d, char *m, size_t l) { (void)p; (void)d; (void)m; (void)l; *o = 0; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_destroy(sphdem_cfd *c) { (void)c; return 0; }
-const char *sphdem_cfd_last_error(sphdem_cfd c) { (void)c; return "not implemented"; }
-int sphdem_cfd_backend(sphdem_cfd c) { (void)c; return 1; }
-int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p) { (void)c; (void)p; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) { (void)c; (void)p; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *r, double *fd, double *fp) { (void)c; (void)dt; (void)n; (void)x; (void)v; (void)r; (void)fd; (void)fp; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s) { (void)c; (void)s; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_get_fields(sphdem_cfd c, double *e, double *p, double *u) { (void)c; (void)e; (void)p; (void)u; return SPHDEM_ERR_STATE; }
-int64_t sphdem_cfd_state_size(sphdem_cfd c) { (void)c; return 0; }
-int sphdem_cfd_get_state(sphdem_cfd c, double *s) { (void)c; (void)s; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_set_state(sphdem_cfd c, const double *s) { (void)c; (void)s; return SPHDEM_ERR_STATE; }
-int sphdem_cfd_set_velocity(sphdem_cfd c, const double u[3]) { (void)c; (void)u; return SPHDEM_ERR_STATE; }
-void sphdem_cfd_timers(sphdem_cfd c, double t[SPHDEM_CFD_NTIMERS]) { (void)c; memset(t, 0, sizeof(double) * SPHDEM_CFD_NTIMERS); }
-void sphdem_cfd_timers_reset(sphdem_cfd c) { (void)c; }
-size_t sphdem_cfd_device_bytes(sphdem_cfd c) { (void)c; return 0; }
-double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho, double mu) { (void)drag; (void)eps; (void)slip; (void)d; (void)rho; (void)mu; return 0; }
+#include <time.h>
+
+#include "cfd_bodies.h"
+
+int sphdem_cfd_fail(struct sphdem_cfd_s *m, int code, const char *fmt, ...) {
+  if (m) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(m->err, sizeof m->err, fmt, ap);
+    va_end(ap);
+  }
+  return code;
+}
+
+static double now(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho_g, double mu_g) {
+  return cfd_drag_K(drag, eps, slip, d, rho_g, mu_g);
+}
+
+void sphdem_cfd_params_default(sphdem_cfd_params *p) {
+  memset(p, 0, sizeof *p);
+  for (int d = 0; d < 3; d++) {
+    p->nc[d] = 1;
+    p->boxhi[d] = 1.0;
+  }
+  p->rho_g = 1.2;
+  p->mu_g = 1.8e-5;
+  p->gravity[2] = -9.81;
+  for (int s = 0; s < 6; s++) p->bc[s] = SPHDEM_CFD_NOSLIP;
+  p->voidage = SPHDEM_CFD_VOID_CENTROID;
+  p->drag = SPHDEM_CFD_DRAG_GIDASPOW;
+  p->eps_min = 0.2;
+  p->ddt_eps = 1;
+  p->pressure_force = 1;
+  p->tol = 1e-10;
+  p->maxiter = 2000;
+  p->cfl_max = 1.0;
+}
+
+static const char *const SIDE[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
+
+#define BAD(...) do { if (msg && msglen) snprintf(msg, msglen, __VA_ARGS__); return SPHDEM_ERR_ARG; } while (0)
+
+int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen) {
+  if (!p) BAD("params: NULL");
+  int64_t nc = 1;
+  for (int d = 0; d < 3; d++) {
+    if (p->nc[d] < 1) BAD("nc[%d]: cells per axis must be >= 1 (got %d)", d, p->nc[d]);
+    nc *= p->nc[d];
+    if (!(p->boxhi[d] > p->boxlo[d]) || !isfinite(p->boxlo[d]) || !isfinite(p->boxhi[d]))
+      BAD("box: axis %d needs finite hi > lo (got %g, %g)", d, p->boxlo[d], p->boxhi[d]);
+    if (!isfinite(p->gravity[d])) BAD("gravity: component %d is not finite", d);
+  }
+  if (nc > SPHDEM_CFD_MAX_CELLS) BAD("nc: %lld cells exceed the limit %lld", (long long)nc, SPHDEM_CFD_MAX_CELLS);
+  if (!(p->rho_g > 0.0) || !isfinite(p->rho_g)) BAD("rho: gas density must be > 0 (got %g)", p->rho_g);
+  if (!(p->mu_g > 0.0) || !isfinite(p->mu_g)) BAD("mu: gas viscosity must be > 0 (got %g)", p->mu_g);
+  int nout = 0;
+  for (int s = 0; s < 6; s++) {
+    if (p->bc[s] < SPHDEM_CFD_NOSLIP || p->bc[s] > SPHDEM_CFD_OUTLET)
+      BAD("bc %s: %d is not a boundary type (noslip, slip, inlet, outlet)", SIDE[s], p->bc[s]);
+    if (p->bc[s] == SPHDEM_CFD_OUTLET) nout++;
+    if (!isfinite(p->inlet_u[s])) BAD("bc %s: inlet velocity is not finite", SIDE[s]);
+  }
+  if (nout == 0)
+    BAD("bc: at least one side must be a pressure outlet (bc SIDE outlet): a closed box has no pressure level");
+  if (p->npatch < 0 || p->npatch > SPHDEM_CFD_MAX_PATCH)
+    BAD("patch: %d patches, allowed 0 to %d", p->npatch, SPHDEM_CFD_MAX_PATCH);
+  for (int q = 0; q < p->npatch; q++) {
+    const sphdem_cfd_patch *pt = &p->patch[q];
+    if (pt->side < 0 || pt->side > 5) BAD("patch %d: side %d is not 0-5 (xlo xhi ylo yhi zlo zhi)", q + 1, pt->side);
+    if (p->bc[pt->side] != SPHDEM_CFD_INLET)
+      BAD("patch %d: side %s is not an inlet (give bc %s inlet U first)", q + 1, SIDE[pt->side], SIDE[pt->side]);
+    if (!(pt->hi[0] > pt->lo[0]) || !(pt->hi[1] > pt->lo[1]))
+      BAD("patch %d: the rectangle needs hi > lo on both axes", q + 1);
+    if (!isfinite(pt->u)) BAD("patch %d: velocity is not finite", q + 1);
+  }
+  if (p->voidage != SPHDEM_CFD_VOID_CENTROID && p->voidage != SPHDEM_CFD_VOID_SMOOTH)
+    BAD("voidage: %d is not centroid (0) or smooth (1)", p->voidage);
+  if (p->drag < SPHDEM_CFD_DRAG_GIDASPOW || p->drag > SPHDEM_CFD_DRAG_NONE)
+    BAD("drag: %d is not gidaspow (0), wenyu (1) or none (2)", p->drag);
+  if (!(p->eps_min > 0.0 && p->eps_min < 1.0)) BAD("eps_min: must be in (0, 1) (got %g)", p->eps_min);
+  if (p->ddt_eps != 0 && p->ddt_eps != 1) BAD("ddt_eps: must be 0 or 1");
+  if (p->pressure_force != 0 && p->pressure_force != 1) BAD("pressure_force: must be 0 or 1");
+  if (!(p->tol > 0.0 && p->tol < 1.0)) BAD("tol: relative residual must be in (0, 1) (got %g)", p->tol);
+  if (p->maxiter < 1) BAD("maxiter: must be >= 1 (got %d)", p->maxiter);
+  if (!(p->cfl_max > 0.0)) BAD("cfl: must be > 0 (got %g)", p->cfl_max);
+  return SPHDEM_OK;
+}
+
+static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
+  D->P = *p;
+  D->Vc = 1.0;
+  for (int d = 0; d < 3; d++) {
+    D->nc[d] = p->nc[d];
+    D->lo[d] = p->boxlo[d];
+    D->h[d] = (p->boxhi[d] - p->boxlo[d]) / p->nc[d];
+    D->inv_h[d] = 1.0 / D->h[d];
+    D->Vc *= D->h[d];
+  }
+  D->ncell = (int64_t)p->nc[0] * p->nc[1] * p->nc[2];
+  D->foff[0] = 0;
+  D->foff[1] = (int64_t)(p->nc[0] + 1) * p->nc[1] * p->nc[2];
+  D->foff[2] = D->foff[1] + (int64_t)p->nc[0] * (p->nc[1] + 1) * p->nc[2];
+  D->foff[3] = D->foff[2] + (int64_t)p->nc[0] * p->nc[1] * (p->nc[2] + 1);
+  D->nface = D->foff[3];
+}
+
+#define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag)
+#define FACE_ARRAYS(X) X(u) X(us) X(cf) X(K) X(Kv)
+#define GRAIN3_ARRAYS(X) X(gx) X(gv) X(gfd) X(gfp) X(gfb)
+#define GRAIN1_ARRAYS(X) X(grad) X(gK)
+
+static int dalloc(struct sphdem_cfd_s *m, double **ptr, int64_t n) {
+  void *q = NULL;
+  int rc = m->ops->alloc(m, &q, sizeof(double) * (size_t)(n > 0 ? n : 1));
+  if (rc) return rc;
+  *ptr = (double *)q;
+  m->bytes += sizeof(double) * (size_t)n;
+  return m->ops->memset0(m, q, sizeof(double) * (size_t)(n > 0 ? n : 1));
+}
+
+static void free_grains(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+#define F_(a) if (D->a) { m->ops->free(m, D->a); D->a = NULL; }
+  GRAIN3_ARRAYS(F_)
+  GRAIN1_ARRAYS(F_)
+#undef F_
+  m->bytes -= sizeof(double) * (size_t)m->cap_n * 17;
+  m->cap_n = 0;
+}
+
+static int grow_grains(struct sphdem_cfd_s *m, int64_t n) {
+  if (n <= m->cap_n) return SPHDEM_OK;
+  int64_t cap = n + n / 4 + 16;
+  if (m->cap_n) free_grains(m);
+  cfd_dev *D = &m->D;
+  int rc;
+#define A3_(a) if ((rc = dalloc(m, &D->a, 3 * cap))) return rc;
+#define A1_(a) if ((rc = dalloc(m, &D->a, cap))) return rc;
+  GRAIN3_ARRAYS(A3_)
+  GRAIN1_ARRAYS(A1_)
+#undef A3_
+#undef A1_
+  m->cap_n = cap;
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device dev, char *msg, size_t msglen) {
+  if (!out) BAD("out: NULL");
+  *out = NULL;
+  int rc = sphdem_cfd_params_check(p, msg, msglen);
+  if (rc) return rc;
+  struct sphdem_cfd_s *m = (struct sphdem_cfd_s *)calloc(1, sizeof *m);
+  if (!m) BAD("cannot allocate the gas-grid context");
+  const cfd_ops *ops = &sphdem_cfd_cpu_ops;
+  m->backend = SPHDEM_DEVICE_CPU;
+  if (dev == SPHDEM_DEVICE_GPU || dev == SPHDEM_DEVICE_AUTO) {
+#ifdef SPHDEM_WITH_CUDA
+    if (sphdem_gpu_available()) {
+      ops = &sphdem_cfd_cuda_ops;
+      m->backend = SPHDEM_DEVICE_GPU;
+    }
+#endif
+    if (dev == SPHDEM_DEVICE_GPU && m->backend != SPHDEM_DEVICE_GPU) {
+      free(m);
+      if (msg && msglen)
+        snprintf(msg, msglen, "device gpu: no usable GPU (CUDA backend %s)",
+#ifdef SPHDEM_WITH_CUDA
+                 "built, but no device found"
+#else
+                 "not built"
+#endif
+        );
+      return SPHDEM_ERR_NO_GPU;
+    }
+  }
+  m->ops = ops;
+  derive(&m->D, p);
+  m->D.first = 1;
+  cfd_dev *D = &m->D;
+#define AC_(a) if (!rc) rc = dalloc(m, &D->a, D->ncell);
+#define AF_(a) if (!rc) rc = dalloc(m, &D->a, D->nface);
+  CELL_ARRAYS(AC_)
+  FACE_ARRAYS(AF_)
+#undef AC_
+#undef AF_
+  if (rc) {
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    sphdem_cfd_destroy(&m);
+    return rc;
+  }
+  /* all void until grains arrive */
+  double *one = (double *)malloc(sizeof(double) * (size_t)D->ncell);
+  if (!one) {
+    sphdem_cfd_destroy(&m);
+    BAD("cannot allocate %lld host doubles", (long long)D->ncell);
+  }
+  for (int64_t i = 0; i < D->ncell; i++) one[i] = 1.0;
+  rc = m->ops->h2d(m, D->eps, one, sizeof(double) * (size_t)D->ncell);
+  if (!rc) rc = m->ops->h2d(m, D->eps_old, one, sizeof(double) * (size_t)D->ncell);
+  free(one);
+  if (rc) {
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    sphdem_cfd_destroy(&m);
+    return rc;
+  }
+  m->st.eps_min = m->st.eps_mean = 1.0;
+  m->st.flow_axis = cfd_flow_axis(D);
+  *out = m;
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_destroy(sphdem_cfd *c) {
+  if (!c || !*c) return SPHDEM_OK;
+  struct sphdem_cfd_s *m = *c;
+  cfd_dev *D = &m->D;
+#define F_(a) if (D->a) m->ops->free(m, D->a);
+  CELL_ARRAYS(F_)
+  FACE_ARRAYS(F_)
+  GRAIN3_ARRAYS(F_)
+  GRAIN1_ARRAYS(F_)
+#undef F_
+  if (m->ops->release) m->ops->release(m);
+  free(m);
+  *c = NULL;
+  return SPHDEM_OK;
+}
+
+const char *sphdem_cfd_last_error(sphdem_cfd c) { return c ? c->err : "no gas-grid context"; }
+int sphdem_cfd_backend(sphdem_cfd c) { return c ? c->backend : SPHDEM_DEVICE_CPU; }
+size_t sphdem_cfd_device_bytes(sphdem_cfd c) { return c ? c->bytes : 0; }
+
+int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p) {
+  if (!c) return SPHDEM_ERR_ARG;
+  int rc = sphdem_cfd_params_check(p, c->err, sizeof c->err);
+  if (rc) return rc;
+  for (int d = 0; d < 3; d++)
+    if (p->nc[d] != c->D.P.nc[d] || p->boxlo[d] != c->D.P.boxlo[d] || p->boxhi[d] != c->D.P.boxhi[d])
+      return sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "nc, box: the grid cannot change after creation");
+  c->D.P = *p;
+  c->st.flow_axis = cfd_flow_axis(&c->D);
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
+  if (!c || !p) return SPHDEM_ERR_ARG;
+  *p = c->D.P;
+  return SPHDEM_OK;
+}
+
+/* Conjugate gradients with a Jacobi preconditioner on A p = b, warm-started from the last pressure. */
+static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
+  cfd_dev *D = &m->D;
+  const cfd_ops *o = m->ops;
+  int64_t n = D->ncell;
+  double bb, rr, rz, dad;
+  int rc;
+  *iters = 0;
+  if ((rc = o->reduce(m, CFD_R_bb, n, &bb))) return rc;
+  if (!(bb > 0.0)) { /* nothing drives the flow: p = 0 solves it */
+    *res = 0.0;
+    return o->memset0(m, D->p, sizeof(double) * (size_t)n);
+  }
+  double bn = sqrt(bb);
+  D->mvx = D->p;
+  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_init, n))) return rc;
+  if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz))) return rc;
+  D->mvx = D->d;
+  int it = 0;
+  while (sqrt(rr) > D->P.tol * bn) {
+    if (it >= D->P.maxiter) {
+      *iters = it;
+      *res = sqrt(rr) / bn;
+      return sphdem_cfd_fail(m, SPHDEM_ERR_UNSTABLE,
+                             "pressure solve did not reach tol %g in maxiter %d iterations (relative residual "
+                             "%.3g); likely cause: a gas step too large for the drag (raise maxiter or tol, or "
+                             "lower every), or a field already broken",
+                             D->P.tol, D->P.maxiter, *res);
+    }
+    if ((rc = o->run(m, CFD_K_matvec, n))) return rc;
+    if ((rc = o->reduce(m, CFD_R_dad, n, &dad))) return rc;
+    if (!(dad > 0.0)) break; /* converged to round-off */
+    D->alpha = rz / dad;
+    if ((rc = o->run(m, CFD_K_pcg_update, n))) return rc;
+    double rz_new;
+    if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz_new))) return rc;
+    D->beta = rz_new / rz;
+    rz = rz_new;
+    if ((rc = o->run(m, CFD_K_pcg_dir, n))) return rc;
+    it++;
+  }
+  *iters = it;
+  *res = sqrt(rr) / bn;
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
+                    double *fdrag, double *fpg) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!(dt > 0.0) || !isfinite(dt)) return sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "dt: gas step must be > 0 (got %g)", dt);
+  if (n < 0 || (n > 0 && (!x || !v || !radius)))
+    return sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "grains: n = %d with a NULL x, v or radius", n);
+  struct sphdem_cfd_s *m = c;
+  cfd_dev *D = &m->D;
+  const cfd_ops *o = m->ops;
+  int rc;
+  for (int i = 0; i < n; i++)
+    if (!(radius[i] > 0.0) || !isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
+      return sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[i]);
+  double t0 = now();
+  if ((rc = grow_grains(m, n))) return rc;
+  D->n = n;
+  D->dt = dt;
+  if (n) {
+    if ((rc = o->h2d(m, D->gx, x, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = o->h2d(m, D->gv, v, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = o->h2d(m, D->grad, radius, sizeof(double) * (size_t)n)))
+      return rc;
+  }
+  double t1 = now();
+  m->timers[SPHDEM_CFD_T_TRANSFER] += t1 - t0;
+  /* voidage: the previous one becomes eps_old */
+  if ((rc = o->d2d(m, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = o->memset0(m, D->sol, sizeof(double) * (size_t)D->ncell))) return rc;
+  if (n && (rc = o->run(m, CFD_K_void_scatter, n))) return rc;
+  if ((rc = o->run(m, CFD_K_void_finish, D->ncell))) return rc;
+  if ((rc = o->memset0(m, D->K, sizeof(double) * (size_t)D->nface)) ||
+      (rc = o->memset0(m, D->Kv, sizeof(double) * (size_t)D->nface)))
+    return rc;
+  if (n && (rc = o->run(m, CFD_K_drag, n))) return rc;
+  double t2 = now();
+  m->timers[SPHDEM_CFD_T_COUPLE] += t2 - t1;
+  if ((rc = o->run(m, CFD_K_predict, D->nface))) return rc;
+  if ((rc = o->run(m, CFD_K_rhs, D->ncell))) return rc;
+  double t3 = now();
+  m->timers[SPHDEM_CFD_T_PREDICT] += t3 - t2;
+  int iters = 0;
+  double res = 0.0;
+  rc = pressure_solve(m, &iters, &res);
+  m->st.iters = iters;
+  m->st.residual = res;
+  double t4 = now();
+  m->timers[SPHDEM_CFD_T_SOLVE] += t4 - t3;
+  if (rc) return rc;
+  if ((rc = o->run(m, CFD_K_correct, D->nface))) return rc;
+  if (n && (rc = o->run(m, CFD_K_forces, n))) return rc;
+  double t5 = now();
+  m->timers[SPHDEM_CFD_T_CORRECT] += t5 - t4;
+  /* statistics of the new field */
+  double u2, cfl, mass, negeps, epssum, fg[3], fb[3], pf, pl;
+  if ((rc = o->reduce(m, CFD_R_u2, D->nface, &u2)) || (rc = o->reduce(m, CFD_R_cfl, D->nface, &cfl)) ||
+      (rc = o->reduce(m, CFD_R_mass, D->ncell, &mass)) || (rc = o->reduce(m, CFD_R_negeps, D->ncell, &negeps)) ||
+      (rc = o->reduce(m, CFD_R_eps, D->ncell, &epssum)) ||
+      (rc = o->reduce(m, CFD_R_fgasx, D->nface, &fg[0])) || (rc = o->reduce(m, CFD_R_fgasy, D->nface, &fg[1])) ||
+      (rc = o->reduce(m, CFD_R_fgasz, D->nface, &fg[2])) || (rc = o->reduce(m, CFD_R_fbndx, D->nface, &fb[0])) ||
+      (rc = o->reduce(m, CFD_R_fbndy, D->nface, &fb[1])) || (rc = o->reduce(m, CFD_R_fbndz, D->nface, &fb[2])) ||
+      (rc = o->reduce(m, CFD_R_pfirst, D->ncell, &pf)) || (rc = o->reduce(m, CFD_R_plast, D->ncell, &pl)))
+    return rc;
+  double t6 = now();
+  m->timers[SPHDEM_CFD_T_CORRECT] += t6 - t5;
+  sphdem_cfd_stats *S = &m->st;
+  S->nsteps++;
+  S->umax = sqrt(u2);
+  S->cfl = cfl * dt;
+  S->mass_err = mass;
+  S->eps_min = -negeps;
+  S->eps_mean = epssum / (double)D->ncell;
+  int a = cfd_flow_axis(D);
+  double layer = (double)D->ncell / D->nc[a];
+  S->flow_axis = a;
+  S->dp = (pf - pl) / layer;
+  for (int d = 0; d < 3; d++) {
+    S->f_gas[d] = fg[d];
+    S->f_bound[d] = fb[d];
+    S->f_grains[d] = S->f_pg[d] = 0.0;
+  }
+  D->first = 0;
+  if (n) {
+    /* forces back to the caller; the sums come from the same host copies */
+    double *hb = (double *)malloc(sizeof(double) * 3 * (size_t)n * 2);
+    if (!hb) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
+    double *hfd = fdrag ? fdrag : hb, *hfp = fpg ? fpg : hb + 3 * (size_t)n;
+    if ((rc = o->d2h(m, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = o->d2h(m, hfp, D->gfp, sizeof(double) * 3 * (size_t)n))) {
+      free(hb);
+      return rc;
+    }
+    for (int i = 0; i < n; i++)
+      for (int d = 0; d < 3; d++) {
+        S->f_grains[d] += hfd[3 * i + d];
+        S->f_pg[d] += hfp[3 * i + d];
+      }
+    free(hb);
+  }
+  m->timers[SPHDEM_CFD_T_TRANSFER] += now() - t6;
+  if (!isfinite(S->umax) || !isfinite(S->dp))
+    return sphdem_cfd_fail(c, SPHDEM_ERR_NAN,
+                           "gas field is not finite after step %lld; likely cause: a gas step far beyond the "
+                           "CFL limit or a grain with an invalid velocity",
+                           (long long)S->nsteps);
+  if (S->cfl > D->P.cfl_max)
+    return sphdem_cfd_fail(c, SPHDEM_ERR_UNSTABLE,
+                           "gas CFL %.3g exceeds cfl %.3g (max |u| %.3g m/s, gas step %.3g s): lower the gas step "
+                           "(every, timestep) or use coarser cells",
+                           S->cfl, D->P.cfl_max, S->umax, dt);
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s) {
+  if (!c || !s) return SPHDEM_ERR_ARG;
+  *s = c->st;
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u) {
+  if (!c) return SPHDEM_ERR_ARG;
+  cfd_dev *D = &c->D;
+  size_t nb = sizeof(double) * (size_t)D->ncell;
+  int rc;
+  if (eps) {
+    /* the raw voidage before the floor */
+    double *sol = (double *)malloc(nb);
+    if (!sol) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
+    rc = c->ops->d2h(c, sol, D->eps, nb);
+    if (!rc) memcpy(eps, sol, nb);
+    free(sol);
+    if (rc) return rc;
+  }
+  if (p && (rc = c->ops->d2h(c, p, D->p, nb))) return rc;
+  if (u) {
+    double *uf = (double *)malloc(sizeof(double) * (size_t)D->nface);
+    if (!uf) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
+    if ((rc = c->ops->d2h(c, uf, D->u, sizeof(double) * (size_t)D->nface))) {
+      free(uf);
+      return rc;
+    }
+    for (int k = 0; k < D->nc[2]; k++)
+      for (int j = 0; j < D->nc[1]; j++)
+        for (int i = 0; i < D->nc[0]; i++) {
+          int ix[3] = {i, j, k};
+          int64_t ci = cfd_cellv(D, ix);
+          for (int d = 0; d < 3; d++) {
+            int a[3] = {i, j, k};
+            double lo = uf[cfd_face(D, d, a)];
+            a[d]++;
+            u[3 * ci + d] = 0.5 * (lo + uf[cfd_face(D, d, a)]);
+          }
+        }
+    free(uf);
+  }
+  return SPHDEM_OK;
+}
+
+int64_t sphdem_cfd_state_size(sphdem_cfd c) { return c ? c->D.nface + 2 * c->D.ncell : 0; }
+
+int sphdem_cfd_get_state(sphdem_cfd c, double *state) {
+  if (!c || !state) return SPHDEM_ERR_ARG;
+  cfd_dev *D = &c->D;
+  int rc;
+  if ((rc = c->ops->d2h(c, state, D->u, sizeof(double) * (size_t)D->nface))) return rc;
+  if ((rc = c->ops->d2h(c, state + D->nface, D->p, sizeof(double) * (size_t)D->ncell))) return rc;
+  return c->ops->d2h(c, state + D->nface + D->ncell, D->eps, sizeof(double) * (size_t)D->ncell);
+}
+
+int sphdem_cfd_set_state(sphdem_cfd c, const double *state) {
+  if (!c || !state) return SPHDEM_ERR_ARG;
+  cfd_dev *D = &c->D;
+  int rc;
+  if ((rc = c->ops->h2d(c, D->u, state, sizeof(double) * (size_t)D->nface))) return rc;
+  if ((rc = c->ops->h2d(c, D->p, state + D->nface, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = c->ops->h2d(c, D->eps, state + D->nface + D->ncell, sizeof(double) * (size_t)D->ncell))) return rc;
+  D->first = 0;
+  return SPHDEM_OK;
+}
+
+int sphdem_cfd_set_velocity(sphdem_cfd c, const double u[3]) {
+  if (!c || !u) return SPHDEM_ERR_ARG;
+  cfd_dev *D = &c->D;
+  double *uf = (double *)malloc(sizeof(double) * (size_t)D->nface);
+  if (!uf) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
+  for (int64_t f = 0; f < D->nface; f++) {
+    int ix[3];
+    int d = cfd_face_decode(D, f, ix);
+    uf[f] = u[d];
+  }
+  int rc = c->ops->h2d(c, D->u, uf, sizeof(double) * (size_t)D->nface);
+  free(uf);
+  if (!rc) rc = c->ops->memset0(c, D->p, sizeof(double) * (size_t)D->ncell);
+  return rc;
+}
+
+void sphdem_cfd_timers(sphdem_cfd c, double t[SPHDEM_CFD_NTIMERS]) {
+  for (int i = 0; i < SPHDEM_CFD_NTIMERS; i++) t[i] = c ? c->timers[i] : 0.0;
+}
+void sphdem_cfd_timers_reset(sphdem_cfd c) {
+  if (c) memset(c->timers, 0, sizeof c->timers);
+}

@@ -1,0 +1,113 @@
+/* cfd_internal.h - gas grid (CFD-DEM) data shared by the context code (cfd.c) and both backends. */
+#ifndef SPHDEM_CFD_INTERNAL_H
+#define SPHDEM_CFD_INTERNAL_H
+
+#include "sphdem_internal.h"
+
+#define SPHDEM_CFD_MAX_CELLS (1LL << 26)
+
+/* Everything a pass needs, by value to kernels and by pointer to CPU loops. Cells are x fastest;
+ * faces of axis d are stored from foff[d] on, with (nc[d] + 1) faces along d. */
+typedef struct {
+  sphdem_cfd_params P;
+  int nc[3];
+  int64_t ncell, nface, foff[4];
+  double lo[3], h[3], inv_h[3], Vc;
+  double dt;            /* gas step in progress */
+  int first;            /* eps_old not yet valid: d eps/dt taken as 0 */
+  double alpha, beta;   /* conjugate-gradient scalars of the pass in progress */
+  /* cells */
+  double *sol;          /* solid volume in each cell (voidage scatter) */
+  double *eps, *eps_old, *p;
+  double *b, *r, *z, *d, *Ad, *diag; /* pressure solve */
+  const double *mvx;    /* matvec input (p or d); output Ad */
+  /* faces */
+  double *u, *us, *cf;  /* velocity, predicted velocity, pressure-correction coefficient */
+  double *K, *Kv;       /* sum over grains of w K_i and w K_i v_d (drag, N s/m and N) */
+  /* grains */
+  int64_t n;
+  double *gx, *gv, *grad, *gK, *gfd, *gfp, *gfb;
+} cfd_dev;
+
+/* Loops of the gas step (cfd_bodies.h defines cfd_k_<name>(const cfd_dev *, int64_t i)); the
+ * backends generate one parallel loop or kernel per entry. */
+#define SPHDEM_CFD_KERNELS(X)                                                                        \
+  X(void_scatter) /* per grain: solid volume to cells (centroid or trilinear) */                     \
+  X(void_finish)  /* per cell: eps = 1 - solid volume / cell volume */                           \
+  X(drag)         /* per grain: K_i from the old gas field, scattered to faces as K, Kv */           \
+  X(predict)      /* per face: u* with implicit drag, correction coefficient cf */                   \
+  X(rhs)          /* per cell: b = -(div(eps u*) + d eps/dt), Jacobi diagonal */                      \
+  X(matvec)       /* per cell: Ad = A mvx */                                                          \
+  X(pcg_init)     /* per cell: r = b - Ad, z = r / diag, d = z */                                     \
+  X(pcg_update)   /* per cell: p += alpha d, r -= alpha Ad, z = r / diag */                           \
+  X(pcg_dir)      /* per cell: d = z + beta d */                                                      \
+  X(correct)      /* per face: u = u* - cf grad p */                                                  \
+  X(forces)       /* per grain: drag, its boundary-face share, pressure-gradient force */
+
+/* Reductions (cfd_r_<name>(const cfd_dev *, int64_t i) returns the term); op 0 sum, 1 max. */
+#define SPHDEM_CFD_REDUCTIONS(X)                                                                     \
+  X(rz, 0) X(dad, 0) X(rr, 0) X(bb, 0)                                                               \
+  X(negeps, 1)    /* -eps (min voidage) */                                                           \
+  X(eps, 0)       /* sum of voidage */                                                               \
+  X(u2, 1)        /* |u_f|^2 */                                                                       \
+  X(cfl, 1)       /* |u_f| / h_d */                                                                   \
+  X(mass, 1)      /* |div(eps u) + d eps/dt| * dt */                                                  \
+  X(fgasx, 0) X(fgasy, 0) X(fgasz, 0)    /* -(K u - Kv) over interior faces of axis d */              \
+  X(fbndx, 0) X(fbndy, 0) X(fbndz, 0)    /* K u - Kv over boundary faces of axis d */                 \
+  X(pfirst, 0) X(plast, 0)               /* pressure summed over the first / last layer (flow axis) */
+
+enum {
+#define SPHDEM_CFD_KID_(name) CFD_K_##name,
+  SPHDEM_CFD_KERNELS(SPHDEM_CFD_KID_)
+#undef SPHDEM_CFD_KID_
+  CFD_NKERNELS
+};
+enum {
+#define SPHDEM_CFD_RID_(name, op) CFD_R_##name,
+  SPHDEM_CFD_REDUCTIONS(SPHDEM_CFD_RID_)
+#undef SPHDEM_CFD_RID_
+  CFD_NREDUCTIONS
+};
+
+struct sphdem_cfd_s;
+typedef struct {
+  const char *name;
+  int (*alloc)(struct sphdem_cfd_s *m, void **ptr, size_t bytes);
+  void (*free)(struct sphdem_cfd_s *m, void *ptr);
+  int (*h2d)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
+  int (*d2h)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
+  int (*memset0)(struct sphdem_cfd_s *m, void *ptr, size_t bytes);
+  int (*d2d)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
+  /* run loop kid over [0, n) */
+  int (*run)(struct sphdem_cfd_s *m, int kid, int64_t n);
+  /* reduction rid over [0, n) into *out (sum or max as its table entry says) */
+  int (*reduce)(struct sphdem_cfd_s *m, int rid, int64_t n, double *out);
+  /* free backend_data (may be NULL) */
+  void (*release)(struct sphdem_cfd_s *m);
+} cfd_ops;
+
+struct sphdem_cfd_s {
+  cfd_dev D;
+  const cfd_ops *ops;
+  int backend;
+  char err[1024];
+  size_t bytes;
+  int64_t cap_n;
+  double timers[SPHDEM_CFD_NTIMERS];
+  sphdem_cfd_stats st;
+  void *backend_data;
+};
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+int sphdem_cfd_fail(struct sphdem_cfd_s *m, int code, const char *fmt, ...);
+extern const cfd_ops sphdem_cfd_cpu_ops;
+#ifdef SPHDEM_WITH_CUDA
+extern const cfd_ops sphdem_cfd_cuda_ops;
+#endif
+#ifdef __cplusplus
+}
+#endif
+
+#endif
