@@ -411,6 +411,14 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
                            "gas field is not finite after step %lld; likely cause: a gas step far beyond the "
                            "CFL limit or a grain with an invalid velocity",
                            (long long)S->nsteps);
+  double vlim = 0.0;
+  for (int d = 0; d < 3; d++) vlim += 2.0 * D->inv_h[d] * D->inv_h[d];
+  vlim *= dt * D->P.mu_g / D->P.rho_g;
+  if (vlim > 1.0)
+    return sphdem_cfd_fail(c, SPHDEM_ERR_UNSTABLE,
+                           "gas step %.3g s exceeds the explicit viscous limit %.3g s (nu sum 2/h^2 dt <= 1): lower "
+                           "the gas step (every, timestep) or use coarser cells",
+                           dt, dt / vlim);
   if (S->cfl > D->P.cfl_max)
     return sphdem_cfd_fail(c, SPHDEM_ERR_UNSTABLE,
                            "gas CFL %.3g exceeds cfl %.3g (max |u| %.3g m/s, gas step %.3g s): lower the gas step "

@@ -247,7 +247,7 @@ SPHDEM_HD void cfd_k_predict(const cfd_dev *D, int64_t f) {
     } else if (bc == SPHDEM_CFD_OUTLET) {
       int n[3] = {ix[0], ix[1], ix[2]};
       n[d] += (s & 1) ? -1 : 1;
-      D->us[f] = D->u[cfd_face(D, d, n)];   /* zero gradient */
+      D->us[f] = D->u[cfd_face(D, d, n)] + dt * D->P.gravity[d]; /* zero gradient; gravity as inside */
       D->cf[f] = dt / rho;
     } else {
       D->us[f] = 0.0;
