@@ -101,8 +101,10 @@ void FixCFDGrid::fail(const std::string &msg) {
 /* Every non-OK core code ends the run with the core's message. */
 void FixCFDGrid::check(int rc, const char *what) {
   if (rc == SPHDEM_OK) return;
-  fail(std::string(what) + ": " + (ctx_ ? sphdem_cfd_last_error(ctx_) : "no gas context") + " (" +
-       sphdem_strerror(rc) + ")");
+  /* the core's message names the cause; the generic text of the code only when it has none (the code
+   * list is shared with the SPH core, whose texts may not fit the gas) */
+  const char *m = ctx_ ? sphdem_cfd_last_error(ctx_) : "";
+  fail(std::string(what) + ": " + (m && *m ? m : sphdem_strerror(rc)));
 }
 
 double FixCFDGrid::parse_number(const char *kw, const char *s, const char *usage) {
