@@ -1,5 +1,5 @@
 /* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag,
- * predictor, Jacobi-preconditioned conjugate-gradient pressure solve, correction, grain forces),
+ * predictor, line-preconditioned conjugate-gradient pressure solve, correction, grain forces),
  * statistics, fields and restart state. The loops are in cfd_bodies.h, run by a backend. */
 #include <math.h>
 #include <stdarg.h>
@@ -116,10 +116,14 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
   D->foff[2] = D->foff[1] + (int64_t)p->nc[0] * (p->nc[1] + 1) * p->nc[2];
   D->foff[3] = D->foff[2] + (int64_t)p->nc[0] * p->nc[1] * (p->nc[2] + 1);
   D->nface = D->foff[3];
+  D->lax = 2;
+  if (p->nc[0] > p->nc[D->lax]) D->lax = 0;
+  if (p->nc[1] > p->nc[D->lax]) D->lax = 1;
+  D->nlines = D->ncell / p->nc[D->lax];
 }
 
-#define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag)
-#define FACE_ARRAYS(X) X(u) X(us) X(cf) X(K) X(Kv)
+#define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag) X(lcp)
+#define FACE_ARRAYS(X) X(u) X(us) X(cf) X(af) X(K) X(Kv)
 #define GRAIN3_ARRAYS(X) X(gx) X(gv) X(gfd) X(gfp) X(gfb)
 #define GRAIN1_ARRAYS(X) X(grad) X(gK)
 
@@ -261,7 +265,8 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
   return SPHDEM_OK;
 }
 
-/* Conjugate gradients with a Jacobi preconditioner on A p = b, warm-started from the last pressure. */
+/* Conjugate gradients with a line preconditioner (tridiagonal along the longest axis), warm-started
+ * from the last pressure. */
 static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   cfd_dev *D = &m->D;
   const cfd_ops *o = m->ops;
@@ -276,7 +281,9 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   }
   double bn = sqrt(bb);
   D->mvx = D->p;
-  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_init, n))) return rc;
+  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) ||
+      (rc = o->run(m, CFD_K_precond, D->nlines)) || (rc = o->run(m, CFD_K_pcg_first, n)))
+    return rc;
   if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz))) return rc;
   D->mvx = D->d;
   int it = 0;
@@ -294,7 +301,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
     if ((rc = o->reduce(m, CFD_R_dad, n, &dad))) return rc;
     if (!(dad > 0.0)) break; /* converged to round-off */
     D->alpha = rz / dad;
-    if ((rc = o->run(m, CFD_K_pcg_update, n))) return rc;
+    if ((rc = o->run(m, CFD_K_pcg_update, n)) || (rc = o->run(m, CFD_K_precond, D->nlines))) return rc;
     double rz_new;
     if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz_new))) return rc;
     D->beta = rz_new / rz;

@@ -241,6 +241,7 @@ SPHDEM_HD void cfd_k_predict(const cfd_dev *D, int64_t f) {
     int s = 2 * d + (ix[d] == D->nc[d]);
     int bc = D->P.bc[s];
     double sign = (s & 1) ? -1.0 : 1.0;
+    D->af[f] = 0.0;
     if (bc == SPHDEM_CFD_INLET) {
       D->us[f] = sign * cfd_inlet_u(D, s, ix) / cfd_eps_face(D, D->eps, d, ix);
       D->cf[f] = 0.0;
@@ -249,6 +250,7 @@ SPHDEM_HD void cfd_k_predict(const cfd_dev *D, int64_t f) {
       n[d] += (s & 1) ? -1 : 1;
       D->us[f] = D->u[cfd_face(D, d, n)] + dt * D->P.gravity[d]; /* zero gradient; gravity as inside */
       D->cf[f] = dt / rho;
+      D->af[f] = 2.0 * cfd_eps_face(D, D->eps, d, ix) * D->cf[f] * D->inv_h[d] * D->inv_h[d];
     } else {
       D->us[f] = 0.0;
       D->cf[f] = 0.0;
@@ -286,37 +288,28 @@ SPHDEM_HD void cfd_k_predict(const cfd_dev *D, int64_t f) {
   double rhs = eo * rho * uf / dt - rho * conv + D->P.mu_g * en * lap + rho * en * D->P.gravity[d] + Kvf;
   D->us[f] = rhs / a;
   D->cf[f] = en / a;
+  D->af[f] = en * D->cf[f] * D->inv_h[d] * D->inv_h[d];
 }
 
-/* ---- pressure equation: sum_f a_f (p_P - p_nb) + a_out p_P = -(div(eps u*) + d eps/dt) ------------ */
-
-/* Coefficient of the face on side s (0 low, 1 high) of cell c along d and the neighbour cell
- * (-1: none, -2: outlet with p = 0 on the face). */
-SPHDEM_HD double cfd_coef(const cfd_dev *D, const int *c, int d, int s, int64_t *nb, int64_t *face) {
-  int fi[3] = {c[0], c[1], c[2]};
-  fi[d] += s;
-  int64_t f = cfd_face(D, d, fi);
-  *face = f;
-  double ef = cfd_eps_face(D, D->eps, d, fi);
-  double h2 = D->h[d] * D->h[d];
-  if (fi[d] == 0 || fi[d] == D->nc[d]) {
-    if (D->P.bc[2 * d + s] == SPHDEM_CFD_OUTLET) {
-      *nb = -2;
-      return 2.0 * ef * D->cf[f] / h2;
-    }
-    *nb = -1;
-    return 0.0;
-  }
-  int n[3] = {c[0], c[1], c[2]};
-  n[d] += s ? 1 : -1;
-  *nb = cfd_cellv(D, n);
-  return ef * D->cf[f] / h2;
-}
+/* ---- pressure equation: sum_f a_f (p_P - p_nb) + a_out p_P = -(div(eps u*) + d eps/dt) ------------
+ * a_f = eps_f cf_f / h_d^2 at interior faces, 2 eps_f cf_f / h_d^2 at outlet faces (p = 0 on the face),
+ * 0 at walls and inlets (prescribed velocity): af, filled by the predictor. */
 
 SPHDEM_HD void cfd_cell_decode(const cfd_dev *D, int64_t ci, int *c) {
   c[0] = (int)(ci % D->nc[0]);
   c[1] = (int)((ci / D->nc[0]) % D->nc[1]);
   c[2] = (int)(ci / ((int64_t)D->nc[0] * D->nc[1]));
+}
+
+/* face of cell c on side s (0 low, 1 high) along d */
+SPHDEM_HD int64_t cfd_cell_face(const cfd_dev *D, const int *c, int d, int s) {
+  int fi[3] = {c[0], c[1], c[2]};
+  fi[d] += s;
+  return cfd_face(D, d, fi);
+}
+
+SPHDEM_HD int64_t cfd_stride(const cfd_dev *D, int d) {
+  return d == 0 ? 1 : (d == 1 ? (int64_t)D->nc[0] : (int64_t)D->nc[0] * D->nc[1]);
 }
 
 /* div(eps u) of a face-velocity field at cell ci, plus d eps/dt */
@@ -341,10 +334,7 @@ SPHDEM_HD void cfd_k_rhs(const cfd_dev *D, int64_t ci) {
   cfd_cell_decode(D, ci, c);
   double diag = 0.0;
   for (int d = 0; d < 3; d++)
-    for (int s = 0; s < 2; s++) {
-      int64_t nb, f;
-      diag += cfd_coef(D, c, d, s, &nb, &f);
-    }
+    for (int s = 0; s < 2; s++) diag += D->af[cfd_cell_face(D, c, d, s)];
   D->b[ci] = -cfd_div(D, D->us, ci);
   D->diag[ci] = diag > 0.0 ? diag : 1.0;
 }
@@ -353,26 +343,51 @@ SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) {
   int c[3];
   cfd_cell_decode(D, ci, c);
   double xp = D->mvx[ci], y = 0.0;
-  for (int d = 0; d < 3; d++)
-    for (int s = 0; s < 2; s++) {
-      int64_t nb, f;
-      double a = cfd_coef(D, c, d, s, &nb, &f);
-      if (nb >= 0) y += a * (xp - D->mvx[nb]);
-      else if (nb == -2) y += a * xp;
-    }
+  for (int d = 0; d < 3; d++) {
+    int64_t st = cfd_stride(D, d);
+    double alo = D->af[cfd_cell_face(D, c, d, 0)], ahi = D->af[cfd_cell_face(D, c, d, 1)];
+    y += alo * (c[d] > 0 ? xp - D->mvx[ci - st] : xp);
+    y += ahi * (c[d] < D->nc[d] - 1 ? xp - D->mvx[ci + st] : xp);
+  }
   D->Ad[ci] = y;
 }
 
-SPHDEM_HD void cfd_k_pcg_init(const cfd_dev *D, int64_t i) {
-  double r = D->b[i] - D->Ad[i];
-  D->r[i] = r;
-  D->z[i] = r / D->diag[i];
-  D->d[i] = D->z[i];
+SPHDEM_HD void cfd_k_pcg_res(const cfd_dev *D, int64_t i) { D->r[i] = D->b[i] - D->Ad[i]; }
+SPHDEM_HD void cfd_k_pcg_first(const cfd_dev *D, int64_t i) { D->d[i] = D->z[i]; }
+
+/* Line preconditioner: along each line of cells on axis lax, solve the tridiagonal part of A (the full
+ * diagonal and the couplings along the line) for z (Thomas algorithm). Tall beds converge in far fewer
+ * iterations than with a point-Jacobi preconditioner; the matrix stays symmetric positive definite. */
+SPHDEM_HD void cfd_k_precond(const cfd_dev *D, int64_t l) {
+  int a = D->lax;
+  int e0 = a == 0 ? 1 : 0, e1 = a == 2 ? 1 : 2;
+  int c[3];
+  c[e0] = (int)(l % D->nc[e0]);
+  c[e1] = (int)(l / D->nc[e0]);
+  c[a] = 0;
+  int64_t st = cfd_stride(D, a), c0 = cfd_cellv(D, c);
+  int n = D->nc[a];
+  /* forward sweep: lower(k) = -af(low face of k), upper(k) = -af(high face of k) for k < n-1 */
+  double prev_cp = 0.0, prev_z = 0.0;
+  for (int k = 0; k < n; k++) {
+    c[a] = k;
+    int64_t ci = c0 + k * st;
+    double low = k > 0 ? -D->af[cfd_cell_face(D, c, a, 0)] : 0.0;
+    double up = k < n - 1 ? -D->af[cfd_cell_face(D, c, a, 1)] : 0.0;
+    double den = D->diag[ci] - low * prev_cp;
+    prev_cp = up / den;
+    prev_z = (D->r[ci] - low * prev_z) / den;
+    D->lcp[ci] = prev_cp;
+    D->z[ci] = prev_z;
+  }
+  for (int k = n - 2; k >= 0; k--) {
+    int64_t ci = c0 + k * st;
+    D->z[ci] -= D->lcp[ci] * D->z[ci + st];
+  }
 }
 SPHDEM_HD void cfd_k_pcg_update(const cfd_dev *D, int64_t i) {
   D->p[i] += D->alpha * D->d[i];
   D->r[i] -= D->alpha * D->Ad[i];
-  D->z[i] = D->r[i] / D->diag[i];
 }
 SPHDEM_HD void cfd_k_pcg_dir(const cfd_dev *D, int64_t i) { D->d[i] = D->z[i] + D->beta * D->d[i]; }
 

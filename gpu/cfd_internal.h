@@ -20,9 +20,13 @@ typedef struct {
   double *sol;          /* solid volume in each cell (voidage scatter) */
   double *eps, *eps_old, *p;
   double *b, *r, *z, *d, *Ad, *diag; /* pressure solve */
+  double *lcp;          /* line preconditioner: Thomas-algorithm scratch */
+  int lax;              /* line axis: the axis with the most cells */
+  int64_t nlines;       /* ncell / nc[lax] */
   const double *mvx;    /* matvec input (p or d); output Ad */
   /* faces */
   double *u, *us, *cf;  /* velocity, predicted velocity, pressure-correction coefficient */
+  double *af;           /* pressure-equation coefficient of the face (eps_f cf / h^2; outlet 2x; walls 0) */
   double *K, *Kv;       /* sum over grains of w K_i and w K_i v_d (drag, N s/m and N) */
   /* grains */
   int64_t n;
@@ -36,10 +40,12 @@ typedef struct {
   X(void_finish)  /* per cell: eps = 1 - solid volume / cell volume */                           \
   X(drag)         /* per grain: K_i from the old gas field, scattered to faces as K, Kv */           \
   X(predict)      /* per face: u* with implicit drag, correction coefficient cf */                   \
-  X(rhs)          /* per cell: b = -(div(eps u*) + d eps/dt), Jacobi diagonal */                      \
+  X(rhs)          /* per cell: b = -(div(eps u*) + d eps/dt), diagonal of A */                       \
   X(matvec)       /* per cell: Ad = A mvx */                                                          \
-  X(pcg_init)     /* per cell: r = b - Ad, z = r / diag, d = z */                                     \
-  X(pcg_update)   /* per cell: p += alpha d, r -= alpha Ad, z = r / diag */                           \
+  X(pcg_res)      /* per cell: r = b - Ad */                                                          \
+  X(precond)      /* per line along lax: z = M^-1 r, M the tridiagonal part of A along the line */     \
+  X(pcg_first)    /* per cell: d = z */                                                               \
+  X(pcg_update)   /* per cell: p += alpha d, r -= alpha Ad */                                         \
   X(pcg_dir)      /* per cell: d = z + beta d */                                                      \
   X(correct)      /* per face: u = u* - cf grad p */                                                  \
   X(forces)       /* per grain: drag, its boundary-face share, pressure-gradient force */

@@ -279,12 +279,22 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
 #define SPHDEM_DEM_HIST_DOUBLES 4
 int64_t sphdem_dem_get_history(sphdem_dem dem, uint64_t *keys, double *hist, int64_t max);
 int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist);
+/* Time split of the sphdem_dem_compute calls since creation or the last reset, in seconds of the
+ * host clock: upload of the grains, the rebuild check (displacements against skin/2), contact
+ * detection (cell grid, candidate pairs, history carry: only on calls that rebuild the pair list),
+ * contact forces, download of force and torque. On the GPU the kernels are asynchronous; a phase's
+ * time ends when the host waits for its result (the pair count, the contact count, the download).
+ * Returns the number of calls timed. */
+enum { SPHDEM_DEM_T_UPLOAD = 0, SPHDEM_DEM_T_CHECK, SPHDEM_DEM_T_DETECT, SPHDEM_DEM_T_FORCE,
+       SPHDEM_DEM_T_DOWNLOAD, SPHDEM_DEM_NTIMERS };
+int64_t sphdem_dem_timers(sphdem_dem dem, double t[SPHDEM_DEM_NTIMERS]);
+void sphdem_dem_timers_reset(sphdem_dem dem);
 
 /* ---- Coarse-grid gas phase for CFD-DEM (Yu 2024 §2.1-2.4) ----------------------------------------
  * A structured staggered (MAC) grid over a box: voidage and pressure at cell centres, gas velocity
  * normal to each cell face. Volume-averaged incompressible gas (eqs 1-2, constant density, model A:
  * -eps grad p in the gas, -V_p grad p on a grain), first-order upwind convection, explicit viscous
- * term, drag implicit in the gas velocity, projection with a Jacobi-preconditioned conjugate-gradient
+ * term, drag implicit in the gas velocity, projection with a line-preconditioned conjugate-gradient
  * pressure solve, so div(eps u) + d eps/dt = 0 holds in every cell to the solver tolerance.
  * Interphase force: Gidaspow (eqs 14-17; Ergun below eps 0.8, Wen-Yu above) or Wen-Yu alone. The
  * gas drag on face f is sum_i w_if K_i (u_f - v_i) with the same weights w_if that interpolate the
