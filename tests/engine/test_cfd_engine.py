@@ -14,6 +14,8 @@
   vtk      EXE ENGINE   vtk 2 PREFIX writes PREFIX_<step>.vti files that xml.etree parses, with the grid's
                         cell count in every array, and a PREFIX.pvd that lists them with increasing times
   mpi      EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
+  plugin   HOST PLUGIN LMP  the particle scene (shortened) through sphdemplugin.so: fix cfd/grid registered,
+                        thermo identical to lmp_sphdem's
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
@@ -374,6 +376,23 @@ def test_mpi(exe, engine, mpirun):
     return 0 if ok else 1
 
 
+def test_plugin(host, plugin, lmp):
+    tail = ("variable vz equal vz[1]\nthermo_style custom step v_vz f_gas[1] f_gas[4] f_gas[11] f_gas[20]\n"
+            "thermo_modify format float %.15g\nthermo 50\n")
+    script = column("lammps", [(0.0015, 0.0015, 0.003)], steps=300, dt=5e-5, tail=tail, grid=(1, 1, 10),
+                    box=(0.003, 0.003, 0.01), extra="every 2")
+    out_l = must_run([lmp], "cfd_plugin/launcher", script)
+    out_p = must_run([host, plugin], "cfd_plugin/plugin", script)
+    if "registered fix cfd/grid" not in out_p:
+        print("FAIL: the plugin did not register fix cfd/grid")
+        return 1
+    rl, rp = thermo_rows(out_l), thermo_rows(out_p)
+    same = len(rl) == 7 and rl == rp and rl[-1][1] != 0
+    print("%s fix cfd/grid via sphdemplugin.so: %d thermo rows %s the launcher's (last %s)" %
+          ("PASS" if same else "FAIL", len(rp), "identical to" if same else "differ from", rp[-1] if rp else None))
+    return 0 if same else 1
+
+
 def main(argv):
     what = argv[1] if len(argv) > 1 else ""
     if what == "badkw":
@@ -386,6 +405,8 @@ def main(argv):
         return test_vtk(argv[2], argv[3])
     if what == "mpi":
         return test_mpi(argv[2], argv[3], argv[4])
+    if what == "plugin":
+        return test_plugin(argv[2], argv[3], argv[4])
     print(__doc__)
     return 2
 
