@@ -45,6 +45,7 @@ void sphdem_cfd_params_default(sphdem_cfd_params *p) {
   p->eps_min = 0.2;
   p->ddt_eps = 1;
   p->pressure_force = 1;
+  p->solver = SPHDEM_CFD_SOLVER_MG;
   p->tol = 1e-10;
   p->maxiter = 2000;
   p->cfl_max = 1.0;
@@ -94,6 +95,8 @@ int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen
   if (!(p->eps_min > 0.0 && p->eps_min < 1.0)) BAD("eps_min: must be in (0, 1) (got %g)", p->eps_min);
   if (p->ddt_eps != 0 && p->ddt_eps != 1) BAD("ddt_eps: must be 0 or 1");
   if (p->pressure_force != 0 && p->pressure_force != 1) BAD("pressure_force: must be 0 or 1");
+  if (p->solver != SPHDEM_CFD_SOLVER_MG && p->solver != SPHDEM_CFD_SOLVER_LINE)
+    BAD("solver: %d is not mg (0) or line (1)", p->solver);
   if (!(p->tol > 0.0 && p->tol < 1.0)) BAD("tol: relative residual must be in (0, 1) (got %g)", p->tol);
   if (p->maxiter < 1) BAD("maxiter: must be >= 1 (got %d)", p->maxiter);
   if (!(p->cfl_max > 0.0)) BAD("cfl: must be > 0 (got %g)", p->cfl_max);
@@ -120,6 +123,28 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
   if (p->nc[0] > p->nc[D->lax]) D->lax = 0;
   if (p->nc[1] > p->nc[D->lax]) D->lax = 1;
   D->nlines = D->ncell / p->nc[D->lax];
+  /* multigrid levels: halve every axis that has more than one cell, down to a few dozen cells */
+  D->omega = 0.8;
+  D->nlev = 1;
+  for (int d = 0; d < 3; d++) {
+    D->L[0].nc[d] = p->nc[d];
+    D->L[0].cf[d] = 1;
+  }
+  for (;;) {
+    cfd_level *F = &D->L[D->nlev - 1];
+    F->ncell = (int64_t)F->nc[0] * F->nc[1] * F->nc[2];
+    F->foff[0] = 0;
+    F->foff[1] = (int64_t)(F->nc[0] + 1) * F->nc[1] * F->nc[2];
+    F->foff[2] = F->foff[1] + (int64_t)F->nc[0] * (F->nc[1] + 1) * F->nc[2];
+    F->foff[3] = F->foff[2] + (int64_t)F->nc[0] * F->nc[1] * (F->nc[2] + 1);
+    if (F->ncell <= 32 || D->nlev == SPHDEM_CFD_MAX_LEVELS) break;
+    if (F->nc[0] == 1 && F->nc[1] == 1 && F->nc[2] == 1) break;
+    cfd_level *C = &D->L[D->nlev++];
+    for (int d = 0; d < 3; d++) {
+      C->cf[d] = F->nc[d] > 1 ? 2 : 1;
+      C->nc[d] = (F->nc[d] + C->cf[d] - 1) / C->cf[d];
+    }
+  }
 }
 
 #define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag) X(lcp)
@@ -201,6 +226,19 @@ int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device
   FACE_ARRAYS(AF_)
 #undef AC_
 #undef AF_
+  D->L[0].af = D->af;
+  D->L[0].diag = D->diag;
+  D->L[0].r = D->r;
+  D->L[0].x = D->z;
+  D->L[0].t = D->lcp;
+  for (int l = 1; l < D->nlev && !rc; l++) {
+    cfd_level *L = &D->L[l];
+    rc = dalloc(m, &L->af, L->foff[3]);
+    if (!rc) rc = dalloc(m, &L->diag, L->ncell);
+    if (!rc) rc = dalloc(m, &L->r, L->ncell);
+    if (!rc) rc = dalloc(m, &L->x, L->ncell);
+    if (!rc) rc = dalloc(m, &L->t, L->ncell);
+  }
   if (rc) {
     if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
     sphdem_cfd_destroy(&m);
@@ -237,6 +275,13 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   GRAIN3_ARRAYS(F_)
   GRAIN1_ARRAYS(F_)
 #undef F_
+  for (int l = 1; l < D->nlev; l++) {
+    if (D->L[l].af) m->ops->free(m, D->L[l].af);
+    if (D->L[l].diag) m->ops->free(m, D->L[l].diag);
+    if (D->L[l].r) m->ops->free(m, D->L[l].r);
+    if (D->L[l].x) m->ops->free(m, D->L[l].x);
+    if (D->L[l].t) m->ops->free(m, D->L[l].t);
+  }
   if (m->ops->release) m->ops->release(m);
   free(m);
   *c = NULL;
@@ -265,8 +310,54 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
   return SPHDEM_OK;
 }
 
-/* Conjugate gradients with a line preconditioner (tridiagonal along the longest axis), warm-started
- * from the last pressure. */
+/* Multigrid V-cycle z = M^-1 r from level l: damped Jacobi (2 sweeps before and after, the first from
+ * zero), residual restricted by summation, coarse correction prolonged by injection; on the coarsest
+ * level a fixed number of sweeps. The same smoothing before and after keeps M symmetric for CG. */
+static int mg_vcycle(struct sphdem_cfd_s *m, int l) {
+  cfd_dev *D = &m->D;
+  const cfd_ops *o = m->ops;
+  int64_t n = D->L[l].ncell;
+  int rc, nsw = 2;
+  if (l == D->nlev - 1) {
+    int mx = D->L[l].nc[0];
+    if (D->L[l].nc[1] > mx) mx = D->L[l].nc[1];
+    if (D->L[l].nc[2] > mx) mx = D->L[l].nc[2];
+    nsw = 4 * mx + 4;
+  }
+  D->lv = l;
+  if ((rc = o->run(m, CFD_K_mg_jacobi0, n))) return rc;
+  for (int s = 1; s < nsw; s++)
+    if ((rc = o->run(m, CFD_K_mg_resid, n)) || (rc = o->run(m, CFD_K_mg_jacobi, n))) return rc;
+  if (l == D->nlev - 1) return SPHDEM_OK;
+  if ((rc = o->run(m, CFD_K_mg_resid, n)) || (rc = o->run(m, CFD_K_mg_restrict, D->L[l + 1].ncell))) return rc;
+  if ((rc = mg_vcycle(m, l + 1))) return rc;
+  D->lv = l;
+  if ((rc = o->run(m, CFD_K_mg_prolong, n))) return rc;
+  for (int s = 0; s < nsw; s++)
+    if ((rc = o->run(m, CFD_K_mg_resid, n)) || (rc = o->run(m, CFD_K_mg_jacobi, n))) return rc;
+  return SPHDEM_OK;
+}
+
+/* z = M^-1 r with the chosen preconditioner */
+static int precondition(struct sphdem_cfd_s *m) {
+  if (m->D.P.solver == SPHDEM_CFD_SOLVER_LINE) return m->ops->run(m, CFD_K_precond, m->D.nlines);
+  return mg_vcycle(m, 0);
+}
+
+/* coarse-level operators of the step (the fine face coefficients change every step) */
+static int mg_setup(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  int rc;
+  if (D->P.solver != SPHDEM_CFD_SOLVER_MG) return SPHDEM_OK;
+  for (int l = 1; l < D->nlev; l++) {
+    D->lv = l;
+    if ((rc = m->ops->run(m, CFD_K_mg_af, D->L[l].foff[3])) || (rc = m->ops->run(m, CFD_K_mg_diag, D->L[l].ncell)))
+      return rc;
+  }
+  return SPHDEM_OK;
+}
+
+/* Conjugate gradients with a multigrid or line preconditioner, warm-started from the last pressure. */
 static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   cfd_dev *D = &m->D;
   const cfd_ops *o = m->ops;
@@ -281,8 +372,9 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   }
   double bn = sqrt(bb);
   D->mvx = D->p;
-  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) ||
-      (rc = o->run(m, CFD_K_precond, D->nlines)) || (rc = o->run(m, CFD_K_pcg_first, n)))
+  if ((rc = mg_setup(m))) return rc;
+  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) || (rc = precondition(m)) ||
+      (rc = o->run(m, CFD_K_pcg_first, n)))
     return rc;
   if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz))) return rc;
   D->mvx = D->d;
@@ -301,7 +393,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
     if ((rc = o->reduce(m, CFD_R_dad, n, &dad))) return rc;
     if (!(dad > 0.0)) break; /* converged to round-off */
     D->alpha = rz / dad;
-    if ((rc = o->run(m, CFD_K_pcg_update, n)) || (rc = o->run(m, CFD_K_precond, D->nlines))) return rc;
+    if ((rc = o->run(m, CFD_K_pcg_update, n)) || (rc = precondition(m))) return rc;
     double rz_new;
     if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz_new))) return rc;
     D->beta = rz_new / rz;

@@ -339,17 +339,111 @@ SPHDEM_HD void cfd_k_rhs(const cfd_dev *D, int64_t ci) {
   D->diag[ci] = diag > 0.0 ? diag : 1.0;
 }
 
-SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) {
+/* ---- multigrid levels (level 0 = the grid) ------------------------------------------------------ */
+
+SPHDEM_HD int64_t lv_face(const cfd_level *L, int d, const int *ix) {
+  int64_t fx = L->nc[0] + (d == 0), fy = L->nc[1] + (d == 1);
+  return L->foff[d] + ix[0] + fx * (ix[1] + fy * (int64_t)ix[2]);
+}
+SPHDEM_HD void lv_decode(const cfd_level *L, int64_t ci, int *c) {
+  c[0] = (int)(ci % L->nc[0]);
+  c[1] = (int)((ci / L->nc[0]) % L->nc[1]);
+  c[2] = (int)(ci / ((int64_t)L->nc[0] * L->nc[1]));
+}
+SPHDEM_HD int64_t lv_cell(const cfd_level *L, const int *c) {
+  return (int64_t)c[0] + (int64_t)L->nc[0] * ((int64_t)c[1] + (int64_t)L->nc[1] * c[2]);
+}
+/* (A x)[ci] on a level: sum_f a_f (x_P - x_nb), a boundary face (outlet; 0 elsewhere) a_f x_P */
+SPHDEM_HD double lv_Ax(const cfd_level *L, const double *x, int64_t ci) {
   int c[3];
-  cfd_cell_decode(D, ci, c);
-  double xp = D->mvx[ci], y = 0.0;
+  lv_decode(L, ci, c);
+  double xp = x[ci], y = 0.0;
+  int64_t st = 1;
   for (int d = 0; d < 3; d++) {
-    int64_t st = cfd_stride(D, d);
-    double alo = D->af[cfd_cell_face(D, c, d, 0)], ahi = D->af[cfd_cell_face(D, c, d, 1)];
-    y += alo * (c[d] > 0 ? xp - D->mvx[ci - st] : xp);
-    y += ahi * (c[d] < D->nc[d] - 1 ? xp - D->mvx[ci + st] : xp);
+    int fi[3] = {c[0], c[1], c[2]};
+    double alo = L->af[lv_face(L, d, fi)];
+    fi[d]++;
+    double ahi = L->af[lv_face(L, d, fi)];
+    y += alo * (c[d] > 0 ? xp - x[ci - st] : xp);
+    y += ahi * (c[d] < L->nc[d] - 1 ? xp - x[ci + st] : xp);
+    st *= L->nc[d];
   }
-  D->Ad[ci] = y;
+  return y;
+}
+
+SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) { D->Ad[ci] = lv_Ax(&D->L[0], D->mvx, ci); }
+
+SPHDEM_HD void cfd_k_mg_af(const cfd_dev *D, int64_t f) {
+  const cfd_level *C = &D->L[D->lv], *F = &D->L[D->lv - 1];
+  int d = f >= C->foff[2] ? 2 : (f >= C->foff[1] ? 1 : 0);
+  int64_t l = f - C->foff[d];
+  int64_t fx = C->nc[0] + (d == 0), fy = C->nc[1] + (d == 1);
+  int ic[3] = {(int)(l % fx), (int)((l / fx) % fy), (int)(l / (fx * fy))};
+  int base[3], cnt[3];
+  for (int e = 0; e < 3; e++) {
+    if (e == d) {
+      base[e] = ic[e] == C->nc[e] ? F->nc[e] : C->cf[e] * ic[e];
+      cnt[e] = 1;
+    } else {
+      base[e] = C->cf[e] * ic[e];
+      cnt[e] = base[e] + C->cf[e] <= F->nc[e] ? C->cf[e] : F->nc[e] - base[e];
+    }
+  }
+  double a = 0.0;
+  for (int k = 0; k < cnt[2]; k++)
+    for (int j = 0; j < cnt[1]; j++)
+      for (int i = 0; i < cnt[0]; i++) {
+        int fi[3] = {base[0] + i, base[1] + j, base[2] + k};
+        a += F->af[lv_face(F, d, fi)];
+      }
+  C->af[f] = a;
+}
+
+SPHDEM_HD void cfd_k_mg_diag(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[D->lv];
+  int c[3];
+  lv_decode(L, ci, c);
+  double s = 0.0;
+  for (int d = 0; d < 3; d++) {
+    int fi[3] = {c[0], c[1], c[2]};
+    s += L->af[lv_face(L, d, fi)];
+    fi[d]++;
+    s += L->af[lv_face(L, d, fi)];
+  }
+  L->diag[ci] = s > 0.0 ? s : 1.0;
+}
+
+SPHDEM_HD void cfd_k_mg_jacobi0(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[D->lv];
+  L->x[ci] = D->omega * L->r[ci] / L->diag[ci];
+}
+SPHDEM_HD void cfd_k_mg_resid(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[D->lv];
+  L->t[ci] = L->r[ci] - lv_Ax(L, L->x, ci);
+}
+SPHDEM_HD void cfd_k_mg_jacobi(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[D->lv];
+  L->x[ci] += D->omega * L->t[ci] / L->diag[ci];
+}
+SPHDEM_HD void cfd_k_mg_restrict(const cfd_dev *D, int64_t ci) {
+  const cfd_level *F = &D->L[D->lv], *C = &D->L[D->lv + 1];
+  int c[3];
+  lv_decode(C, ci, c);
+  double s = 0.0;
+  for (int k = 0; k < C->cf[2]; k++)
+    for (int j = 0; j < C->cf[1]; j++)
+      for (int i = 0; i < C->cf[0]; i++) {
+        int f[3] = {C->cf[0] * c[0] + i, C->cf[1] * c[1] + j, C->cf[2] * c[2] + k};
+        if (f[0] < F->nc[0] && f[1] < F->nc[1] && f[2] < F->nc[2]) s += F->t[lv_cell(F, f)];
+      }
+  C->r[ci] = s;
+}
+SPHDEM_HD void cfd_k_mg_prolong(const cfd_dev *D, int64_t ci) {
+  const cfd_level *F = &D->L[D->lv], *C = &D->L[D->lv + 1];
+  int c[3];
+  lv_decode(F, ci, c);
+  int p[3] = {c[0] / C->cf[0], c[1] / C->cf[1], c[2] / C->cf[2]};
+  F->x[ci] += C->x[lv_cell(C, p)];
 }
 
 SPHDEM_HD void cfd_k_pcg_res(const cfd_dev *D, int64_t i) { D->r[i] = D->b[i] - D->Ad[i]; }

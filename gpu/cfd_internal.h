@@ -6,6 +6,17 @@
 
 #define SPHDEM_CFD_MAX_CELLS (1LL << 26)
 
+#define SPHDEM_CFD_MAX_LEVELS 12
+
+/* One level of the multigrid preconditioner. Level 0 is the grid itself (its arrays alias the solver's:
+ * af, diag, r in, x = z out, t = lcp scratch); level l+1 aggregates cf[d] (1 or 2) cells per axis of level l,
+ * its face coefficients are the sums of the fine ones across the coarse face (Galerkin, P piecewise constant). */
+typedef struct {
+  int nc[3], cf[3];
+  int64_t ncell, foff[4];
+  double *af, *diag, *r, *x, *t;
+} cfd_level;
+
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Cells are x fastest;
  * faces of axis d are stored from foff[d] on, with (nc[d] + 1) faces along d. */
 typedef struct {
@@ -23,6 +34,9 @@ typedef struct {
   double *lcp;          /* line preconditioner: Thomas-algorithm scratch */
   int lax;              /* line axis: the axis with the most cells */
   int64_t nlines;       /* ncell / nc[lax] */
+  int nlev, lv;         /* multigrid levels; the level a pass works on */
+  double omega;         /* Jacobi damping of the smoother */
+  cfd_level L[SPHDEM_CFD_MAX_LEVELS];
   const double *mvx;    /* matvec input (p or d); output Ad */
   /* faces */
   double *u, *us, *cf;  /* velocity, predicted velocity, pressure-correction coefficient */
@@ -44,6 +58,13 @@ typedef struct {
   X(matvec)       /* per cell: Ad = A mvx */                                                          \
   X(pcg_res)      /* per cell: r = b - Ad */                                                          \
   X(precond)      /* per line along lax: z = M^-1 r, M the tridiagonal part of A along the line */     \
+  X(mg_af)        /* per face of level lv >= 1: sum of the level lv-1 faces across it */             \
+  X(mg_diag)      /* per cell of level lv: diagonal */                                                \
+  X(mg_jacobi0)   /* per cell of level lv: x = omega r / diag */                                      \
+  X(mg_resid)     /* per cell of level lv: t = r - A x */                                             \
+  X(mg_jacobi)    /* per cell of level lv: x += omega t / diag */                                     \
+  X(mg_restrict)  /* per cell of level lv+1: r = sum of the level lv residuals t of its cells */       \
+  X(mg_prolong)   /* per cell of level lv: x += x of its level lv+1 cell */                            \
   X(pcg_first)    /* per cell: d = z */                                                               \
   X(pcg_update)   /* per cell: p += alpha d, r -= alpha Ad */                                         \
   X(pcg_dir)      /* per cell: d = z + beta d */                                                      \

@@ -308,6 +308,10 @@ typedef enum {
 } sphdem_cfd_bc;
 typedef enum { SPHDEM_CFD_VOID_CENTROID = 0, SPHDEM_CFD_VOID_SMOOTH = 1 } sphdem_cfd_voidage;
 typedef enum { SPHDEM_CFD_DRAG_GIDASPOW = 0, SPHDEM_CFD_DRAG_WENYU = 1, SPHDEM_CFD_DRAG_NONE = 2 } sphdem_cfd_drag;
+typedef enum {
+  SPHDEM_CFD_SOLVER_MG = 0,    /* CG preconditioned by an aggregation multigrid V-cycle (default) */
+  SPHDEM_CFD_SOLVER_LINE = 1   /* CG preconditioned by tridiagonal solves along the longest axis */
+} sphdem_cfd_solver;
 
 #define SPHDEM_CFD_MAX_PATCH 4
 typedef struct {
@@ -330,6 +334,7 @@ typedef struct {
   double eps_min;       /* floor of the voidage in the gas equations and the drag law (default 0.2) */
   int ddt_eps;          /* 1 (default): continuity keeps d eps / dt (eq 1); 0: div(eps u) = 0 */
   int pressure_force;   /* 1 (default): f = -V_p grad p on grains (buoyancy included); 0: drag only */
+  int solver;           /* sphdem_cfd_solver: preconditioner of the pressure solve */
   double tol;           /* pressure solve: relative residual |r| / |b| (default 1e-10) */
   int maxiter;          /* pressure solve iteration limit (default 2000); reaching it is an error */
   double cfl_max;       /* stop when dt max |u_d| / h_d exceeds it (eq 18; default 1) */
