@@ -356,7 +356,7 @@ void FixCFDGrid::setup(int) {
     const int rc = sphdem_cfd_create(&ctx_, &prm_, device_, msg, sizeof msg);
     if (rc != SPHDEM_OK) {
       ctx_ = nullptr;
-      fail(std::string(msg) + " (" + sphdem_strerror(rc) + ")");
+      fail(*msg ? std::string(msg) : std::string("cannot create the gas grid: ") + sphdem_strerror(rc));
     }
     if (have_pending_) { /* a restart file: its gas state wins over init_u */
       const int64_t ns = sphdem_cfd_state_size(ctx_);
