@@ -14,7 +14,8 @@
                         (checked by hand: 0.26 without the gas state, 1.1e-2 without the held forces); and
                         == run 50 + run 50 in one script (1e-12)
   vtk      EXE ENGINE   vtk 2 PREFIX writes PREFIX_<step>.vti files that xml.etree parses, with the grid's
-                        cell count in every array, and a PREFIX.pvd that lists them with increasing times
+                        cell count in every array, and a PREFIX.pvd that lists them with increasing times;
+                        a patch (spout) on zlo shows as the fastest cell of the bottom layer
   mpi      EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   plugin   HOST PLUGIN LMP  the particle scene (shortened) through sphdemplugin.so: fix cfd/grid registered,
                         thermo identical to lmp_sphdem's
@@ -329,7 +330,7 @@ def test_vtk(exe, engine):
     for f in os.listdir(os.path.join(wd, "out")):
         os.remove(os.path.join(wd, "out", f))
     script = column(engine, grains, d=5e-4, grid=(nx, ny, nz), steps=steps,
-                    extra="every 2 vtk 2 out/gas init_u 0 0 0.5")
+                    extra="every 2 vtk 2 out/gas init_u 0 0 0.5 patch zlo 0 0.001 0.002 0.003 1.5")
     must_run([exe], wd, script)
     ncell = nx * ny * nz
     fails = 0
@@ -360,10 +361,19 @@ def test_vtk(exe, engine):
         eps = [float(w) for w in arrays["voidage"].text.split()]
         uz = [float(w) for w in arrays["velocity"].text.split()][2::3]
         epsmin = min(epsmin, min(eps))
+        # the spout (patch zlo over x in [0, 1] mm, y in [2, 3] mm: cell i = 0, j = 2, at 1.5 m/s, the rest of
+        # zlo at 0.5 m/s): the fastest cell of the bottom layer, its centre velocity the mean of the inlet face
+        # and the face above
+        bottom = uz[:nx * ny]
+        ks = 0 + nx * 2
+        spout = bottom[ks]
+        if not (spout > 0.75 and max(b for k, b in enumerate(bottom) if k != ks) < spout):
+            print("FAIL: %s: the spout cell does not carry the fastest gas of the bottom layer: %s" % (path, bottom))
+            fails += 1
         sane = all(0 < e <= 1 for e in eps) and all(v == v for v in uz) and max(uz) > 0.3
-        print("%s %s: extent %s, %d cells, arrays %s, eps in [%.5f, %.5f], uz in [%.4f, %.4f]" %
+        print("%s %s: extent %s, %d cells, arrays %s, eps in [%.5f, %.5f], uz in [%.4f, %.4f], spout cell %.4f" %
               ("PASS" if okc and sane else "FAIL", os.path.basename(path), ext, ncell, counts, min(eps), max(eps),
-               min(uz), max(uz)))
+               min(uz), max(uz), spout))
         fails += 0 if okc and sane else 1
     # a grain of 0.5 mm in a 1 mm cell: voidage 1 - 0.065 there
     if epsmin > 0.99:
