@@ -53,8 +53,8 @@ int side_index(const std::string &s) {
   return -1;
 }
 
-/* restart record: a version tag, the gas step count, the state size, the state */
-constexpr double RESTART_TAG = 20260001.0;
+/* restart record: a version tag, the gas step count, the state size, time and its step, the state */
+constexpr double RESTART_TAG = 20260002.0;
 }  // namespace
 
 /* ---------------------------------------------------------------------------------------------- */
@@ -62,11 +62,13 @@ constexpr double RESTART_TAG = 20260001.0;
 FixCFDGrid::FixCFDGrid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), have_box_(false), every_(1), have_init_u_(false),
       vtk_every_(0), pvd_loaded_(false), ctx_(nullptr), announced_(false), have_pending_(false), fa_(nullptr),
-      nmax_(0), ngas_steps_(0), host_time_(0.0) {
+      nmax_(0), ngas_steps_(0), time_(0.0), clock_step_(0), host_time_(0.0) {
   for (int s = 0; s < 6; s++) inlet_ivar_[s] = -1;
   for (int d = 0; d < 3; d++) init_u_[d] = 0.0;
   std::memset(&stats_, 0, sizeof stats_);
   parse_args(narg, arg);
+  time_ = update->atime + (double)(update->ntimestep - update->atimestep) * update->dt;
+  clock_step_ = update->ntimestep;
 
   nevery = 1;
   peratom_flag = 1;
@@ -468,7 +470,16 @@ void FixCFDGrid::post_force(int) {
   }
 }
 
-void FixCFDGrid::post_run() { print_timers(); }
+void FixCFDGrid::post_run() {
+  advance_clock(); /* before a timestep command of the next run changes dt */
+  print_timers();
+}
+
+/* simulation time: the engines' update->atime is not kept in restart files, this clock is */
+void FixCFDGrid::advance_clock() {
+  time_ += (double)(update->ntimestep - clock_step_) * update->dt;
+  clock_step_ = update->ntimestep;
+}
 
 /* One line: the core's time per phase of this run and the fix's own share (gather, scatter, VTK). */
 void FixCFDGrid::print_timers() {
@@ -500,7 +511,8 @@ void FixCFDGrid::write_vtk() {
   const size_t nc = (size_t)nx * ny * nz;
   std::vector<double> eps(nc), p(nc), u(3 * nc);
   check(sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data()), "get_fields");
-  const double time = update->atime + (double)(update->ntimestep - update->atimestep) * update->dt;
+  advance_clock();
+  const double time = time_;
 
   const std::string file = vtk_prefix_ + "_" + std::to_string((long long)update->ntimestep) + ".vti";
   FILE *fp = fopen(file.c_str(), "w");
@@ -585,20 +597,25 @@ double FixCFDGrid::memory_usage() {
          (double)gidx_.capacity() * sizeof(int);
 }
 
-/* global restart state: tag, gas steps, state size, the gas state (face velocities, pressure, voidage) */
+/* global restart state: tag, gas steps, state size, time, its step, the gas state (face velocities,
+ * pressure, voidage) */
 void FixCFDGrid::write_restart(FILE *fp) {
-  std::vector<double> list(3);
+  enum { NHEAD = 5 };
+  advance_clock();
+  std::vector<double> list(NHEAD);
   if (ctx_) {
     const int64_t ns = sphdem_cfd_state_size(ctx_);
     if (ns < 0) check((int)-ns, "state_size");
-    list.resize(3 + (size_t)ns);
-    if (ns > 0) check(sphdem_cfd_get_state(ctx_, list.data() + 3), "get_state");
+    list.resize(NHEAD + (size_t)ns);
+    if (ns > 0) check(sphdem_cfd_get_state(ctx_, list.data() + NHEAD), "get_state");
   } else if (have_pending_) { /* read from a restart file, no run since */
     list.insert(list.end(), pending_state_.begin(), pending_state_.end());
   }
   list[0] = RESTART_TAG;
   list[1] = (double)ngas_steps_;
-  list[2] = (double)(list.size() - 3);
+  list[2] = (double)(list.size() - NHEAD);
+  list[3] = time_;
+  list[4] = (double)clock_step_;
   if (comm->me == 0) {
     int size = (int)(list.size() * sizeof(double));
     fwrite(&size, sizeof(int), 1, fp);
@@ -607,11 +624,13 @@ void FixCFDGrid::write_restart(FILE *fp) {
 }
 
 void FixCFDGrid::restart(char *buf) {
-  double head[3];
+  double head[5];
   std::memcpy(head, buf, sizeof head);
   if (head[0] != RESTART_TAG) fail("the restart data of this fix are not from fix cfd/grid of this version");
   ngas_steps_ = (int64_t)head[1];
   const size_t ns = (size_t)head[2];
+  time_ = head[3];
+  clock_step_ = (int64_t)head[4];
   pending_state_.resize(ns);
   if (ns) std::memcpy(pending_state_.data(), buf + sizeof head, ns * sizeof(double));
   have_pending_ = ns > 0;

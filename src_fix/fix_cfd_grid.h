@@ -68,7 +68,9 @@ class FixCFDGrid : public Fix {
   bool have_pending_;
   double **fa_;
   int nmax_;
-  int64_t ngas_steps_;         /* gas steps since the fix was defined (restart-kept; VTK numbering) */
+  int64_t ngas_steps_;         /* gas steps since the fix was defined (restart-kept) */
+  double time_;                /* simulation time at engine step clock_step_ (restart-kept: the engines do */
+  int64_t clock_step_;         /* not keep the elapsed time in restart files); the times of the VTK files */
 
   std::vector<int> gidx_;
   std::vector<double> gx_, gv_, grad_, gfd_, gfp_;
@@ -83,6 +85,7 @@ class FixCFDGrid : public Fix {
   void gas_step();
   void write_vtk();
   void print_timers();
+  void advance_clock();
   int nloop() const;
 };
 

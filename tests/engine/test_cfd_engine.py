@@ -15,7 +15,8 @@
                         == run 50 + run 50 in one script (1e-12)
   vtk      EXE ENGINE   vtk 2 PREFIX writes PREFIX_<step>.vti files that xml.etree parses, with the grid's
                         cell count in every array, and a PREFIX.pvd that lists them with increasing times;
-                        a patch (spout) on zlo shows as the fastest cell of the bottom layer
+                        a patch (spout) on zlo shows as the fastest cell of the bottom layer; after
+                        write_restart/read_restart the collection keeps the earlier files and the times go on
   mpi      EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   plugin   HOST PLUGIN LMP  the particle scene (shortened) through sphdemplugin.so: fix cfd/grid registered,
                         thermo identical to lmp_sphdem's
@@ -379,6 +380,25 @@ def test_vtk(exe, engine):
     if epsmin > 0.99:
         print("FAIL: no cell shows the grains (min voidage %.5f)" % epsmin)
         fails += 1
+    # continued from a restart file: the collection keeps the earlier files, the times go on (the engines do
+    # not keep the elapsed time in restart files; the fix does)
+    wr = os.path.join(wd, "restart")
+    os.makedirs(wr, exist_ok=True)
+    for f in os.listdir(wr):
+        os.remove(os.path.join(wr, f))
+    gas = "vtk 1 g every 2"
+    first = column(engine, grains, d=5e-4, grid=(nx, ny, nz), steps=4, extra=gas) + "write_restart r.bin\n"
+    must_run([exe], wr, first)
+    second = ("read_restart r.bin\natom_modify sort 20 0.001\n" + SETUP.format(skin=repr(5e-4), dt=repr(1e-4)) +
+              GAS.format(nx=nx, ny=ny, nz=nz, bc=BC_COLUMN, extra=gas) + "run 4\n")
+    must_run([exe], wr, second)
+    sets = ET.parse(os.path.join(wr, "g.pvd")).getroot().find("Collection").findall("DataSet")
+    got = [(s.get("file"), float(s.get("timestep"))) for s in sets]
+    exp = [("g_%d.vti" % k, k * 1e-4) for k in (2, 4, 6, 8)]
+    okr = len(got) == len(exp) and all(g[0] == e[0] and abs(g[1] - e[1]) < 1e-12 for g, e in zip(got, exp)) and \
+        all(os.path.exists(os.path.join(wr, e[0])) for e in exp)
+    print("%s collection after a restart at step 4: %s" % ("PASS" if okr else "FAIL", got))
+    fails += 0 if okr else 1
     print("%s VTK output (%s)" % ("PASS" if not fails else "FAIL", engine))
     return 1 if fails else 0
 
