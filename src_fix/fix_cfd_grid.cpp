@@ -53,8 +53,10 @@ int side_index(const std::string &s) {
   return -1;
 }
 
-/* restart record: a version tag, the gas step count, the state size, time and its step, the state */
-constexpr double RESTART_TAG = 20260002.0;
+/* restart record: a version tag, the gas step count, the state size, time and its step, the state, the
+ * statistics of the last gas step (NSTATS doubles) */
+constexpr double RESTART_TAG = 20260003.0;
+constexpr size_t NSTATS = (sizeof(sphdem_cfd_stats) + sizeof(double) - 1) / sizeof(double);
 }  // namespace
 
 /* ---------------------------------------------------------------------------------------------- */
@@ -62,7 +64,7 @@ constexpr double RESTART_TAG = 20260002.0;
 FixCFDGrid::FixCFDGrid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), have_box_(false), every_(1), have_init_u_(false),
       vtk_every_(0), pvd_loaded_(false), ctx_(nullptr), announced_(false), have_pending_(false), fa_(nullptr),
-      nmax_(0), ngas_steps_(0), time_(0.0), clock_step_(0), host_time_(0.0) {
+      nmax_(0), ngas_steps_(0), time_(0.0), clock_step_(0), keep_stats_(false), host_time_(0.0) {
   for (int s = 0; s < 6; s++) inlet_ivar_[s] = -1;
   for (int d = 0; d < 3; d++) init_u_[d] = 0.0;
   std::memset(&stats_, 0, sizeof stats_);
@@ -375,7 +377,8 @@ void FixCFDGrid::setup(int) {
   } else {
     update_inlets(true); /* a later run: timestep or variables may have changed */
   }
-  if (sphdem_cfd_stats_get(ctx_, &stats_) != SPHDEM_OK) std::memset(&stats_, 0, sizeof stats_);
+  if (!keep_stats_ && sphdem_cfd_stats_get(ctx_, &stats_) != SPHDEM_OK) std::memset(&stats_, 0, sizeof stats_);
+  keep_stats_ = false;
   sphdem_cfd_timers_reset(ctx_);
   host_time_ = 0.0;
 
@@ -598,7 +601,7 @@ double FixCFDGrid::memory_usage() {
 }
 
 /* global restart state: tag, gas steps, state size, time, its step, the gas state (face velocities,
- * pressure, voidage) */
+ * pressure, voidage), the statistics of the last gas step */
 void FixCFDGrid::write_restart(FILE *fp) {
   enum { NHEAD = 5 };
   advance_clock();
@@ -616,6 +619,10 @@ void FixCFDGrid::write_restart(FILE *fp) {
   list[2] = (double)(list.size() - NHEAD);
   list[3] = time_;
   list[4] = (double)clock_step_;
+  /* the statistics of the last gas step, so the global vector goes on unchanged after a restart */
+  std::vector<double> st(NSTATS, 0.0);
+  std::memcpy(st.data(), &stats_, sizeof stats_);
+  list.insert(list.end(), st.begin(), st.end());
   if (comm->me == 0) {
     int size = (int)(list.size() * sizeof(double));
     fwrite(&size, sizeof(int), 1, fp);
@@ -634,6 +641,8 @@ void FixCFDGrid::restart(char *buf) {
   pending_state_.resize(ns);
   if (ns) std::memcpy(pending_state_.data(), buf + sizeof head, ns * sizeof(double));
   have_pending_ = ns > 0;
+  std::memcpy(&stats_, buf + sizeof head + ns * sizeof(double), sizeof stats_);
+  keep_stats_ = true;
   if (ctx_) { /* not reached in practice: restart data arrive when the fix is created */
     check(sphdem_cfd_set_state(ctx_, pending_state_.data()), "set_state");
     have_pending_ = false;

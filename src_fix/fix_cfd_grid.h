@@ -75,6 +75,7 @@ class FixCFDGrid : public Fix {
   std::vector<int> gidx_;
   std::vector<double> gx_, gv_, grad_, gfd_, gfp_;
   sphdem_cfd_stats stats_;
+  bool keep_stats_;            /* stats_ came from a restart file: keep them at the next setup */
   double host_time_;           /* fix-side time of the gas steps (gather, scatter, VTK) this run */
 
   [[noreturn]] void fail(const std::string &msg);

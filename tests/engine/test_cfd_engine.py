@@ -11,8 +11,9 @@
   restart  EXE ENGINE   five grains in a ramped inlet flow (bc zlo inlet v_uin), gas every 3 steps: 100 steps
                         == 50 + write_restart + read_restart + 50 (x, v and the held forces, 1e-9); the split
                         falls between gas steps, so the held per-atom forces must come from the restart file
-                        (checked by hand: 0.26 without the gas state, 1.1e-2 without the held forces); and
-                        == run 50 + run 50 in one script (1e-12)
+                        (checked by hand: 0.26 without the gas state, 1.1e-2 without the held forces); the
+                        global vector in thermo at steps 50-100 equal (0 at step 50 without its restart
+                        record, checked by hand); and == run 50 + run 50 in one script (1e-12)
   vtk      EXE ENGINE   vtk 2 PREFIX writes PREFIX_<step>.vti files that xml.etree parses, with the grid's
                         cell count in every array, and a PREFIX.pvd that lists them with increasing times;
                         a patch (spout) on zlo shows as the fastest cell of the bottom layer; after
@@ -288,7 +289,7 @@ def test_restart(exe, engine):
     dump = RS_DUMP.format(n=RS_STEPS, fmt=DUMPFMT[engine])
     unbroken = column(engine, RS_GRAINS, d=RS_D, bc=RS_BC, steps=RS_STEPS, tail=RS_THERMO + dump,
                       pre_run="").replace("pair_style none", RS_VAR + "pair_style none")
-    must_run([exe], wd + "/unbroken", unbroken)
+    out_u = must_run([exe], wd + "/unbroken", unbroken)
     half = RS_STEPS // 2
     first = column(engine, RS_GRAINS, d=RS_D, bc=RS_BC, steps=half, tail=RS_THERMO).replace(
         "pair_style none", RS_VAR + "pair_style none") + "write_restart half.restart\n"
@@ -297,7 +298,7 @@ def test_restart(exe, engine):
     # LIGGGHTS does not restore the timestep
     second = ("read_restart half.restart\natom_modify sort 20 0.001\n" + RS_VAR + SETUP.format(skin=repr(RS_D), dt=repr(1e-4)) +
               GAS.format(nx=3, ny=3, nz=10, bc=RS_BC, extra="") + RS_THERMO + dump + "run %d\n" % half)
-    must_run([exe], wd + "/split", second)
+    out_s = must_run([exe], wd + "/split", second)
     # two runs in one script: the later run's set-up (parameters again, held forces added once) changes nothing
     tworuns = unbroken.replace("run %d\n" % RS_STEPS, "run %d\nrun %d\n" % (half, half))
     must_run([exe], wd + "/tworuns", tworuns)
@@ -316,6 +317,13 @@ def test_restart(exe, engine):
         return 1
     worst = compare_cols(a, b, RS_COLS)
     ok = worst <= 1e-9
+    # the global vector (statistics of the last gas step, kept in the restart file) from step 50 on
+    ru = [r for r in thermo_rows(out_u) if r[0] >= half]
+    rs = thermo_rows(out_s)
+    okt = len(rs) == len(ru) == 6 and rs == ru and rs[0][1] != 0
+    print("%s thermo f_gas[1] f_gas[4] f_gas[11] at steps %d-%d equal after the restart (first row %s)" %
+          ("PASS" if okt else "FAIL", half, RS_STEPS, rs[0] if rs else None))
+    ok = ok and okt
     # the split at step 50 lies between the gas steps 48 and 51: step 50 uses the forces held since step 48
     print("%s restart at step %d vs unbroken (%s): max relative difference %.3e (bound 1e-9)" %
           ("PASS" if ok else "FAIL", half, engine, worst))
