@@ -30,11 +30,12 @@ namespace {
 const char *const SYNTAX =
     "fix ID group cfd/grid grid NX NY NZ rho V mu V [box xlo xhi ylo yhi zlo zhi] [gravity gx gy gz] "
     "[bc SIDE noslip|slip|inlet U|outlet] [patch SIDE A0 A1 B0 B1 U] [every N] [drag gidaspow|wenyu|none] "
-    "[voidage centroid|smooth] [eps_min V] [ddt_eps yes|no] [pressure_force yes|no] [tol V] [maxiter N] "
+    "[voidage centroid|smooth] [eps_min V] [ddt_eps yes|no] [pressure_force yes|no] [solver mg|line] [tol V] "
+    "[maxiter N] "
     "[cfl V] [device auto|gpu|cpu] [init_u ux uy uz] [vtk N PREFIX]";
 const char *const KEYWORDS =
-    "grid, box, rho, mu, gravity, bc, patch, every, drag, voidage, eps_min, ddt_eps, pressure_force, tol, "
-    "maxiter, cfl, device, init_u, vtk";
+    "grid, box, rho, mu, gravity, bc, patch, every, drag, voidage, eps_min, ddt_eps, pressure_force, solver, "
+    "tol, maxiter, cfl, device, init_u, vtk";
 const char *const SIDES = "xlo, xhi, ylo, yhi, zlo or zhi";
 const char *const SIDE_NAME[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
 const char *const BCS = "noslip, slip, inlet U (a number or v_name) or outlet";
@@ -268,6 +269,13 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
       else if (v == "smooth") prm_.voidage = SPHDEM_CFD_VOID_SMOOTH;
       else fail("voidage must be centroid or smooth (got '" + v + "')");
       iarg += 2;
+    } else if (kw == "solver") {
+      if (iarg + 1 >= narg) fail("solver must be mg or line");
+      const std::string v = arg[iarg + 1];
+      if (v == "mg") prm_.solver = SPHDEM_CFD_SOLVER_MG;
+      else if (v == "line") prm_.solver = SPHDEM_CFD_SOLVER_LINE;
+      else fail("solver must be mg or line (got '" + v + "')");
+      iarg += 2;
     } else if (kw == "ddt_eps" || kw == "pressure_force") {
       (kw == "ddt_eps" ? prm_.ddt_eps : prm_.pressure_force) = yes_no(kw);
       iarg += 2;
@@ -401,9 +409,10 @@ void FixCFDGrid::setup(int) {
     char line[1024];
     snprintf(line, sizeof line,
              "Fix cfd/grid: %s backend; grid %d x %d x %d cells of %g x %g x %g (smallest = %s); gas step %g "
-             "(every %ld x timestep); drag %s; bc %s %s %s %s %s %s; %.0f device bytes\n",
+             "(every %ld x timestep); drag %s; pressure solver %s; bc %s %s %s %s %s %s; %.0f device bytes\n",
              sphdem_cfd_backend(ctx_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU", prm_.nc[0], prm_.nc[1], prm_.nc[2],
-             hc[0], hc[1], hc[2], dia, every_ * update->dt, every_, DRAG_NAME[prm_.drag], BC_NAME[prm_.bc[0]],
+             hc[0], hc[1], hc[2], dia, every_ * update->dt, every_, DRAG_NAME[prm_.drag],
+             prm_.solver == SPHDEM_CFD_SOLVER_LINE ? "line" : "mg", BC_NAME[prm_.bc[0]],
              BC_NAME[prm_.bc[1]], BC_NAME[prm_.bc[2]], BC_NAME[prm_.bc[3]], BC_NAME[prm_.bc[4]],
              BC_NAME[prm_.bc[5]], (double)sphdem_cfd_device_bytes(ctx_));
     sphdem_compat::logmesg(lmp, line);

@@ -129,13 +129,14 @@ def column(engine, grains, d=1e-4, rhop=2000.0, extra="", steps=10, dt=1e-4, bc=
 # ---- (1) bad input ----------------------------------------------------------------------------------------
 def test_badkw(exe, engine):
     base = column(engine, [(0.0015, 0.0015, 0.005)], steps=2)
-    kw = ("grid, box, rho, mu, gravity, bc, patch, every, drag, voidage, eps_min, ddt_eps, pressure_force, tol, "
-          "maxiter, cfl, device, init_u, vtk")
+    kw = ("grid, box, rho, mu, gravity, bc, patch, every, drag, voidage, eps_min, ddt_eps, pressure_force, solver, "
+          "tol, maxiter, cfl, device, init_u, vtk")
     bcs = "noslip, slip, inlet U (a number or v_name) or outlet"
     cases = [
         ("drag foo", "Fix cfd/grid: drag must be gidaspow, wenyu or none (got 'foo')"),
         ("voidage mean", "Fix cfd/grid: voidage must be centroid or smooth (got 'mean')"),
         ("device tpu", "Fix cfd/grid: device must be auto, gpu or cpu (got 'tpu')"),
+        ("solver sor", "Fix cfd/grid: solver must be mg or line (got 'sor')"),
         ("ddt_eps maybe", "Fix cfd/grid: ddt_eps must be yes or no (got 'maybe')"),
         ("pressure_force 1", "Fix cfd/grid: pressure_force must be yes or no (got '1')"),
         ("bc top outlet", "Fix cfd/grid: bc SIDE must be xlo, xhi, ylo, yhi, zlo or zhi (got 'top')"),
@@ -339,7 +340,7 @@ def test_vtk(exe, engine):
     for f in os.listdir(os.path.join(wd, "out")):
         os.remove(os.path.join(wd, "out", f))
     script = column(engine, grains, d=5e-4, grid=(nx, ny, nz), steps=steps,
-                    extra="every 2 vtk 2 out/gas init_u 0 0 0.5 patch zlo 0 0.001 0.002 0.003 1.5")
+                    extra="every 2 vtk 2 out/gas init_u 0 0 0.5 patch zlo 0 0.001 0.002 0.003 1.5 solver line")
     must_run([exe], wd, script)
     ncell = nx * ny * nz
     fails = 0
