@@ -1,4 +1,5 @@
 /* dem.c - the GPU DEM context: parameters, grain upload, pair-list builds with history carry, forces. */
+#define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -6,6 +7,17 @@
 #include <string.h>
 
 #include "dem_internal.h"
+
+#if defined(__unix__) || defined(__APPLE__)
+#include <time.h>
+static double dem_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+#else
+static double dem_now(void) { return 0.0; }
+#endif
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -147,6 +159,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
     if (arrs[k]) m->ops->free(m, arrs[k]);
   free(m->hx0);
   free(m->htag);
+  free(m->cpu_pfb);
   free(m);
   *pm = NULL;
   return SPHDEM_OK;
@@ -314,6 +327,7 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   if (n > 0 && (!tag || !x || !v || !omega || !radius || !mass || !f || !torque))
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag, x, v, omega, radius, mass, f, torque: all needed (one is NULL)");
   if (!(dt >= 0.0) || !isfinite(dt)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "dt: must be finite and >= 0 (got %g)", dt);
+  double t0 = dem_now(), t1;
   double rmax = 0.0;
   for (int i = 0; i < n; i++) {
     if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
@@ -335,6 +349,9 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
     }
   }
   D->n = n;
+  t1 = dem_now();
+  m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
+  t0 = t1;
   if (n) {
     TRY(m->ops->h2d(m, D->x, x, sizeof(double) * 3 * n));
     TRY(m->ops->h2d(m, D->v, v, sizeof(double) * 3 * n));
@@ -349,7 +366,15 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
     }
   }
   m->tags_valid = 1;
-  if (m->need_build) TRY(build(m, n, x, 2.0 * rmax));
+  t1 = dem_now();
+  m->t[SPHDEM_DEM_T_UPLOAD] += t1 - t0;
+  t0 = t1;
+  if (m->need_build) {
+    TRY(build(m, n, x, 2.0 * rmax));
+    t1 = dem_now();
+    m->t[SPHDEM_DEM_T_DETECT] += t1 - t0;
+    t0 = t1;
+  }
   D->dt = dt;
   D->update = update_history ? 1 : 0;
   D->want_virial = virial != NULL;
@@ -361,12 +386,29 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   double *t = D->hin;
   D->hin = D->hout;
   D->hout = t;
+  t1 = dem_now();
+  m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
+  t0 = t1;
   if (n) {
     TRY(m->ops->d2h(m, f, D->f, sizeof(double) * 3 * n));
     TRY(m->ops->d2h(m, torque, D->tq, sizeof(double) * 3 * n));
   }
   if (virial) TRY(m->ops->d2h(m, virial, D->vir, 6 * sizeof(double)));
+  m->t[SPHDEM_DEM_T_DOWNLOAD] += dem_now() - t0;
+  m->ncalls++;
   return SPHDEM_OK;
+}
+
+int64_t sphdem_dem_timers(sphdem_dem m, double t[SPHDEM_DEM_NTIMERS]) {
+  if (!m || !t) return 0;
+  for (int k = 0; k < SPHDEM_DEM_NTIMERS; k++) t[k] = m->t[k];
+  return m->ncalls;
+}
+
+void sphdem_dem_timers_reset(sphdem_dem m) {
+  if (!m) return;
+  for (int k = 0; k < SPHDEM_DEM_NTIMERS; k++) m->t[k] = 0.0;
+  m->ncalls = 0;
 }
 
 int sphdem_dem_stats_get(sphdem_dem m, sphdem_dem_stats *s) {

@@ -6,6 +6,13 @@
 #include <math.h>
 #include "dem_internal.h"
 
+/* A body inlined into its caller even when large (the contact law specialised per model). */
+#ifdef __CUDACC__
+#define DEM_HD_INLINE __host__ __device__ static __forceinline__
+#else
+#define DEM_HD_INLINE static inline __attribute__((always_inline))
+#endif
+
 /* Atomic add: CUDA atomicAdd on the device, an OpenMP atomic on the host. */
 /* Pair virial (xx yy zz xy xz yz) of the force Fa on a with the separation del = x_a - x_b. */
 SPHDEM_HD void dem_pair_virial(const double *del, const double *Fa, double *vir) {
@@ -82,7 +89,8 @@ SPHDEM_HD double dem_sep(const dem_dev *D, const double *xa, const double *xb, d
   double r2 = 0.0;
   for (int d = 0; d < 3; d++) {
     double s = xa[d] - xb[d];
-    if (D->P.periodic[d]) s -= D->L[d] * rint(s / D->L[d]);
+    /* |s| < L/2: rint(s/L) is 0 (s/L rounds to at most 0.5, and rint(0.5) = 0), s stays as it is */
+    if (D->P.periodic[d] && !(fabs(s) < 0.5 * D->L[d])) s -= D->L[d] * rint(s / D->L[d]);
     r[d] = s;
     r2 += s * s;
   }
@@ -288,16 +296,14 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
  * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
  * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
  * tangent plane, Yu eq 13) are common; the three laws differ in the normal and tangential forces. */
-SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
-                          double *vir) {
+DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb,
+                                    double *hout, double *vir, const int model) {
   const int32_t a = D->pa[p], b = D->pb[p];
   const int wall = b < 0;
   const double *xa = D->x + 3 * (int64_t)a, *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double ra = D->rad[a];
   double del[3], rsq, rb, radsum, meff, vr[3], wr[3], wrel[3];
-  for (int d = 0; d < 3; d++) Fa[d] = Ta[d] = Tb[d] = 0.0;
-  for (int d = 0; d < 6; d++) vir[d] = 0.0;
   if (!wall) {
     rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
     rb = D->rad[b];
@@ -337,10 +343,11 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
     }
     meff = ma;
   }
-  if (D->P.model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
+  if (model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
     dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
-    if (!wall) {
-      dem_pair_virial(del, Fa, vir);
+    if (D->want_virial) {
+      if (!wall) dem_pair_virial(del, Fa, vir);
+      else for (int d = 0; d < 6; d++) vir[d] = 0.0;
     }
     return 1;
   }
@@ -363,14 +370,15 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
     }
     for (int d = 0; d < 3; d++) s[d] += vtr[d] * h;
   }
-  const double shrmag = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  /* |s| before the projection: only whether it is zero matters (sqrt(x) != 0 exactly when x != 0) */
+  const double shrmag2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
   const double rsht = (s[0] * del[0] + s[1] * del[1] + s[2] * del[2]) * rsqinv;
   if (D->update)
     for (int d = 0; d < 3; d++) s[d] -= rsht * del[d];
 
   double ccel, fs[3], fn_el;
   const double mu = D->P.mu;
-  if (D->P.model != SPHDEM_DEM_HERTZ_MINDLIN) {
+  if (model != SPHDEM_DEM_HERTZ_MINDLIN) {
     /* Yu eqs 7-8 / LAMMPS gran/hooke|hertz/history: F_n = k_n delta - eta_n v_n, F_t = -(k_t d_t + eta_t v_t)
      * capped at mu |F_n|; eta = m_eff gamma, or from e by eq 11 (eta = 2 sqrt(k m_eff) |ln e|/sqrt(pi^2 + ln^2 e)) */
     const double kn = D->P.kn, kt = D->P.kt;
@@ -381,7 +389,7 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
     }
     const double damp = meff * gn * vnnr * rsqinv;
     double poly = 1.0;
-    if (D->P.model == SPHDEM_DEM_HERTZ) poly = wall ? sqrt(delta * ra) : sqrt(delta * ra * rb / radsum);
+    if (model == SPHDEM_DEM_HERTZ) poly = wall ? sqrt(delta * ra) : sqrt(delta * ra * rb / radsum);
     ccel = (kn * delta * rinv - damp) * poly;
     if (D->P.limit_damping && ccel < 0.0) ccel = 0.0;
     fn_el = kn * delta * poly;
@@ -389,7 +397,7 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
     const double fsm = sqrt(fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]);
     const double fn = mu * fabs(ccel * r);
     if (fsm > fn) {
-      if (shrmag != 0.0) {
+      if (shrmag2 != 0.0) {
         /* sliding: the spring is shortened so that spring + dashpot equal the Coulomb limit */
         const double fnfs = fn / fsm, mgkt = kt > 0.0 ? meff * gt / kt : 0.0;
         for (int d = 0; d < 3; d++) {
@@ -452,8 +460,9 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
       }
     }
   }
-  if (!wall) {
-    dem_pair_virial(del, Fa, vir);
+  if (D->want_virial) {
+    if (!wall) dem_pair_virial(del, Fa, vir);
+    else for (int d = 0; d < 6; d++) vir[d] = 0.0;
   }
   if (hout) {
     hout[0] = s[0];
@@ -464,12 +473,39 @@ SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, d
   return 1;
 }
 
+/* The contact law of D->P.model, each one compiled with its model fixed. vir is written only when
+ * D->want_virial; Fa, Ta, Tb, vir only when the pair touches (returns 1). */
+SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
+                          double *vir) {
+  switch (D->P.model) {
+    case SPHDEM_DEM_HOOKE: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HOOKE);
+    case SPHDEM_DEM_HERTZ: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ);
+    case SPHDEM_DEM_HERTZ_MINDLIN: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_MINDLIN);
+    default: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_LIGGGHTS);
+  }
+}
+
 /* Collision-pair parallel pass (Yu 2024 §2.3, Fig. 3): one thread per pair, the force added to a and
- * subtracted from b atomically. */
-SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) {
+ * subtracted from b atomically; atomic = 0 (a CPU loop on one thread) adds in the same order without
+ * the atomic instructions. */
+SPHDEM_HD void dem_pair_force_accum(const dem_dev *D, int64_t p, int atomic) {
   double F[3], Ta[3], Tb[3], vir[6];
   if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) return;
   const int64_t a = D->pa[p], b = D->pb[p];
+  if (!atomic) {
+    for (int d = 0; d < 3; d++) {
+      D->f[3 * a + d] += F[d];
+      D->tq[3 * a + d] += Ta[d];
+    }
+    if (b >= 0)
+      for (int d = 0; d < 3; d++) {
+        D->f[3 * b + d] += -F[d];
+        D->tq[3 * b + d] += Tb[d];
+      }
+    if (D->want_virial)
+      for (int d = 0; d < 6; d++) D->vir[d] += vir[d];
+    return;
+  }
   for (int d = 0; d < 3; d++) {
     dem_add(&D->f[3 * a + d], F[d]);
     dem_add(&D->tq[3 * a + d], Ta[d]);
@@ -482,6 +518,7 @@ SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) {
   if (D->want_virial)
     for (int d = 0; d < 6; d++) dem_add(&D->vir[d], vir[d]);
 }
+SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) { dem_pair_force_accum(D, p, 1); }
 
 /* Particle-parallel pass: grain i sums its own pairs (as a, then as b) without atomics; both partners
  * evaluate the same pair with the same operands, so the forces are exactly opposite. Only a writes the
@@ -491,7 +528,8 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
     if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) continue;
     for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
-    for (int d = 0; d < 6; d++) vs[d] += vir[d];
+    if (D->want_virial)
+      for (int d = 0; d < 6; d++) vs[d] += vir[d];
   }
   for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
     if (!dem_contact(D, D->rlist[k], F, Ta, Tb, 0, vir)) continue;
@@ -504,6 +542,47 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
   if (D->want_virial)
     for (int d = 0; d < 6; d++)
       if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+}
+
+/* The particle-parallel pass in two halves that evaluate each pair once (the CPU loops; the same
+ * additions in the same order as dem_particle_force_body, so the same bits). Forward: grain i sums
+ * its pairs as a into f, tq and keeps F and Tb of each touching pair in pfb (6 per pair); returns the
+ * touching pairs. Reverse (after every forward): grain i adds -F and Tb of its pairs as b. */
+SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb) {
+  double F[3], Ta[3], Tb[3], vir[6], f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+  int64_t nt = 0;
+  for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
+    if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) continue;
+    nt++;
+    for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
+    if (D->want_virial)
+      for (int d = 0; d < 6; d++) vs[d] += vir[d];
+    double *o = pfb + 6 * p;
+    for (int d = 0; d < 3; d++) { o[d] = F[d]; o[3 + d] = Tb[d]; }
+  }
+  for (int d = 0; d < 3; d++) {
+    D->f[3 * i + d] = f[d];
+    D->tq[3 * i + d] = t[d];
+  }
+  if (D->want_virial)
+    for (int d = 0; d < 6; d++)
+      if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+  return nt;
+}
+
+SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb) {
+  if (D->rstart[i] == D->rend[i]) return;
+  double f[3] = {D->f[3 * i], D->f[3 * i + 1], D->f[3 * i + 2]}, t[3] = {D->tq[3 * i], D->tq[3 * i + 1], D->tq[3 * i + 2]};
+  for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
+    const int64_t p = D->rlist[k];
+    if (D->hout[SPHDEM_DEM_NHIST * p + 3] == 0.0) continue; /* not touching */
+    const double *o = pfb + 6 * p;
+    for (int d = 0; d < 3; d++) { f[d] -= o[d]; t[d] += o[3 + d]; }
+  }
+  for (int d = 0; d < 3; d++) {
+    D->f[3 * i + d] = f[d];
+    D->tq[3 * i + d] = t[d];
+  }
 }
 
 /* Touching pairs are the ones with the touch flag set in the new history. */

@@ -1,6 +1,9 @@
 /* dem_cpu.c - CPU (OpenMP) backend of the GPU DEM: loops that call the bodies of dem_bodies.h. */
 #include <stdlib.h>
 #include <string.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "dem_bodies.h"
 
@@ -121,20 +124,45 @@ static int c_csr(struct sphdem_dem_s *m) {
   return SPHDEM_OK;
 }
 
+/* 1 when a loop of this many iterations runs on one thread (no atomics needed) */
+static int c_serial(int64_t iters) {
+#ifdef _OPENMP
+  return iters <= DEM_OMP_MIN || omp_get_max_threads() == 1;
+#else
+  (void)iters;
+  return 1;
+#endif
+}
+
 static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   dem_dev *D = &m->D;
   int64_t n = D->n, np = D->np, nt = 0;
   if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
     memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
     memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
-#pragma omp parallel for schedule(static) if (np > DEM_OMP_MIN)
-    for (int64_t p = 0; p < np; p++) dem_pair_force_body(D, p);
-  } else {
-#pragma omp parallel for schedule(dynamic, 64) if (n > DEM_OMP_MIN)
-    for (int64_t i = 0; i < n; i++) dem_particle_force_body(D, i);
-  }
+    if (c_serial(np)) {
+      for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 0);
+    } else {
+#pragma omp parallel for schedule(static)
+      for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 1);
+    }
 #pragma omp parallel for reduction(+ : nt) schedule(static) if (np > DEM_OMP_MIN)
-  for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+    for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+  } else {
+    /* each pair evaluated once: forward (pairs as a, F and Tb kept per pair), then reverse */
+    if (np > m->cap_pfb) {
+      int64_t cap = np + np / 4 + 64;
+      double *b = (double *)realloc(m->cpu_pfb, sizeof(double) * 6 * (size_t)cap);
+      if (!b) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
+      m->cpu_pfb = b;
+      m->cap_pfb = cap;
+    }
+    double *pfb = m->cpu_pfb;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt) if (n > DEM_OMP_MIN)
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
+#pragma omp parallel for schedule(dynamic, 64) if (n > DEM_OMP_MIN)
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+  }
   *ntouch = nt;
   return SPHDEM_OK;
 }

@@ -88,6 +88,12 @@ struct sphdem_dem_s {
   int64_t hcap;
   double dmax_built;
   void *backend_data;
+  /* CPU particle-parallel: F and Tb of each pair (6 doubles per pair), see dem_particle_forward_body */
+  double *cpu_pfb;
+  int64_t cap_pfb;
+  /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
+  double t[SPHDEM_DEM_NTIMERS];
+  int64_t ncalls;
 };
 
 #ifdef __cplusplus

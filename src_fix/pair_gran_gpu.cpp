@@ -24,7 +24,7 @@ using namespace LAMMPS_NS;
 
 static const char *const USAGE =
     "model hertz tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
-    "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle]";
+    "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
@@ -84,6 +84,10 @@ void PairGranGPU::settings(int narg, char **arg) {
       if (val == "pair") algo_ = SPHDEM_DEM_PAIR_PARALLEL;
       else if (val == "particle") algo_ = SPHDEM_DEM_PARTICLE_PARALLEL;
       else fail("algo must be pair or particle (got '" + val + "')");
+    } else if (kw == "timers") {
+      if (val == "on") timers_.on = 1;
+      else if (val == "off") timers_.on = 0;
+      else fail("timers must be on or off (got '" + val + "')");
     } else {
       fail("unsupported keyword '" + kw + "' (usage: " + USAGE + ")");
     }
@@ -204,31 +208,26 @@ void PairGranGPU::compute(int eflag, int vflag) {
   for (int d = 0; d < 3; d++)
     box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
   if (box_changed) sync_params();
+  const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   tags_.resize(n);
-  xbuf_.resize(3 * (size_t)n);
-  vbuf_.resize(3 * (size_t)n);
-  wbuf_.resize(3 * (size_t)n);
   fbuf_.resize(3 * (size_t)n);
   tbuf_.resize(3 * (size_t)n);
-  rbuf_.resize(n);
-  mbuf_.resize(n);
-  flags_.resize(n);
-  for (int i = 0; i < n; i++) {
-    tags_[i] = atom->tag[i];
-    for (int d = 0; d < 3; d++) {
-      xbuf_[3 * i + d] = atom->x[i][d];
-      vbuf_[3 * i + d] = atom->v[i][d];
-      wbuf_[3 * i + d] = atom->omega[i][d];
-    }
-    rbuf_[i] = atom->radius[i];
-    mbuf_[i] = atom->rmass[i];
-    flags_[i] = (atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0;
+  for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
+  const int *fl = nullptr; /* NULL: no grain frozen */
+  if (freeze_group_bit_) {
+    flags_.resize(n);
+    for (int i = 0; i < n; i++) flags_[i] = (atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0;
+    fl = flags_.data();
   }
+  /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core
+   * reads them in place */
+  const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
   double vir[6];
-  int rc = sphdem_dem_compute(dem_, n, tags_.data(), xbuf_.data(), vbuf_.data(), wbuf_.data(), rbuf_.data(),
-                              mbuf_.data(), flags_.data(), update->dt, update->setupflag ? 0 : 1, fbuf_.data(),
-                              tbuf_.data(), vflag_global ? vir : nullptr);
+  const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
+  int rc = sphdem_dem_compute(dem_, n, tags_.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
+                              update->setupflag ? 0 : 1, fbuf_.data(), tbuf_.data(), vflag_global ? vir : nullptr);
   if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
+  const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   for (int i = 0; i < n; i++)
     for (int d = 0; d < 3; d++) {
       atom->f[i][d] += fbuf_[3 * i + d];
@@ -236,10 +235,17 @@ void PairGranGPU::compute(int eflag, int vflag) {
     }
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
+  if (timers_.on) {
+    timers_.pack += tp1 - tp0;
+    timers_.unpack += sphdem_pair_timers::now() - tp2;
+    if (update->setupflag) timers_.reset(dem_);
+    else if (update->ntimestep == update->laststep && comm->me == 0) sphdem_compat::logmesg(lmp, timers_.line(dem_, "gran/gpu"));
+  }
 }
 
 double PairGranGPU::memory_usage() {
-  return (double)(xbuf_.capacity() * 7) * sizeof(double);
+  return (double)(tags_.capacity() * sizeof(int64_t) + flags_.capacity() * sizeof(int)) +
+         (double)(fbuf_.capacity() + tbuf_.capacity()) * sizeof(double);
 }
 
 static Pair *pair_gran_gpu_creator(LAMMPS *lmp) { return new PairGranGPU(lmp); }

@@ -12,6 +12,7 @@ PairStyle(gran/gpu,PairGranGPU)
 
 #include "pair.h"
 #include "pair_gran_gpu_restart.h"
+#include "pair_gran_gpu_timers.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -38,8 +39,9 @@ class PairGranGPU : public Pair {
   double box_lo_[3], box_hi_[3];
   int box_per_[3];
   std::vector<int64_t> tags_;
-  std::vector<double> xbuf_, vbuf_, wbuf_, rbuf_, mbuf_, fbuf_, tbuf_;
+  std::vector<double> fbuf_, tbuf_;
   std::vector<int> flags_;
+  sphdem_pair_timers::RunTimers timers_;  /* keyword timers on */
   sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
 
   void allocate();

@@ -23,7 +23,7 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "Kn Kt|NULL gamma_n gamma_t|NULL xmu dampflag [limit_damping] [device auto|cpu|gpu] [algo pair|particle]";
+    "Kn Kt|NULL gamma_n gamma_t|NULL xmu dampflag [limit_damping] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
 PairGranHookeHistoryGPU::PairGranHookeHistoryGPU(LAMMPS *lmp)
     : Pair(lmp), kn(0), kt(0), gamman(0), gammat(0), xmu(0), dampflag(0), limit_damping(0),
@@ -89,6 +89,11 @@ void PairGranHookeHistoryGPU::settings(int narg, char **arg) {
       if (a == "pair") algo_ = SPHDEM_DEM_PAIR_PARALLEL;
       else if (a == "particle") algo_ = SPHDEM_DEM_PARTICLE_PARALLEL;
       else fail("algo must be pair or particle (got '" + a + "')");
+    } else if (kw == "timers" && k + 1 < narg) {
+      std::string a = arg[++k];
+      if (a == "on") timers_.on = 1;
+      else if (a == "off") timers_.on = 0;
+      else fail("timers must be on or off (got '" + a + "')");
     } else {
       fail("unsupported argument '" + kw + "' (usage: " + USAGE + ")");
     }
@@ -202,33 +207,27 @@ void PairGranHookeHistoryGPU::compute(int eflag, int vflag) {
   for (int d = 0; d < 3; d++)
     box_changed |= domain->boxlo[d] != box_lo[d] || domain->boxhi[d] != box_hi[d] || domain->periodicity[d] != box_per[d];
   if (box_changed) sync_params();
+  const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   tags.resize(n);
-  xbuf.resize(3 * (size_t)n);
-  vbuf.resize(3 * (size_t)n);
-  wbuf.resize(3 * (size_t)n);
   fbuf.resize(3 * (size_t)n);
   tbuf.resize(3 * (size_t)n);
-  rbuf.resize(n);
-  mbuf.resize(n);
-  flags.resize(n);
-  double **x = atom->x, **v = atom->v, **om = atom->omega;
-  for (int i = 0; i < n; i++) {
-    tags[i] = atom->tag[i];
-    for (int d = 0; d < 3; d++) {
-      xbuf[3 * i + d] = x[i][d];
-      vbuf[3 * i + d] = v[i][d];
-      wbuf[3 * i + d] = om[i][d];
-    }
-    rbuf[i] = atom->radius[i];
-    mbuf[i] = atom->rmass[i];
-    flags[i] = (atom->mask[i] & freeze_group_bit) ? SPHDEM_DEM_FROZEN : 0;
+  for (int i = 0; i < n; i++) tags[i] = atom->tag[i];
+  const int *fl = nullptr; /* NULL: no grain frozen */
+  if (freeze_group_bit) {
+    flags.resize(n);
+    for (int i = 0; i < n; i++) flags[i] = (atom->mask[i] & freeze_group_bit) ? SPHDEM_DEM_FROZEN : 0;
+    fl = flags.data();
   }
+  /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core
+   * reads them in place */
+  const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
   double vir[6];
+  const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   /* during setup the forces are evaluated without advancing the shear history (as the stock style) */
-  int rc = sphdem_dem_compute(dem, n, tags.data(), xbuf.data(), vbuf.data(), wbuf.data(), rbuf.data(), mbuf.data(),
-                              flags.data(), update->dt, update->setupflag ? 0 : 1, fbuf.data(), tbuf.data(),
-                              vflag_global ? vir : nullptr);
+  int rc = sphdem_dem_compute(dem, n, tags.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
+                              update->setupflag ? 0 : 1, fbuf.data(), tbuf.data(), vflag_global ? vir : nullptr);
   if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem));
+  const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   double **f = atom->f, **t = atom->torque;
   for (int i = 0; i < n; i++)
     for (int d = 0; d < 3; d++) {
@@ -237,12 +236,17 @@ void PairGranHookeHistoryGPU::compute(int eflag, int vflag) {
     }
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
+  if (timers_.on) {
+    timers_.pack += tp1 - tp0;
+    timers_.unpack += sphdem_pair_timers::now() - tp2;
+    if (update->setupflag) timers_.reset(dem);
+    else if (update->ntimestep == update->laststep && comm->me == 0) sphdem_compat::logmesg(lmp, timers_.line(dem, style));
+  }
 }
 
 double PairGranHookeHistoryGPU::memory_usage() {
   return (double)(tags.capacity() * sizeof(int64_t) + flags.capacity() * sizeof(int)) +
-         (double)(xbuf.capacity() + vbuf.capacity() + wbuf.capacity() + fbuf.capacity() + tbuf.capacity() +
-                  rbuf.capacity() + mbuf.capacity()) * sizeof(double);
+         (double)(fbuf.capacity() + tbuf.capacity()) * sizeof(double);
 }
 
 /* ---- gran/hertz/history/gpu: the same arguments, Kn and Kt in pressure units (stock: divided by nktv2p) */

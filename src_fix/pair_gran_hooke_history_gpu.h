@@ -12,6 +12,7 @@ PairStyle(gran/hooke/history/gpu,PairGranHookeHistoryGPU)
 
 #include "pair.h"
 #include "pair_gran_gpu_restart.h"
+#include "pair_gran_gpu_timers.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -44,8 +45,9 @@ class PairGranHookeHistoryGPU : public Pair {
   double box_lo[3], box_hi[3];
   int box_per[3];
   std::vector<int64_t> tags;
-  std::vector<double> xbuf, vbuf, wbuf, rbuf, mbuf, fbuf, tbuf;
+  std::vector<double> fbuf, tbuf;
   std::vector<int> flags;
+  sphdem_pair_timers::RunTimers timers_;  /* keyword timers on */
   sphdem_restart::PendingHistory pending_history; /* from read_restart, handed to the core in init_style */
 
   void allocate();

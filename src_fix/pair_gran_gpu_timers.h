@@ -1,0 +1,45 @@
+/* pair_gran_gpu_timers.h - per-run time split of the GPU granular pair styles of both engines (keyword
+ * "timers on"): the host loops that map the atoms to the core's arrays and add the results back, and
+ * the core's own split (sphdem_dem_timers); one line at the last step of each run. */
+#ifndef SPHDEM_PAIR_GRAN_GPU_TIMERS_H
+#define SPHDEM_PAIR_GRAN_GPU_TIMERS_H
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "sphdem.h"
+
+namespace sphdem_pair_timers {
+
+inline double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+struct RunTimers {
+  int on = 0;
+  double pack = 0.0, unpack = 0.0;
+  /* called after the setup evaluation: time only the steps of the run */
+  void reset(sphdem_dem dem) {
+    pack = unpack = 0.0;
+    sphdem_dem_timers_reset(dem);
+  }
+  std::string line(sphdem_dem dem, const std::string &style) const {
+    double t[SPHDEM_DEM_NTIMERS];
+    long long calls = (long long)sphdem_dem_timers(dem, t);
+    sphdem_dem_stats s;
+    sphdem_dem_stats_get(dem, &s);
+    char buf[768];
+    std::snprintf(buf, sizeof buf,
+                  "Pair %s timers: calls=%lld pack_s=%.6g upload_s=%.6g check_s=%.6g detect_s=%.6g force_s=%.6g "
+                  "download_s=%.6g unpack_s=%.6g builds_total=%lld pairs=%lld contacts=%lld\n",
+                  style.c_str(), calls, pack, t[SPHDEM_DEM_T_UPLOAD], t[SPHDEM_DEM_T_CHECK], t[SPHDEM_DEM_T_DETECT],
+                  t[SPHDEM_DEM_T_FORCE], t[SPHDEM_DEM_T_DOWNLOAD], unpack, (long long)s.nbuilds, (long long)s.npairs,
+                  (long long)s.ncontacts);
+    return buf;
+  }
+};
+
+}  // namespace sphdem_pair_timers
+
+#endif
