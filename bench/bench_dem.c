@@ -16,7 +16,9 @@
  * A benchmark, not a test: it asserts nothing about speed.
  *
  *   bench_dem [--n 1e4] [--steps 1000] [--warmup 10] [--device cpu|gpu|auto] [--algo pair|particle]
- *             [--model hertz|liggghts] [--threads T] */
+ *             [--model hertz|liggghts] [--threads T] [--spacing S]
+ * --spacing: lattice spacing in diameters (default 0.9998; 1.1 gives a loose packing in which the
+ * candidate pairs within the skin do not touch at first, as in a falling cloud). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
@@ -45,7 +47,7 @@ static double urand(void) { /* xorshift64, uniform in (0, 1) */
 static double grand(void) { return sqrt(-2.0 * log(urand())) * cos(6.283185307179586 * urand()); }
 
 int main(int argc, char **argv) {
-  double ntarget = 1e4;
+  double ntarget = 1e4, spacing = 0.9998;
   int steps = 1000, warmup = 10, algo = SPHDEM_DEM_PARTICLE_PARALLEL, liggghts = 0, threads = 0;
   sphdem_device dev = SPHDEM_DEVICE_CPU;
   for (int k = 1; k < argc; k++) {
@@ -54,6 +56,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--steps")) steps = atoi(v), k++;
     else if (!strcmp(a, "--warmup")) warmup = atoi(v), k++;
     else if (!strcmp(a, "--threads")) threads = atoi(v), k++;
+    else if (!strcmp(a, "--spacing")) spacing = atof(v), k++;
     else if (!strcmp(a, "--device")) {
       dev = !strcmp(v, "gpu") ? SPHDEM_DEVICE_GPU : !strcmp(v, "auto") ? SPHDEM_DEVICE_AUTO : SPHDEM_DEVICE_CPU;
       k++;
@@ -61,7 +64,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--model")) liggghts = !strcmp(v, "liggghts"), k++;
     else {
       fprintf(stderr, "usage: %s [--n N] [--steps S] [--warmup W] [--device cpu|gpu|auto] [--algo pair|particle] "
-                      "[--model hertz|liggghts] [--threads T]\n", argv[0]);
+                      "[--model hertz|liggghts] [--threads T] [--spacing S]\n", argv[0]);
       return 2;
     }
   }
@@ -71,7 +74,7 @@ int main(int argc, char **argv) {
 #else
   threads = 1;
 #endif
-  const double d = 0.005, r = 0.5 * d, a = 0.9998 * d, rho = 2500.0, dt = 2e-6, g = 9.81;
+  const double d = 0.005, r = 0.5 * d, a = spacing * d, rho = 2500.0, dt = 2e-6, g = 9.81;
   int nx = (int)floor(pow(ntarget, 1.0 / 3.0) + 0.5), nz = (int)floor(ntarget / ((double)nx * nx) + 0.5);
   if (nx < 2) nx = 2;
   if (nz < 1) nz = 1;
@@ -159,11 +162,11 @@ int main(int argc, char **argv) {
   sphdem_dem_stats_get(dem, &st);
   for (int i = 0; i < n; i++)
     for (int c = 0; c < 3; c++) ke += 0.5 * m * v[3 * i + c] * v[3 * i + c] + 0.5 * I * w[3 * i + c] * w[3 * i + c];
-  printf("BENCH code=sphdem_dem backend=%s model=%s algo=%s threads=%d grains=%d steps=%d wall_s=%.6g "
+  printf("BENCH code=sphdem_dem backend=%s model=%s algo=%s threads=%d spacing=%g grains=%d steps=%d wall_s=%.6g "
          "psteps_per_s=%.6g contacts_per_s=%.6g pairs=%lld contacts=%lld builds=%lld t_upload=%.6g t_check=%.6g "
          "t_detect=%.6g t_force=%.6g t_download=%.6g t_host=%.6g t_call_min=%.6g ke=%.10g\n",
          sphdem_dem_backend(dem) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", liggghts ? "liggghts_hertz" : "hertz",
-         algo == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle", threads, n, steps, wall, (double)n * steps / wall,
+         algo == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle", threads, spacing, n, steps, wall, (double)n * steps / wall,
          csum / wall, (long long)st.npairs, (long long)st.ncontacts, (long long)st.nbuilds, t[SPHDEM_DEM_T_UPLOAD],
          t[SPHDEM_DEM_T_CHECK], t[SPHDEM_DEM_T_DETECT], t[SPHDEM_DEM_T_FORCE], t[SPHDEM_DEM_T_DOWNLOAD], thost, tcall_min, ke);
   sphdem_dem_destroy(&dem);

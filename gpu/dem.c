@@ -117,12 +117,14 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   }
   m->ops = &sphdem_dem_cpu_ops;
   m->backend = SPHDEM_DEVICE_CPU;
+  m->zero_copy = 1;
   if (dev != SPHDEM_DEVICE_CPU) {
 #ifdef SPHDEM_WITH_CUDA
     char why[256];
     if (sphdem_cuda_probe(why, sizeof why) == SPHDEM_OK) {
       m->ops = &sphdem_dem_cuda_ops;
       m->backend = SPHDEM_DEVICE_GPU;
+      m->zero_copy = 0;
     } else if (dev == SPHDEM_DEVICE_GPU) {
       if (msg && msglen) snprintf(msg, msglen, "GPU requested but none is usable: %s", why);
       free(m);
@@ -152,6 +154,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   if (!pm || !*pm) return SPHDEM_OK;
   struct sphdem_dem_s *m = *pm;
   dem_dev *D = &m->D;
+  if (m->zero_copy) D->x = D->v = D->om = D->rad = D->mass = D->f = D->tq = NULL; /* the caller's arrays */
   void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
                   D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir};
@@ -203,16 +206,18 @@ static int grow(struct sphdem_dem_s *m, void **ptr, size_t elem, int64_t need, i
 }
 
 static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
-  if (n <= m->cap_n && m->D.x) return SPHDEM_OK;
+  if (n <= m->cap_n && m->D.sidx) return SPHDEM_OK;
   dem_dev *D = &m->D;
   int64_t cap = n + n / 4 + 16, rc = 0;
-  rc |= grow(m, (void **)&D->x, 3 * sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->v, 3 * sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->om, 3 * sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->f, 3 * sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->tq, 3 * sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->rad, sizeof(double), n, cap);
-  rc |= grow(m, (void **)&D->mass, sizeof(double), n, cap);
+  if (!m->zero_copy) {
+    rc |= grow(m, (void **)&D->x, 3 * sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->v, 3 * sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->om, 3 * sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->f, 3 * sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->tq, 3 * sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->rad, sizeof(double), n, cap);
+    rc |= grow(m, (void **)&D->mass, sizeof(double), n, cap);
+  }
   rc |= grow(m, (void **)&D->flags, sizeof(int32_t), n, cap);
   rc |= grow(m, (void **)&D->tag, sizeof(int64_t), n, cap);
   rc |= grow(m, (void **)&D->sidx, sizeof(int32_t), n, cap);
@@ -353,11 +358,16 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
   t0 = t1;
   if (n) {
-    TRY(m->ops->h2d(m, D->x, x, sizeof(double) * 3 * n));
-    TRY(m->ops->h2d(m, D->v, v, sizeof(double) * 3 * n));
-    TRY(m->ops->h2d(m, D->om, omega, sizeof(double) * 3 * n));
-    TRY(m->ops->h2d(m, D->rad, radius, sizeof(double) * n));
-    TRY(m->ops->h2d(m, D->mass, mass, sizeof(double) * n));
+    if (m->zero_copy) { /* CPU backend: the loops read the caller's arrays and write f, torque in place */
+      D->x = (double *)x, D->v = (double *)v, D->om = (double *)omega;
+      D->rad = (double *)radius, D->mass = (double *)mass, D->f = f, D->tq = torque;
+    } else {
+      TRY(m->ops->h2d(m, D->x, x, sizeof(double) * 3 * n));
+      TRY(m->ops->h2d(m, D->v, v, sizeof(double) * 3 * n));
+      TRY(m->ops->h2d(m, D->om, omega, sizeof(double) * 3 * n));
+      TRY(m->ops->h2d(m, D->rad, radius, sizeof(double) * n));
+      TRY(m->ops->h2d(m, D->mass, mass, sizeof(double) * n));
+    }
     if (flags) TRY(m->ops->h2d(m, D->flags, flags, sizeof(int32_t) * n));
     else TRY(m->ops->memset0(m, D->flags, sizeof(int32_t) * n));
     if (new_tags) {
@@ -390,8 +400,10 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
   t0 = t1;
   if (n) {
-    TRY(m->ops->d2h(m, f, D->f, sizeof(double) * 3 * n));
-    TRY(m->ops->d2h(m, torque, D->tq, sizeof(double) * 3 * n));
+    if (!m->zero_copy) {
+      TRY(m->ops->d2h(m, f, D->f, sizeof(double) * 3 * n));
+      TRY(m->ops->d2h(m, torque, D->tq, sizeof(double) * 3 * n));
+    }
   }
   if (virial) TRY(m->ops->d2h(m, virial, D->vir, 6 * sizeof(double)));
   m->t[SPHDEM_DEM_T_DOWNLOAD] += dem_now() - t0;

@@ -296,15 +296,15 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
  * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
  * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
  * tangent plane, Yu eq 13) are common; the three laws differ in the normal and tangential forces. */
-DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb,
-                                    double *hout, double *vir, const int model) {
+/* Geometry of pair p: del = x_a - x_b (minimum image; for a wall the distance along its normal),
+ * |del|^2, the partner's radius (0 for a wall) and r_a + r_b. Returns 1 if the grains overlap. */
+DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, double *rsq_, double *rb_,
+                                   double *radsum_) {
   const int32_t a = D->pa[p], b = D->pb[p];
-  const int wall = b < 0;
-  const double *xa = D->x + 3 * (int64_t)a, *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
-  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const double *xa = D->x + 3 * (int64_t)a;
   const double ra = D->rad[a];
-  double del[3], rsq, rb, radsum, meff, vr[3], wr[3], wrel[3];
-  if (!wall) {
+  double rsq, rb, radsum;
+  if (b >= 0) {
     rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
     rb = D->rad[b];
     radsum = ra + rb;
@@ -317,11 +317,22 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, double *Fa, dou
     radsum = ra;
     if (dist <= 0.0) rsq = radsum * radsum; /* centre behind the plane: no contact */
   }
-  if (rsq >= radsum * radsum) {
-    if (hout)
-      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
-    return 0;
-  }
+  *rsq_ = rsq;
+  *rb_ = rb;
+  *radsum_ = radsum;
+  return rsq < radsum * radsum;
+}
+
+/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom. */
+DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
+                                    const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
+                                    double *hout, double *vir, const int model) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  const int wall = b < 0;
+  const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
+  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const double ra = D->rad[a];
+  double meff, vr[3], wr[3], wrel[3];
   const double r = sqrt(rsq), rinv = 1.0 / r, rsqinv = 1.0 / rsq;
   const double ma = D->mass[a];
   if (!wall) {
@@ -473,16 +484,33 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, double *Fa, dou
   return 1;
 }
 
-/* The contact law of D->P.model, each one compiled with its model fixed. vir is written only when
- * D->want_virial; Fa, Ta, Tb, vir only when the pair touches (returns 1). */
-SPHDEM_HD int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
-                          double *vir) {
+/* The contact law of D->P.model for an overlapping pair, each model compiled with it fixed. */
+SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *del, double rsq, double rb,
+                                   double radsum, double *Fa, double *Ta, double *Tb, double *hout, double *vir) {
   switch (D->P.model) {
-    case SPHDEM_DEM_HOOKE: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HOOKE);
-    case SPHDEM_DEM_HERTZ: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ);
-    case SPHDEM_DEM_HERTZ_MINDLIN: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_MINDLIN);
-    default: return dem_contact_model(D, p, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_LIGGGHTS);
+    case SPHDEM_DEM_HOOKE:
+      return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HOOKE);
+    case SPHDEM_DEM_HERTZ:
+      return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ);
+    case SPHDEM_DEM_HERTZ_MINDLIN:
+      return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_MINDLIN);
+    default:
+      return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_LIGGGHTS);
   }
+}
+
+/* Contact of pair p: 0 (and a zero history in hout) when the grains do not overlap; else the law of
+ * D->P.model. The overlap test is inlined into the loops (most candidate pairs of a loose packing do not
+ * touch); vir is written only when D->want_virial; Fa, Ta, Tb, vir only when the pair touches. */
+DEM_HD_INLINE int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
+                              double *vir) {
+  double del[3], rsq, rb, radsum;
+  if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+    if (hout)
+      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+    return 0;
+  }
+  return dem_contact_touching(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir);
 }
 
 /* Collision-pair parallel pass (Yu 2024 §2.3, Fig. 3): one thread per pair, the force added to a and

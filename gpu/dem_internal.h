@@ -81,6 +81,8 @@ struct sphdem_dem_s {
   int need_build;
   int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
   int tags_valid;              /* device tag array matches htag */
+  int zero_copy;               /* CPU backend: x, v, om, rad, mass, f, tq point at the caller's arrays
+                                  during sphdem_dem_compute (no copies) */
   int64_t nbuilds, ncontacts;
   /* host copies for the rebuild decision */
   double *hx0;
