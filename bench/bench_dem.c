@@ -18,7 +18,9 @@
  *   bench_dem [--n 1e4] [--steps 1000] [--warmup 10] [--device cpu|gpu|auto] [--algo pair|particle]
  *             [--model hertz|liggghts] [--threads T] [--spacing S]
  * --spacing: lattice spacing in diameters (default 0.9998; 1.1 gives a loose packing in which the
- * candidate pairs within the skin do not touch at first, as in a falling cloud). */
+ * candidate pairs within the skin do not touch at first, as in a falling cloud). --shuffle: the atom
+ * tags are a random permutation of the grain order (as after an engine's spatial atom sort, the
+ * order in which the engine hands the grains over is not the order of their tags). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
@@ -48,6 +50,7 @@ static double grand(void) { return sqrt(-2.0 * log(urand())) * cos(6.28318530717
 
 int main(int argc, char **argv) {
   double ntarget = 1e4, spacing = 0.9998;
+  int shuffle = 0;
   int steps = 1000, warmup = 10, algo = SPHDEM_DEM_PARTICLE_PARALLEL, liggghts = 0, threads = 0;
   sphdem_device dev = SPHDEM_DEVICE_CPU;
   for (int k = 1; k < argc; k++) {
@@ -57,6 +60,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--warmup")) warmup = atoi(v), k++;
     else if (!strcmp(a, "--threads")) threads = atoi(v), k++;
     else if (!strcmp(a, "--spacing")) spacing = atof(v), k++;
+    else if (!strcmp(a, "--shuffle")) shuffle = 1;
     else if (!strcmp(a, "--device")) {
       dev = !strcmp(v, "gpu") ? SPHDEM_DEVICE_GPU : !strcmp(v, "auto") ? SPHDEM_DEVICE_AUTO : SPHDEM_DEVICE_CPU;
       k++;
@@ -64,7 +68,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--model")) liggghts = !strcmp(v, "liggghts"), k++;
     else {
       fprintf(stderr, "usage: %s [--n N] [--steps S] [--warmup W] [--device cpu|gpu|auto] [--algo pair|particle] "
-                      "[--model hertz|liggghts] [--threads T] [--spacing S]\n", argv[0]);
+                      "[--model hertz|liggghts] [--threads T] [--spacing S] [--shuffle]\n", argv[0]);
       return 2;
     }
   }
@@ -118,6 +122,14 @@ int main(int argc, char **argv) {
         rad[q] = r;
         mass[q] = m;
       }
+  if (shuffle)
+    for (int i = n - 1; i > 0; i--) { /* Fisher-Yates */
+      int j = (int)(urand() * (i + 1));
+      if (j > i) j = i;
+      int64_t t = tag[i];
+      tag[i] = tag[j];
+      tag[j] = t;
+    }
   rc = sphdem_dem_compute(dem, n, tag, x, v, w, rad, mass, NULL, dt, 0, f, tq, NULL);
   double t0 = 0, thost = 0, csum = 0, tcall_min = 1e30;
   for (int s = 0; !rc && s < warmup + steps; s++) {
@@ -162,11 +174,11 @@ int main(int argc, char **argv) {
   sphdem_dem_stats_get(dem, &st);
   for (int i = 0; i < n; i++)
     for (int c = 0; c < 3; c++) ke += 0.5 * m * v[3 * i + c] * v[3 * i + c] + 0.5 * I * w[3 * i + c] * w[3 * i + c];
-  printf("BENCH code=sphdem_dem backend=%s model=%s algo=%s threads=%d spacing=%g grains=%d steps=%d wall_s=%.6g "
+  printf("BENCH code=sphdem_dem backend=%s model=%s algo=%s threads=%d spacing=%g shuffle=%d grains=%d steps=%d wall_s=%.6g "
          "psteps_per_s=%.6g contacts_per_s=%.6g pairs=%lld contacts=%lld builds=%lld t_upload=%.6g t_check=%.6g "
          "t_detect=%.6g t_force=%.6g t_download=%.6g t_host=%.6g t_call_min=%.6g ke=%.10g\n",
          sphdem_dem_backend(dem) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", liggghts ? "liggghts_hertz" : "hertz",
-         algo == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle", threads, spacing, n, steps, wall, (double)n * steps / wall,
+         algo == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle", threads, spacing, shuffle, n, steps, wall, (double)n * steps / wall,
          csum / wall, (long long)st.npairs, (long long)st.ncontacts, (long long)st.nbuilds, t[SPHDEM_DEM_T_UPLOAD],
          t[SPHDEM_DEM_T_CHECK], t[SPHDEM_DEM_T_DETECT], t[SPHDEM_DEM_T_FORCE], t[SPHDEM_DEM_T_DOWNLOAD], thost, tcall_min, ke);
   sphdem_dem_destroy(&dem);
