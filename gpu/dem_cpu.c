@@ -146,8 +146,12 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
 #pragma omp parallel for schedule(static)
       for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 1);
     }
-#pragma omp parallel for reduction(+ : nt) schedule(static) if (np > DEM_OMP_MIN)
-    for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+    if (c_serial(np)) {
+      for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+    } else {
+#pragma omp parallel for reduction(+ : nt) schedule(static)
+      for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
+    }
   } else {
     /* each pair evaluated once: forward (pairs as a, F and Tb kept per pair), then reverse */
     if (np > m->cap_pfb) {
@@ -158,10 +162,15 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
       m->cap_pfb = cap;
     }
     double *pfb = m->cpu_pfb;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt) if (n > DEM_OMP_MIN)
-    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
-#pragma omp parallel for schedule(dynamic, 64) if (n > DEM_OMP_MIN)
-    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+    if (c_serial(n)) { /* no call into the OpenMP runtime at all (it costs microseconds per region) */
+      for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
+      for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+    } else {
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt)
+      for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
+#pragma omp parallel for schedule(dynamic, 64)
+      for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+    }
   }
   *ntouch = nt;
   return SPHDEM_OK;
