@@ -575,12 +575,18 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
 /* The particle-parallel pass in two halves that evaluate each pair once (the CPU loops; the same
  * additions in the same order as dem_particle_force_body, so the same bits). Forward: grain i sums
  * its pairs as a into f, tq and keeps F and Tb of each touching pair in pfb (6 per pair); returns the
- * touching pairs. Reverse (after every forward): grain i adds -F and Tb of its pairs as b. */
-SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb) {
-  double F[3], Ta[3], Tb[3], vir[6], f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+ * touching pairs. Reverse (after every forward): grain i adds -F and Tb of its pairs as b.
+ * dem_particle_forward_model has the contact law inlined for a model fixed at compile time. */
+DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, const int model) {
+  double F[3], Ta[3], Tb[3], vir[6] = {0, 0, 0, 0, 0, 0}, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
   int64_t nt = 0;
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
-    if (!dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) continue;
+    double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
+    if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+      continue;
+    }
+    dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
     nt++;
     for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
     if (D->want_virial)
@@ -596,6 +602,9 @@ SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double 
     for (int d = 0; d < 6; d++)
       if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
   return nt;
+}
+SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb) {
+  return dem_particle_forward_model(D, i, pfb, D->P.model);
 }
 
 SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb) {

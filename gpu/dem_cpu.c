@@ -134,6 +134,19 @@ static int c_serial(int64_t iters) {
 #endif
 }
 
+/* Forward pass of the particle-parallel forces with the contact law of one model inlined. */
+static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D, int64_t n, double *pfb,
+                                                               const int model, int serial) {
+  int64_t nt = 0;
+  if (serial) { /* no call into the OpenMP runtime at all (it costs microseconds per region) */
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, model);
+  } else {
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt)
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, model);
+  }
+  return nt;
+}
+
 static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   dem_dev *D = &m->D;
   int64_t n = D->n, np = D->np, nt = 0;
@@ -162,12 +175,16 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
       m->cap_pfb = cap;
     }
     double *pfb = m->cpu_pfb;
-    if (c_serial(n)) { /* no call into the OpenMP runtime at all (it costs microseconds per region) */
-      for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
+    const int serial = c_serial(n);
+    switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
+      case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, SPHDEM_DEM_HOOKE, serial); break;
+      case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ, serial); break;
+      case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
+      default: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
+    }
+    if (serial) {
       for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
     } else {
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt)
-      for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_body(D, i, pfb);
 #pragma omp parallel for schedule(dynamic, 64)
       for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
     }
