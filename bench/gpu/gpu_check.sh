@@ -33,5 +33,20 @@ for n in $SIZES; do
   step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
   grep BENCH "$OUT/bench3d_gpu_$n.log"
 done
+# CFD-DEM gas grid + DEM (issue 6) and the DEM contacts alone (issue 5), GPU and CPU side by side
+if [ -x "$BIN/cfd_bench" ]; then
+  for n in 100000 1000000; do
+    step "cfd_gpu_$n" 300 "$BIN/cfd_bench" --n "$n" --device gpu --steps 50 --warmup 10
+    step "cfd_cpu_$n" 300 "$BIN/cfd_bench" --n "$n" --device cpu --steps 10 --warmup 5 --threads 16
+  done
+fi
+if [ -x "$BIN/bench_dem" ]; then
+  for n in 10000 100000 1000000; do
+    for algo in pair particle; do
+      step "dem_gpu_${algo}_$n" 300 "$BIN/bench_dem" --n "$n" --device gpu --algo "$algo" --steps 200 --warmup 20
+    done
+    step "dem_cpu_$n" 300 "$BIN/bench_dem" --n "$n" --device cpu --threads 1 --steps 20 --warmup 5
+  done
+fi
 tail -n 4 "$OUT"/twin_*.log
 (cd "$LOGS" && tar czf logs.tgz logs && rm -rf logs)
