@@ -46,12 +46,18 @@ void sphdem_dem_params_default(sphdem_dem_params *p) {
 
 int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen) {
   if (!p) BAD("params: NULL");
-  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HERTZ_LIGGGHTS)
-    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts)", p->model);
+  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HOOKE_LIGGGHTS)
+    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts, 4 hooke_liggghts)",
+        p->model);
   if (p->algo != SPHDEM_DEM_PAIR_PARALLEL && p->algo != SPHDEM_DEM_PARTICLE_PARALLEL)
     BAD("algo: %d is not a sphdem_dem_algo (0 pair-parallel, 1 particle-parallel)", p->algo);
   if (!(p->en >= 0.0 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside [0, 1]", p->en);
-  if (p->model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
+  if (p->model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
+    if (!(p->charvel > 0.0) || !isfinite(p->charvel))
+      BAD("charvel: the characteristic velocity of LIGGGHTS model hooke must be > 0 (got %g)", p->charvel);
+    if (p->kt_to_kn != 0 && p->kt_to_kn != 1) BAD("kt_to_kn: must be 0 or 1 (got %d)", p->kt_to_kn);
+  }
+  if (p->model == SPHDEM_DEM_HERTZ_LIGGGHTS || p->model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
     if (!(p->E > 0.0)) BAD("E: Young's modulus must be > 0 (got %g)", p->E);
     if (!(p->nu >= 0.0 && p->nu <= 0.5)) BAD("nu: Poisson ratio %g outside [0, 0.5]", p->nu);
     if (!(p->en > 0.05 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside (0.05, 1]", p->en);
@@ -101,6 +107,7 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->Geff = 1. / (2. * (2. - v) * (1. + v) / Y + 2. * (2. - v) * (1. + v) / Y);
   const double lg = p->en > 0.0 ? log(p->en) : 0.0;
   D->betaeff = lg / sqrt(pow(lg, 2.) + pow(M_PI, 2.));
+  D->lnen = lg;
 }
 
 int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {

@@ -6,6 +6,10 @@
 #include <math.h>
 #include "dem_internal.h"
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 /* A body inlined into its caller even when large (the contact law specialised per model). */
 #ifdef __CUDACC__
 #define DEM_HD_INLINE __host__ __device__ static __forceinline__
@@ -202,12 +206,24 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   const double vtr3 = vt3 - (del[1] * wr1 - del[0] * wr2);
   /* normal */
   const double reff = wall ? ra : (ra * rb / (ra + rb));
-  const double sqrtval = sqrt(reff * deltan);
-  const double Sn = 2. * D->Yeff * sqrtval, St = 8. * D->Geff * sqrtval;
-  const double kn = 4. / 3. * D->Yeff * sqrtval, kt = St;
-  const double sqrtFiveOverSix = 0.91287092917527685576161630466800355658790782499663875;
-  const double gamman = -2. * sqrtFiveOverSix * D->betaeff * sqrt(Sn * meff);
-  const double gammat = -2. * sqrtFiveOverSix * D->betaeff * sqrt(St * meff);
+  double kn, kt, gamman, gammat;
+  if (D->P.model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
+    /* LIGGGHTS model hooke: stiffness from Y* and the characteristic velocity, damping from e */
+    const double sqrtval = sqrt(reff), V = D->P.charvel;
+    kn = 16. / 15. * sqrtval * D->Yeff * pow(15. * meff * V * V / (16. * sqrtval * D->Yeff), 0.2);
+    kt = D->P.kt_to_kn ? kn * 0.285714286 : kn; /* the 2/7 as LIGGGHTS writes it */
+    const double pl = M_PI / D->lnen;
+    gamman = sqrt(4. * meff * kn / (1. + pl * pl));
+    gammat = gamman;
+  } else {
+    const double sqrtval = sqrt(reff * deltan);
+    const double Sn = 2. * D->Yeff * sqrtval, St = 8. * D->Geff * sqrtval;
+    kn = 4. / 3. * D->Yeff * sqrtval;
+    kt = St;
+    const double sqrtFiveOverSix = 0.91287092917527685576161630466800355658790782499663875;
+    gamman = -2. * sqrtFiveOverSix * D->betaeff * sqrt(Sn * meff);
+    gammat = -2. * sqrtFiveOverSix * D->betaeff * sqrt(St * meff);
+  }
   double Fn = -gamman * vn + kn * deltan;
   if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
   for (int d = 0; d < 3; d++) Fa[d] = Fn * en[d];

@@ -20,6 +20,7 @@ typedef struct {
   double Estar;       /* He eq 21 for one material: E / (2 (1 - nu^2)) */
   double tmax_fac;    /* He eq 22: (2 - nu) / (2 - 2 nu) mu */
   double Yeff, Geff, betaeff; /* HERTZ_LIGGGHTS: effective moduli and damping ratio of two grains of one material */
+  double lnen;        /* HOOKE_LIGGGHTS: ln e */
   double L[3];
   double glo[3], cs_inv[3];
   int nc[3];

@@ -23,12 +23,13 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "model hertz tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
+    "model hertz|hooke tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
+    "[ktToKnUser on|off (hooke)] "
     "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      maxrad_(0), freeze_group_bit_(0), dem_(nullptr) {
+      hooke_(0), kt_to_kn_(0), maxrad_(0), freeze_group_bit_(0), dem_(nullptr) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;
   restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
@@ -56,8 +57,14 @@ void PairGranGPU::settings(int narg, char **arg) {
     if (k + 1 >= narg) fail("keyword '" + kw + "' needs a value (usage: " + USAGE + ")");
     k++;
     if (kw == "model") {
-      if (val != "hertz") fail("model '" + val + "' is not supported (only hertz)");
+      if (val == "hertz") hooke_ = 0;
+      else if (val == "hooke") hooke_ = 1;
+      else fail("model '" + val + "' is not supported (hertz or hooke)");
       model = true;
+    } else if (kw == "ktToKnUser") {
+      if (val == "on") kt_to_kn_ = 1;
+      else if (val == "off") kt_to_kn_ = 0;
+      else fail("ktToKnUser must be on or off (got '" + val + "')");
     } else if (kw == "tangential") {
       if (val != "history") fail("tangential '" + val + "' is not supported (only history)");
       tangential = true;
@@ -92,7 +99,8 @@ void PairGranGPU::settings(int narg, char **arg) {
       fail("unsupported keyword '" + kw + "' (usage: " + USAGE + ")");
     }
   }
-  if (!model) fail("needs 'model hertz' (usage: " + std::string(USAGE) + ")");
+  if (!model) fail("needs 'model hertz' or 'model hooke' (usage: " + std::string(USAGE) + ")");
+  if (kt_to_kn_ && !hooke_) fail("ktToKnUser is a keyword of model hooke");
   if (!tangential) fail("needs 'tangential history' (usage: " + std::string(USAGE) + ")");
 }
 
@@ -158,8 +166,8 @@ void PairGranGPU::init_style() {
 /* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
  * of atom tags). The material stays in the fix property/global commands, given again after read_restart. */
 void PairGranGPU::write_restart(FILE *fp) {
-  int iv[4] = {rolling_, limit_force_, device_, algo_};
-  fwrite(iv, sizeof(int), 4, fp);
+  int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_};
+  fwrite(iv, sizeof(int), 6, fp);
   sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
   if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
 }
@@ -167,17 +175,24 @@ void PairGranGPU::write_restart(FILE *fp) {
 void PairGranGPU::read_restart(FILE *fp, const int, const int) {
   if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
   if (!allocated) allocate();
-  int iv[4];
-  if (!sphdem_restart::read_items(fp, iv, sizeof(int), 4) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
+  int iv[6];
+  if (!sphdem_restart::read_items(fp, iv, sizeof(int), 6) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
       !pending_history_.read(fp))
     fail("restart file ends inside the pair style's data");
-  rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3];
+  rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5];
 }
 
 void PairGranGPU::sync_params() {
   sphdem_dem_params p;
   sphdem_dem_params_default(&p);
-  p.model = SPHDEM_DEM_HERTZ_LIGGGHTS;
+  p.model = hooke_ ? SPHDEM_DEM_HOOKE_LIGGGHTS : SPHDEM_DEM_HERTZ_LIGGGHTS;
+  if (hooke_) {
+    Fix *f = modify->find_fix_property("characteristicVelocity", "property/global", "scalar", 0, 0, "pair gran/gpu");
+    FixPropertyGlobal *g = static_cast<FixPropertyGlobal *>(f);
+    if (!g) fail("model hooke needs fix property/global characteristicVelocity scalar V");
+    p.charvel = g->compute_scalar();
+    p.kt_to_kn = kt_to_kn_;
+  }
   p.algo = algo_;
   p.E = material("youngsModulus", "peratomtype");
   p.nu = material("poissonsRatio", "peratomtype");

@@ -32,6 +32,7 @@ class PairGranGPU : public Pair {
 
  private:
   int rolling_, limit_force_, device_, algo_;
+  int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
   double maxrad_;
   int freeze_group_bit_;
   sphdem_dem dem_;

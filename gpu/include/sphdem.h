@@ -207,8 +207,12 @@ typedef enum {
   SPHDEM_DEM_HOOKE = 0,         /* linear spring-dashpot (Yu 2024 eqs 7-13; LAMMPS gran/hooke/history) */
   SPHDEM_DEM_HERTZ = 1,         /* LAMMPS gran/hertz/history: the Hooke law times sqrt(delta R*) */
   SPHDEM_DEM_HERTZ_MINDLIN = 2, /* Hertz normal + Mindlin-Deresiewicz tangential (He 2018 eqs 18-23) */
-  SPHDEM_DEM_HERTZ_LIGGGHTS = 3 /* LIGGGHTS model hertz tangential history [rolling_friction cdt]: stiffness
+  SPHDEM_DEM_HERTZ_LIGGGHTS = 3, /* LIGGGHTS model hertz tangential history [rolling_friction cdt]: stiffness
                                    and damping from E, nu, en (Y*, G*, beta of its material model) */
+  SPHDEM_DEM_HOOKE_LIGGGHTS = 4  /* LIGGGHTS model hooke tangential history: linear spring-dashpot whose
+                                   k_n = 16/15 sqrt(R*) Y* (15 m* V^2 / (16 sqrt(R*) Y*))^(1/5) comes from E, nu and
+                                   the characteristic velocity V (charvel), k_t = k_n (2/7 k_n with kt_to_kn),
+                                   gamma_n = gamma_t = sqrt(4 m* k_n / (1 + (pi / ln e)^2)) */
 } sphdem_dem_model;
 
 typedef enum {
@@ -234,6 +238,8 @@ typedef struct {
   double skin;          /* search gap: cells of d_max + skin; pairs rebuilt when a grain moved skin/2 */
   double boxlo[3], boxhi[3];
   int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */
+  double charvel;       /* HOOKE_LIGGGHTS: characteristic velocity V (m/s) of the stiffness */
+  int kt_to_kn;         /* HOOKE_LIGGGHTS: 1 gives k_t = 2/7 k_n (LIGGGHTS ktToKnUser on), 0 k_t = k_n */
 } sphdem_dem_params;
 
 /* A fixed plane: grains interact with it on the side its unit normal n points to. */

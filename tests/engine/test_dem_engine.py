@@ -8,9 +8,11 @@
                to round-off (max difference / column magnitude < 1e-12) and thermo (ke, press, pxy:
                the virial) must print the same
   same_liggghts LIG  the same scenes through liggghts_sphdem: stock 'pair_style gran model hertz
-               tangential history [rolling_friction cdt | limitForce on]' vs 'gran/gpu' with the same
+               tangential history [rolling_friction cdt | limitForce on]' and 'model hooke tangential history
+               [rolling_friction cdt ktToKnUser on]' (characteristicVelocity 0.8) vs 'gran/gpu' with the same
                words (material from fix property/global): final x, v, omega < 1e-12, thermo identical
-  errors_liggghts LIG  unsupported words (model hooke, cohesion sjkr, a missing material) stop naming them
+  errors_liggghts LIG  unsupported words (model hooke/stiffness, ktToKnUser with hertz, cohesion sjkr, a
+               missing material) stop naming them
   example EXE INPUT [liggghts]  examples/dem_drop shortened (-var steps: 20000 LAMMPS, 5000 LIGGGHTS,
                before the bed's impact amplifies round-off): runs with the stock style and with the
                /gpu one, thermo (ke, mean and max height) identical
@@ -115,6 +117,7 @@ fix m2 all property/global poissonsRatio peratomtype 0.45
 fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
 fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
 fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
+fix m6 all property/global characteristicVelocity scalar 0.8
 pair_style {style} {args}
 pair_coeff * *
 """
@@ -150,7 +153,8 @@ LIG_SCENES = {
                  velocities="velocity mobile set 0.05 -0.5 0.01\n"
                             "velocity mobile ramp vx -0.3 0.3 y 0.01 0.04 sum yes units box"),
 }
-LIG_ARGS = ["model hertz tangential history rolling_friction cdt", "model hertz tangential history limitForce on"]
+LIG_ARGS = ["model hertz tangential history rolling_friction cdt", "model hertz tangential history limitForce on",
+            "model hooke tangential history", "model hooke tangential history rolling_friction cdt ktToKnUser on"]
 
 
 def lig_script(scene, style, args):
@@ -284,7 +288,8 @@ def example(lmp, inp, engine="lammps"):
 
 def errors_liggghts(lig):
     ok = True
-    cases = [("model hooke tangential history", "model 'hooke' is not supported"),
+    cases = [("model hooke/stiffness tangential history", "model 'hooke/stiffness' is not supported"),
+             ("model hertz tangential history ktToKnUser on", "ktToKnUser is a keyword of model hooke"),
              ("model hertz tangential history cohesion sjkr", "cohesion 'sjkr' is not supported"),
              ("model hertz tangential history rolling_friction epsd2", "rolling_friction 'epsd2' is not supported")]
     for k, (args, want) in enumerate(cases):
