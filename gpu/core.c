@@ -92,6 +92,7 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   CHECK(p->tensile_eps == 0 || p->tensile_n > 0, "tensile exponent n must be > 0 (got %g)", p->tensile_n);
   CHECK(p->xsph_eps >= 0 && p->xsph_eps <= 1, "xsph eps must be in [0, 1] (got %g)", p->xsph_eps);
   CHECK(p->delta >= 0 && p->delta <= 1, "delta (density diffusion) must be in [0, 1] (got %g)", p->delta);
+  CHECK(p->wall_clamp == 0 || p->wall_clamp == 1, "wall_clamp must be 0 or 1 (got %d)", p->wall_clamp);
   CHECK(p->rep_D >= 0, "repulsion D must be >= 0 (got %g)", p->rep_D);
   CHECK(p->rep_D == 0 || p->rep_r0 > 0, "repulsion r0 must be > 0 (got %g)", p->rep_r0);
   CHECK(p->skin >= 0, "skin must be >= 0 (got %g)", p->skin);

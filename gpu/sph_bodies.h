@@ -194,6 +194,7 @@ SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
     double ga = 0.0;
     for (int d = 0; d < D->P.dim; d++) ga += (D->P.gravity[d] - aw[d]) * srr[d];
     pw = (spw + ga) / sw;                                            /* eq 14 */
+    if (D->P.wall_clamp && pw < 0.0) pw = 0.0;
     for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = 2.0 * vw[d] - sv[d] / sw; /* eq 13 */
   } else {
     for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = vw[d];

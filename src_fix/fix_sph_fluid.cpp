@@ -26,10 +26,10 @@ const char *const SYNTAX =
     "fix ID group sph/fluid rho0 V h V c0 V [dx V] [gamma V] [gravity gx gy gz] "
     "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
     "[repulsion D [R0]] "
-    "[wall GROUP-ID] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
+    "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
     "[hydrostatic ZSURF] [every N]";
 const char *const KEYWORDS =
-    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, skin, cfl, rho_err_max, "
+    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, skin, cfl, rho_err_max, "
     "device, sync, check, hydrostatic, every";
 
 double wall_seconds() {
@@ -182,6 +182,12 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       wall_igroup_ = sphdem_compat::find_group(group, arg[iarg + 1]);
       if (wall_igroup_ < 0) fail("wall group '" + wall_group_ + "' does not exist (usage: wall GROUP-ID)");
       wall_groupbit_ = group->bitmask[wall_igroup_];
+      iarg += 2;
+    } else if (kw == "wall_clamp") {
+      if (iarg + 1 >= narg) fail("wall_clamp must be yes or no");
+      const std::string v = arg[iarg + 1];
+      if (v != "yes" && v != "no") fail("wall_clamp must be yes or no (got '" + v + "')");
+      prm_.wall_clamp = v == "yes";
       iarg += 2;
     } else if (kw == "device") {
       if (iarg + 1 >= narg) fail("device must be auto, cpu or gpu");

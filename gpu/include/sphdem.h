@@ -20,7 +20,7 @@ extern "C" {
   X(SPHDEM_ERR_NO_GPU, 3, "no usable GPU")                                     \
   X(SPHDEM_ERR_CUDA, 4, "CUDA runtime error")                                  \
   X(SPHDEM_ERR_STATE, 5, "call not valid in the current state")               \
-  X(SPHDEM_ERR_UNSTABLE, 6, "time step exceeds the stable SPH time step")     \
+  X(SPHDEM_ERR_UNSTABLE, 6, "time step beyond a stability limit")              \
   X(SPHDEM_ERR_NAN, 7, "non-finite value in the fluid state")                  \
   X(SPHDEM_ERR_LOST, 8, "fluid particle left the domain")                      \
   X(SPHDEM_ERR_DENSITY, 9, "density error beyond the allowed bound")
@@ -53,6 +53,8 @@ typedef struct {
   double xsph_eps;      /* XSPH coefficient, eq 12 (paper: 0.3); 0 = off */
   double delta;         /* delta-SPH density diffusion coefficient (Molteni & Colagrossi 2009; 0.1 typical); 0 = off */
   int delta_hydro;      /* 1: subtract the hydrostatic density difference (Fourtakas et al. 2019), 0: plain */
+  int wall_clamp;       /* 1: the extrapolated Adami wall pressure (eq 14) is floored at 0, so walls never pull
+                           on fluid beside a free surface; 0 (default): as the paper */
   double rep_D;         /* Monaghan wall repulsion strength (m^2/s^2); 0 = off */
   double rep_r0;        /* repulsion cut-off distance (default dx) */
   double skin;          /* gap added to the 2h cell size; resort when a particle moved skin/2 */
