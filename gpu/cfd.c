@@ -113,16 +113,9 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
     D->inv_h[d] = 1.0 / D->h[d];
     D->Vc *= D->h[d];
   }
-  D->ncell = (int64_t)p->nc[0] * p->nc[1] * p->nc[2];
-  D->foff[0] = 0;
-  D->foff[1] = (int64_t)(p->nc[0] + 1) * p->nc[1] * p->nc[2];
-  D->foff[2] = D->foff[1] + (int64_t)p->nc[0] * (p->nc[1] + 1) * p->nc[2];
-  D->foff[3] = D->foff[2] + (int64_t)p->nc[0] * p->nc[1] * (p->nc[2] + 1);
-  D->nface = D->foff[3];
   D->lax = 2;
   if (p->nc[0] > p->nc[D->lax]) D->lax = 0;
   if (p->nc[1] > p->nc[D->lax]) D->lax = 1;
-  D->nlines = D->ncell / p->nc[D->lax];
   /* multigrid levels: halve every axis that has more than one cell, down to a few dozen cells */
   D->omega = 0.8;
   D->nlev = 1;
@@ -137,6 +130,10 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
     F->foff[1] = (int64_t)(F->nc[0] + 1) * F->nc[1] * F->nc[2];
     F->foff[2] = F->foff[1] + (int64_t)F->nc[0] * (F->nc[1] + 1) * F->nc[2];
     F->foff[3] = F->foff[2] + (int64_t)F->nc[0] * F->nc[1] * (F->nc[2] + 1);
+    if (D->nlev == 1) { /* the grid itself: its cells and faces */
+      D->ncell = F->ncell;
+      D->nface = F->foff[3];
+    }
     if (F->ncell <= 32 || D->nlev == SPHDEM_CFD_MAX_LEVELS) break;
     if (F->nc[0] == 1 && F->nc[1] == 1 && F->nc[2] == 1) break;
     cfd_level *C = &D->L[D->nlev++];
@@ -145,6 +142,7 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
       C->nc[d] = (F->nc[d] + C->cf[d] - 1) / C->cf[d];
     }
   }
+  D->nlines = D->ncell / p->nc[D->lax];
 }
 
 #define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag) X(lcp)

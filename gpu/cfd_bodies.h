@@ -37,24 +37,35 @@ SPHDEM_HD double cfd_drag_K(int drag, double eps, double slip, double d, double 
 
 /* ---- indexing ------------------------------------------------------------------------------------ */
 
-SPHDEM_HD int64_t cfd_cell(const cfd_dev *D, int i, int j, int k) {
-  return (int64_t)i + (int64_t)D->nc[0] * ((int64_t)j + (int64_t)D->nc[1] * k);
+/* A level (multigrid level 0 is the grid itself): cells x fastest; faces of axis d from foff[d] on, with
+ * (nc[d] + 1) faces along d. */
+SPHDEM_HD int64_t lv_cell(const cfd_level *L, const int *c) {
+  return (int64_t)c[0] + (int64_t)L->nc[0] * ((int64_t)c[1] + (int64_t)L->nc[1] * c[2]);
 }
-SPHDEM_HD int64_t cfd_face(const cfd_dev *D, int d, const int *ix) {
-  int64_t fx = D->nc[0] + (d == 0), fy = D->nc[1] + (d == 1);
-  return D->foff[d] + ix[0] + fx * (ix[1] + fy * (int64_t)ix[2]);
+SPHDEM_HD void lv_decode(const cfd_level *L, int64_t ci, int *c) {
+  c[0] = (int)(ci % L->nc[0]);
+  c[1] = (int)((ci / L->nc[0]) % L->nc[1]);
+  c[2] = (int)(ci / ((int64_t)L->nc[0] * L->nc[1]));
+}
+SPHDEM_HD int64_t lv_face(const cfd_level *L, int d, const int *ix) {
+  int64_t fx = L->nc[0] + (d == 0), fy = L->nc[1] + (d == 1);
+  return L->foff[d] + ix[0] + fx * (ix[1] + fy * (int64_t)ix[2]);
 }
 /* axis and index triple of face f */
-SPHDEM_HD int cfd_face_decode(const cfd_dev *D, int64_t f, int *ix) {
-  int d = f >= D->foff[2] ? 2 : (f >= D->foff[1] ? 1 : 0);
-  int64_t l = f - D->foff[d];
-  int64_t fx = D->nc[0] + (d == 0), fy = D->nc[1] + (d == 1);
+SPHDEM_HD int lv_face_decode(const cfd_level *L, int64_t f, int *ix) {
+  int d = f >= L->foff[2] ? 2 : (f >= L->foff[1] ? 1 : 0);
+  int64_t l = f - L->foff[d];
+  int64_t fx = L->nc[0] + (d == 0), fy = L->nc[1] + (d == 1);
   ix[0] = (int)(l % fx);
   ix[1] = (int)((l / fx) % fy);
   ix[2] = (int)(l / (fx * fy));
   return d;
 }
-SPHDEM_HD int64_t cfd_cellv(const cfd_dev *D, const int *ix) { return cfd_cell(D, ix[0], ix[1], ix[2]); }
+
+SPHDEM_HD int64_t cfd_cellv(const cfd_dev *D, const int *ix) { return lv_cell(&D->L[0], ix); }
+SPHDEM_HD void cfd_cell_decode(const cfd_dev *D, int64_t ci, int *c) { lv_decode(&D->L[0], ci, c); }
+SPHDEM_HD int64_t cfd_face(const cfd_dev *D, int d, const int *ix) { return lv_face(&D->L[0], d, ix); }
+SPHDEM_HD int cfd_face_decode(const cfd_dev *D, int64_t f, int *ix) { return lv_face_decode(&D->L[0], f, ix); }
 
 SPHDEM_HD double cfd_eps_use(const cfd_dev *D, const double *eps, int64_t c) {
   double e = eps[c];
@@ -95,23 +106,18 @@ SPHDEM_HD int cfd_locate(const cfd_dev *D, int d, double x, double *whi) {
   return c;
 }
 
-/* ---- voidage (eq 3) ------------------------------------------------------------------------------ */
+/* Cell holding a position (clamped into the grid). */
+SPHDEM_HD int64_t cfd_cell_at(const cfd_dev *D, const double *x) {
+  int c[3];
+  double w;
+  for (int d = 0; d < 3; d++) c[d] = cfd_locate(D, d, x[d], &w);
+  return cfd_cellv(D, c);
+}
 
-SPHDEM_HD void cfd_k_void_scatter(const cfd_dev *D, int64_t g) {
-  const double *x = D->gx + 3 * g;
-  double r = D->grad[g];
-  double V = 4.0 / 3.0 * M_PI * r * r * r;
-  if (D->P.voidage == SPHDEM_CFD_VOID_CENTROID) {
-    int c[3];
-    double w;
-    for (int d = 0; d < 3; d++) c[d] = cfd_locate(D, d, x[d], &w);
-    cfd_add(&D->sol[cfd_cellv(D, c)], V);
-    return;
-  }
-  /* smooth: trilinear (cloud-in-cell) weights of the 8 nearest cell centres; weight that would fall
-   * outside the grid stays in the boundary cell, so the total solid volume is kept */
-  int i0[3];
-  double f[3];
+/* Trilinear (cloud-in-cell) weights of the 8 cell centres around x: lower corner i0 and fractions f. A
+ * position beyond the outer cell centres gives all its weight to the boundary cell, so a scatter keeps
+ * the total and an interpolation takes the boundary value. */
+SPHDEM_HD void cfd_cic(const cfd_dev *D, const double *x, int *i0, double *f) {
   for (int d = 0; d < 3; d++) {
     double s = (x[d] - D->lo[d]) * D->inv_h[d] - 0.5;
     int c = (int)floor(s);
@@ -121,17 +127,36 @@ SPHDEM_HD void cfd_k_void_scatter(const cfd_dev *D, int64_t g) {
     i0[d] = c;
     f[d] = t;
   }
+}
+/* corner q (bit d: upper along d) of the cloud-in-cell stencil: its cell (clamped) and weight */
+SPHDEM_HD double cfd_cic_corner(const cfd_dev *D, const int *i0, const double *f, int q, int *c) {
+  double w = 1.0;
+  for (int d = 0; d < 3; d++) {
+    int up = (q >> d) & 1;
+    int cc = i0[d] + up;
+    w *= up ? f[d] : 1.0 - f[d];
+    c[d] = cc < 0 ? 0 : (cc > D->nc[d] - 1 ? D->nc[d] - 1 : cc);
+  }
+  return w;
+}
+
+/* ---- voidage (eq 3) ------------------------------------------------------------------------------ */
+
+SPHDEM_HD void cfd_k_void_scatter(const cfd_dev *D, int64_t g) {
+  const double *x = D->gx + 3 * g;
+  double r = D->grad[g];
+  double V = 4.0 / 3.0 * M_PI * r * r * r;
+  if (D->P.voidage == SPHDEM_CFD_VOID_CENTROID) {
+    cfd_add(&D->sol[cfd_cell_at(D, x)], V);
+    return;
+  }
+  /* smooth: the grain's volume to the 8 nearest cell centres with the trilinear weights */
+  int i0[3];
+  double f[3];
+  cfd_cic(D, x, i0, f);
   for (int q = 0; q < 8; q++) {
     int c[3];
-    double w = 1.0;
-    for (int d = 0; d < 3; d++) {
-      int up = (q >> d) & 1;
-      int cc = i0[d] + up;
-      w *= up ? f[d] : 1.0 - f[d];
-      if (cc < 0) cc = 0;
-      if (cc > D->nc[d] - 1) cc = D->nc[d] - 1;
-      c[d] = cc;
-    }
+    double w = cfd_cic_corner(D, i0, f, q, c);
     if (w > 0.0) cfd_add(&D->sol[cfd_cellv(D, c)], w * V);
   }
 }
@@ -141,32 +166,15 @@ SPHDEM_HD void cfd_k_void_finish(const cfd_dev *D, int64_t c) { D->eps[c] = 1.0 
 /* Voidage seen by a grain: its cell (centroid) or the trilinear interpolation (smooth). */
 SPHDEM_HD double cfd_eps_at(const cfd_dev *D, const double *x) {
   if (D->P.voidage == SPHDEM_CFD_VOID_CENTROID) {
-    int c[3];
-    double w;
-    for (int d = 0; d < 3; d++) c[d] = cfd_locate(D, d, x[d], &w);
-    return cfd_eps_use(D, D->eps, cfd_cellv(D, c));
+    return cfd_eps_use(D, D->eps, cfd_cell_at(D, x));
   }
   int i0[3];
   double f[3];
-  for (int d = 0; d < 3; d++) {
-    double s = (x[d] - D->lo[d]) * D->inv_h[d] - 0.5;
-    int c = (int)floor(s);
-    double t = s - c;
-    if (c < -1) { c = -1; t = 1.0; }
-    if (c > D->nc[d] - 1) { c = D->nc[d] - 1; t = 0.0; }
-    i0[d] = c;
-    f[d] = t;
-  }
+  cfd_cic(D, x, i0, f);
   double e = 0.0;
   for (int q = 0; q < 8; q++) {
     int c[3];
-    double w = 1.0;
-    for (int d = 0; d < 3; d++) {
-      int up = (q >> d) & 1;
-      int cc = i0[d] + up;
-      w *= up ? f[d] : 1.0 - f[d];
-      c[d] = cc < 0 ? 0 : (cc > D->nc[d] - 1 ? D->nc[d] - 1 : cc);
-    }
+    double w = cfd_cic_corner(D, i0, f, q, c);
     e += w * cfd_eps_use(D, D->eps, cfd_cellv(D, c));
   }
   return e;
@@ -295,12 +303,6 @@ SPHDEM_HD void cfd_k_predict(const cfd_dev *D, int64_t f) {
  * a_f = eps_f cf_f / h_d^2 at interior faces, 2 eps_f cf_f / h_d^2 at outlet faces (p = 0 on the face),
  * 0 at walls and inlets (prescribed velocity): af, filled by the predictor. */
 
-SPHDEM_HD void cfd_cell_decode(const cfd_dev *D, int64_t ci, int *c) {
-  c[0] = (int)(ci % D->nc[0]);
-  c[1] = (int)((ci / D->nc[0]) % D->nc[1]);
-  c[2] = (int)(ci / ((int64_t)D->nc[0] * D->nc[1]));
-}
-
 /* face of cell c on side s (0 low, 1 high) along d */
 SPHDEM_HD int64_t cfd_cell_face(const cfd_dev *D, const int *c, int d, int s) {
   int fi[3] = {c[0], c[1], c[2]};
@@ -329,30 +331,27 @@ SPHDEM_HD double cfd_div(const cfd_dev *D, const double *u, int64_t ci) {
   return div;
 }
 
-SPHDEM_HD void cfd_k_rhs(const cfd_dev *D, int64_t ci) {
+/* Diagonal of A on a level: the sum of the cell's six face coefficients (1 where all are 0). */
+SPHDEM_HD double lv_diag(const cfd_level *L, int64_t ci) {
   int c[3];
-  cfd_cell_decode(D, ci, c);
-  double diag = 0.0;
-  for (int d = 0; d < 3; d++)
-    for (int s = 0; s < 2; s++) diag += D->af[cfd_cell_face(D, c, d, s)];
+  lv_decode(L, ci, c);
+  double s = 0.0;
+  for (int d = 0; d < 3; d++) {
+    int fi[3] = {c[0], c[1], c[2]};
+    s += L->af[lv_face(L, d, fi)];
+    fi[d]++;
+    s += L->af[lv_face(L, d, fi)];
+  }
+  return s > 0.0 ? s : 1.0;
+}
+
+SPHDEM_HD void cfd_k_rhs(const cfd_dev *D, int64_t ci) {
   D->b[ci] = -cfd_div(D, D->us, ci);
-  D->diag[ci] = diag > 0.0 ? diag : 1.0;
+  D->diag[ci] = lv_diag(&D->L[0], ci);
 }
 
 /* ---- multigrid levels (level 0 = the grid) ------------------------------------------------------ */
 
-SPHDEM_HD int64_t lv_face(const cfd_level *L, int d, const int *ix) {
-  int64_t fx = L->nc[0] + (d == 0), fy = L->nc[1] + (d == 1);
-  return L->foff[d] + ix[0] + fx * (ix[1] + fy * (int64_t)ix[2]);
-}
-SPHDEM_HD void lv_decode(const cfd_level *L, int64_t ci, int *c) {
-  c[0] = (int)(ci % L->nc[0]);
-  c[1] = (int)((ci / L->nc[0]) % L->nc[1]);
-  c[2] = (int)(ci / ((int64_t)L->nc[0] * L->nc[1]));
-}
-SPHDEM_HD int64_t lv_cell(const cfd_level *L, const int *c) {
-  return (int64_t)c[0] + (int64_t)L->nc[0] * ((int64_t)c[1] + (int64_t)L->nc[1] * c[2]);
-}
 /* (A x)[ci] on a level: sum_f a_f (x_P - x_nb), a boundary face (outlet; 0 elsewhere) a_f x_P */
 SPHDEM_HD double lv_Ax(const cfd_level *L, const double *x, int64_t ci) {
   int c[3];
@@ -375,10 +374,8 @@ SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) { D->Ad[ci] = lv_Ax(&D
 
 SPHDEM_HD void cfd_k_mg_af(const cfd_dev *D, int64_t f) {
   const cfd_level *C = &D->L[D->lv], *F = &D->L[D->lv - 1];
-  int d = f >= C->foff[2] ? 2 : (f >= C->foff[1] ? 1 : 0);
-  int64_t l = f - C->foff[d];
-  int64_t fx = C->nc[0] + (d == 0), fy = C->nc[1] + (d == 1);
-  int ic[3] = {(int)(l % fx), (int)((l / fx) % fy), (int)(l / (fx * fy))};
+  int ic[3];
+  int d = lv_face_decode(C, f, ic);
   int base[3], cnt[3];
   for (int e = 0; e < 3; e++) {
     if (e == d) {
@@ -399,19 +396,7 @@ SPHDEM_HD void cfd_k_mg_af(const cfd_dev *D, int64_t f) {
   C->af[f] = a;
 }
 
-SPHDEM_HD void cfd_k_mg_diag(const cfd_dev *D, int64_t ci) {
-  const cfd_level *L = &D->L[D->lv];
-  int c[3];
-  lv_decode(L, ci, c);
-  double s = 0.0;
-  for (int d = 0; d < 3; d++) {
-    int fi[3] = {c[0], c[1], c[2]};
-    s += L->af[lv_face(L, d, fi)];
-    fi[d]++;
-    s += L->af[lv_face(L, d, fi)];
-  }
-  L->diag[ci] = s > 0.0 ? s : 1.0;
-}
+SPHDEM_HD void cfd_k_mg_diag(const cfd_dev *D, int64_t ci) { D->L[D->lv].diag[ci] = lv_diag(&D->L[D->lv], ci); }
 
 SPHDEM_HD void cfd_k_mg_jacobi0(const cfd_dev *D, int64_t ci) {
   const cfd_level *L = &D->L[D->lv];

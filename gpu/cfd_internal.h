@@ -17,12 +17,12 @@ typedef struct {
   double *af, *diag, *r, *x, *t;
 } cfd_level;
 
-/* Everything a pass needs, by value to kernels and by pointer to CPU loops. Cells are x fastest;
- * faces of axis d are stored from foff[d] on, with (nc[d] + 1) faces along d. */
+/* Everything a pass needs, by value to kernels and by pointer to CPU loops. Cells and faces are indexed
+ * as level 0 of the multigrid hierarchy (L[0]: cells x fastest, faces of axis d from L[0].foff[d] on). */
 typedef struct {
   sphdem_cfd_params P;
   int nc[3];
-  int64_t ncell, nface, foff[4];
+  int64_t ncell, nface;
   double lo[3], h[3], inv_h[3], Vc;
   double dt;            /* gas step in progress */
   int first;            /* eps_old not yet valid: d eps/dt taken as 0 */
