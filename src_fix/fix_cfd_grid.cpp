@@ -20,6 +20,7 @@
 #include "memory.h"
 #include "modify.h"
 #include "sphdem_compat.h"
+#include "sphdem_peratom.h"
 #include "update.h"
 #include "variable.h"
 
@@ -662,44 +663,18 @@ void FixCFDGrid::restart(char *buf) {
 
 void FixCFDGrid::grow_arrays(int nmax) {
   memory->grow(fa_, nmax, NCOL, "cfd/grid:fa");
-  for (int i = nmax_ < nmax ? nmax_ : nmax; i < nmax; i++)
-    for (int c = 0; c < NCOL; c++) fa_[i][c] = 0.0;
+  sphdem_peratom::zero(fa_, nmax_ < nmax ? nmax_ : nmax, nmax, NCOL);
   nmax_ = nmax;
   array_atom = fa_;
 }
 
-void FixCFDGrid::copy_arrays(int i, int j, int) {
-  for (int c = 0; c < NCOL; c++) fa_[j][c] = fa_[i][c];
-}
-
-void FixCFDGrid::set_arrays(int i) {
-  for (int c = 0; c < NCOL; c++) fa_[i][c] = 0.0;
-}
-
-int FixCFDGrid::pack_exchange(int i, double *buf) {
-  for (int c = 0; c < NCOL; c++) buf[c] = fa_[i][c];
-  return NCOL;
-}
-
-int FixCFDGrid::unpack_exchange(int nlocal, double *buf) {
-  for (int c = 0; c < NCOL; c++) fa_[nlocal][c] = buf[c];
-  return NCOL;
-}
-
-int FixCFDGrid::pack_restart(int i, double *buf) {
-  buf[0] = NCOL + 1;
-  for (int c = 0; c < NCOL; c++) buf[c + 1] = fa_[i][c];
-  return NCOL + 1;
-}
-
+void FixCFDGrid::copy_arrays(int i, int j, int) { sphdem_peratom::copy(fa_, i, j, NCOL); }
+void FixCFDGrid::set_arrays(int i) { sphdem_peratom::zero(fa_, i, i + 1, NCOL); }
+int FixCFDGrid::pack_exchange(int i, double *buf) { return sphdem_peratom::pack(fa_, i, buf, NCOL); }
+int FixCFDGrid::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(fa_, nlocal, buf, NCOL); }
+int FixCFDGrid::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(fa_, i, buf, NCOL); }
 void FixCFDGrid::unpack_restart(int nlocal, int nth) {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
-  m++;
-  for (int c = 0; c < NCOL; c++) fa_[nlocal][c] = extra[nlocal][m++];
+  sphdem_peratom::unpack_restart(fa_, atom->extra, nlocal, nth, NCOL);
 }
-
 int FixCFDGrid::size_restart(int) { return NCOL + 1; }
-
 int FixCFDGrid::maxsize_restart() { return NCOL + 1; }

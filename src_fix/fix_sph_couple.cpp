@@ -13,6 +13,7 @@
 #include "memory.h"
 #include "modify.h"
 #include "sphdem_compat.h"
+#include "sphdem_peratom.h"
 #include "update.h"
 
 using namespace LAMMPS_NS;
@@ -334,44 +335,18 @@ void FixSPHCouple::restart(char *buf) {
 
 void FixSPHCouple::grow_arrays(int nmax) {
   memory->grow(ca_, nmax, NCOL, "sph/couple:ca");
-  for (int i = nmax_ < nmax ? nmax_ : nmax; i < nmax; i++)
-    for (int c = 0; c < NCOL; c++) ca_[i][c] = 0.0;
+  sphdem_peratom::zero(ca_, nmax_ < nmax ? nmax_ : nmax, nmax, NCOL);
   nmax_ = nmax;
   array_atom = ca_;
 }
 
-void FixSPHCouple::copy_arrays(int i, int j, int) {
-  for (int c = 0; c < NCOL; c++) ca_[j][c] = ca_[i][c];
-}
-
-void FixSPHCouple::set_arrays(int i) {
-  for (int c = 0; c < NCOL; c++) ca_[i][c] = 0.0;
-}
-
-int FixSPHCouple::pack_exchange(int i, double *buf) {
-  for (int c = 0; c < NCOL; c++) buf[c] = ca_[i][c];
-  return NCOL;
-}
-
-int FixSPHCouple::unpack_exchange(int nlocal, double *buf) {
-  for (int c = 0; c < NCOL; c++) ca_[nlocal][c] = buf[c];
-  return NCOL;
-}
-
-int FixSPHCouple::pack_restart(int i, double *buf) {
-  buf[0] = NCOL + 1;
-  for (int c = 0; c < NCOL; c++) buf[c + 1] = ca_[i][c];
-  return NCOL + 1;
-}
-
+void FixSPHCouple::copy_arrays(int i, int j, int) { sphdem_peratom::copy(ca_, i, j, NCOL); }
+void FixSPHCouple::set_arrays(int i) { sphdem_peratom::zero(ca_, i, i + 1, NCOL); }
+int FixSPHCouple::pack_exchange(int i, double *buf) { return sphdem_peratom::pack(ca_, i, buf, NCOL); }
+int FixSPHCouple::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(ca_, nlocal, buf, NCOL); }
+int FixSPHCouple::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(ca_, i, buf, NCOL); }
 void FixSPHCouple::unpack_restart(int nlocal, int nth) {
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
-  m++;
-  for (int c = 0; c < NCOL; c++) ca_[nlocal][c] = extra[nlocal][m++];
+  sphdem_peratom::unpack_restart(ca_, atom->extra, nlocal, nth, NCOL);
 }
-
 int FixSPHCouple::size_restart(int) { return NCOL + 1; }
-
 int FixSPHCouple::maxsize_restart() { return NCOL + 1; }

@@ -1,0 +1,38 @@
+/* sphdem_peratom.h - the per-atom array plumbing shared by the fixes that keep NCOL doubles per atom (fix
+ * sph/couple, fix cfd/grid): migration with the atoms and the per-atom restart record. */
+#ifndef SPHDEM_PERATOM_H
+#define SPHDEM_PERATOM_H
+
+namespace sphdem_peratom {
+
+/* rows [from, to) set to zero (new rows after a grow, a new atom) */
+inline void zero(double **a, int from, int to, int ncol) {
+  for (int i = from; i < to; i++)
+    for (int c = 0; c < ncol; c++) a[i][c] = 0.0;
+}
+inline void copy(double **a, int i, int j, int ncol) {
+  for (int c = 0; c < ncol; c++) a[j][c] = a[i][c];
+}
+inline int pack(double *const *a, int i, double *buf, int ncol) {
+  for (int c = 0; c < ncol; c++) buf[c] = a[i][c];
+  return ncol;
+}
+inline int unpack(double **a, int i, const double *buf, int ncol) {
+  for (int c = 0; c < ncol; c++) a[i][c] = buf[c];
+  return ncol;
+}
+/* restart record: its length (ncol + 1) first, as the engines expect */
+inline int pack_restart(double *const *a, int i, double *buf, int ncol) {
+  buf[0] = ncol + 1;
+  return 1 + pack(a, i, buf + 1, ncol);
+}
+/* the nth fix record of atom nlocal in the engine's extra array */
+inline void unpack_restart(double **a, double **extra, int nlocal, int nth, int ncol) {
+  int m = 0;
+  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
+  unpack(a, nlocal, extra[nlocal] + m + 1, ncol);
+}
+
+}  // namespace sphdem_peratom
+
+#endif
