@@ -109,19 +109,11 @@ def read_dump(path):
 
 
 def compare(a, b, what):
-    """max over columns of max|a-b| / max|column|"""
-    if sorted(a) != sorted(b):
-        print("FAIL %s: different atom ids" % what)
+    """max over columns of max|a-b| / max|column| (the x, y, vx, vy, rho dumps of the dam-break scenes)"""
+    if not a or not b:
+        print("FAIL %s: empty dump" % what)
         return float("inf")
-    ncol = len(next(iter(a.values())))
-    names = ["x", "y", "vx", "vy", "rho"][:ncol]
-    worst = 0.0
-    for c in range(ncol):
-        scale = max(max(abs(r[c]) for r in a.values()), max(abs(r[c]) for r in b.values()), 1e-300)
-        d = max(abs(a[t][c] - b[t][c]) for t in a) / scale
-        print("  %-4s max relative difference %.3e" % (names[c], d))
-        worst = max(worst, d)
-    return worst
+    return compare_cols(a, b, ["x", "y", "vx", "vy", "rho"][:len(next(iter(a.values())))])
 
 
 def final_dump(workdir):

@@ -29,30 +29,15 @@ Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
 import os
-import subprocess
 import sys
 import xml.etree.ElementTree as ET
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from engine_test import compare_cols, read_dump, run, thermo_rows  # noqa: E402  (the shared helpers)
 
 # the engines differ in dump_modify format syntax
 DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
            "liggghts": 'dump_modify d sort id format "%d' + " %.17g" * 12 + '"'}
-
-
-def run(cmd, workdir, script, timeout=120):
-    os.makedirs(workdir, exist_ok=True)
-    with open(os.path.join(workdir, "in.test"), "w") as f:
-        f.write(script)
-    env = dict(os.environ)
-    env.setdefault("OMP_NUM_THREADS", "1")
-    try:
-        p = subprocess.run(cmd + ["-in", "in.test", "-log", "log.test"], cwd=workdir, env=env,
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return 124, "timed out after %d s" % timeout
-    out = p.stdout.decode(errors="replace")
-    with open(os.path.join(workdir, "out.test"), "w") as f:
-        f.write(out)
-    return p.returncode, out
 
 
 def must_run(cmd, workdir, script, timeout=120):
@@ -61,34 +46,6 @@ def must_run(cmd, workdir, script, timeout=120):
         print("FAIL: run in %s exited %d:\n%s" % (workdir, rc, out[-3000:]))
         sys.exit(1)
     return out
-
-
-def thermo_rows(log_text):
-    """Numeric rows of the thermo table that follows the last 'Step' header."""
-    rows, on = [], False
-    for line in log_text.splitlines():
-        words = line.split()
-        if words[:1] == ["Step"]:
-            rows, on = [], True
-            continue
-        if on:
-            try:
-                rows.append([float(w) for w in words])
-            except ValueError:
-                on = False
-    return rows
-
-
-def read_dump(path):
-    rows = {}
-    with open(path) as f:
-        lines = f.read().splitlines()
-    start = next(i for i, l in enumerate(lines) if l.startswith("ITEM: ATOMS")) + 1
-    for l in lines[start:]:
-        w = l.split()
-        if w:
-            rows[int(w[0])] = [float(v) for v in w[1:]]
-    return rows
 
 
 # ---- the scene: a gas column 3 x 3 x 10 mm, cells of 1 mm, grains of type 1 -------------------------------
@@ -276,19 +233,6 @@ RS_COLS = ["x", "y", "z", "vx", "vy", "vz", "fdx", "fdy", "fdz", "fpx", "fpy", "
 RS_THERMO = "thermo_style custom step f_gas[1] f_gas[4] f_gas[11]\nthermo 10\n"
 
 
-def compare_cols(a, b, names):
-    if sorted(a) != sorted(b):
-        print("FAIL: different atom ids")
-        return float("inf")
-    worst = 0.0
-    for c, name in enumerate(names):
-        scale = max(max(abs(r[c]) for r in a.values()), max(abs(r[c]) for r in b.values()), 1e-300)
-        d = max(abs(a[t][c] - b[t][c]) for t in a) / scale
-        print("  %-4s max relative difference %.3e" % (name, d))
-        worst = max(worst, d)
-    return worst
-
-
 def test_restart(exe, engine):
     wd = "cfd_restart_" + engine
     dump = RS_DUMP.format(n=RS_STEPS, fmt=DUMPFMT[engine])
@@ -344,7 +288,7 @@ def test_vtk(exe, engine):
     for f in os.listdir(os.path.join(wd, "out")):
         os.remove(os.path.join(wd, "out", f))
     script = column(engine, grains, d=5e-4, grid=(nx, ny, nz), steps=steps,
-                    extra="every 2 vtk 2 out/gas init_u 0 0 0.5 patch zlo 0 0.001 0.002 0.003 1.5 solver line")
+                    extra="every %d vtk 2 out/gas init_u 0 0 0.5 patch zlo 0 0.001 0.002 0.003 1.5 solver line" % every)
     must_run([exe], wd, script)
     ncell = nx * ny * nz
     fails = 0
