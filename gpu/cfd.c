@@ -486,9 +486,12 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
   }
   D->first = 0;
   if (n) {
-    /* forces back to the caller; the sums come from the same host copies */
-    double *hb = (double *)malloc(sizeof(double) * 3 * (size_t)n * 2);
-    if (!hb) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
+    /* forces back to the caller, the sums from the same host copies (scratch only for an array not asked for) */
+    double *hb = NULL;
+    if (!fdrag || !fpg) {
+      hb = (double *)malloc(sizeof(double) * 3 * (size_t)n * 2);
+      if (!hb) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
+    }
     double *hfd = fdrag ? fdrag : hb, *hfp = fpg ? fpg : hb + 3 * (size_t)n;
     if ((rc = o->d2h(m, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) ||
         (rc = o->d2h(m, hfp, D->gfp, sizeof(double) * 3 * (size_t)n))) {
