@@ -6,6 +6,7 @@
 #include <omp.h>
 #endif
 
+#include "mp_bodies.h"
 #include "sph_bodies.h"
 #include "sphdem_internal.h"
 
@@ -194,7 +195,26 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
+/* Multiphase: passes walk the cells (no lists), each particle gathers its own rates. */
+static int cpu_mp_pass(struct sphdem_ctx_s *c, int pass) {
+  const sphdem_dev *D = &c->D;
+  if (pass == 1) {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t a = 0; a < D->nf; a++) mp_grad_body(D, a);
+  } else {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t a = 0; a < D->nf; a++) mp_shift_body(D, a);
+  }
+  return SPHDEM_OK;
+}
+
 static int cpu_rates(struct sphdem_ctx_s *c) {
+  if (c->D.mp) {
+    const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t a = 0; a < D->nf; a++) mp_rates_body(D, a);
+    return SPHDEM_OK;
+  }
   if (c->nl_dirty) { TRY_CPU(cpu_build_list(c, 0)); c->nl_dirty = 0; c->wl_dirty = 1; }
   if (c->wl_dirty) { TRY_CPU(cpu_build_list(c, 1)); c->wl_dirty = 0; }
   if (c->cpu_sym) return cpu_rates_sym(c);
@@ -263,4 +283,5 @@ const sphdem_ops sphdem_cpu_ops = {
   .couple_porosity = sphdem_cpu_couple_porosity,
   .couple_grains = sphdem_cpu_couple_grains,
   .couple_reaction = sphdem_cpu_couple_reaction,
+  .mp_pass = cpu_mp_pass,
 };

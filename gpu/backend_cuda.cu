@@ -6,6 +6,7 @@
 #include <thrust/sort.h>
 #include <stdio.h>
 
+#include "mp_bodies.h"
 #include "sph_bodies.h"
 #include "sphdem_internal.h"
 
@@ -54,6 +55,21 @@ __global__ void k_pressure(sphdem_dev D) {
 __global__ void k_wall_state(sphdem_dev D) {
   int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
   if (i < D.nw) wall_state_body(&D, i);
+}
+
+__global__ void k_mp_grad(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) mp_grad_body(&D, i);
+}
+
+__global__ void k_mp_shift(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) mp_shift_body(&D, i);
+}
+
+__global__ void k_mp_rates(sphdem_dev D) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) mp_rates_body(&D, i);
 }
 
 __global__ void k_rates(sphdem_dev D) {
@@ -171,7 +187,19 @@ static int cu_wall_state(struct sphdem_ctx_s *c) {
   LAUNCHED(c, "wall state kernel");
   return SPHDEM_OK;
 }
+static int cu_mp_pass(struct sphdem_ctx_s *c, int pass) {
+  if (pass == 1) k_mp_grad<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+  else k_mp_shift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+  LAUNCHED(c, "multiphase pass kernel");
+  return SPHDEM_OK;
+}
+
 static int cu_rates(struct sphdem_ctx_s *c) {
+  if (c->D.mp) {
+    k_mp_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+    LAUNCHED(c, "multiphase rates kernel");
+    return SPHDEM_OK;
+  }
   k_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
   LAUNCHED(c, "rates kernel");
   return SPHDEM_OK;
@@ -212,7 +240,7 @@ extern "C" {
 const sphdem_ops sphdem_cuda_ops = {
   "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
   cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync, cu_probe,
-  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction,
+  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction, cu_mp_pass,
 };
 
 /* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */

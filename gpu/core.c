@@ -132,7 +132,12 @@ static void derive(sphdem_dev *D) {
   D->gamma_is_7 = p->gamma == 7.0;
   D->tensile_n_is_4 = p->tensile_n == 4.0;
   for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+  /* multiphase: Tait constant per phase, wall volume m_w / rho0 */
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->Bk[k] = p->c0 * p->c0 * D->M.phase[k].rho0 / p->gamma;
+  D->wvol_inv_rho0 = 1.0 / p->rho0;
 }
+
+void sphdem_rederive(struct sphdem_ctx_s *c) { derive(&c->D); }
 
 int sphdem_set_params(sphdem_ctx c, const sphdem_params *p) {
   char msg[512];
@@ -162,6 +167,15 @@ static int dalloc(sphdem_ctx c, void **ptr, size_t bytes) {
   int rc = c->ops->alloc(c, ptr, bytes);
   if (rc == SPHDEM_OK) c->bytes += bytes;
   return rc;
+}
+
+int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { return dalloc(c, ptr, bytes); }
+
+void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
+  if (!*ptr) return;
+  c->ops->free(c, *ptr);
+  c->bytes -= bytes ? bytes : 8;
+  *ptr = NULL;
 }
 
 #define DFREE(cx, p_, nb_) do { if (p_) { (cx)->ops->free((cx), (p_)); (cx)->bytes -= (nb_); (p_) = NULL; } } while (0)
@@ -335,6 +349,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
   sphdem_couple_release(c);
+  sphdem_mp_release(c);
   free_fluid(c);
   free_walls(c);
   free_scratch(c);
@@ -418,6 +433,8 @@ static int sort_set(sphdem_ctx c, int set) {
     /* coupling: the porosity follows its particles (read by get_porosity, probe and get_fluid's pressure) */
     if (D->eps && c->cap_cf >= n) TRY(c->ops->gather(c, D->eps, 8, n));
     if (D->fr && c->cap_cf >= n) TRY(c->ops->gather(c, D->fr, 24, n)); /* last reaction, read by the wall pass */
+    /* multiphase: the phase follows its particle (the other fields are recomputed by every rate pass) */
+    if (D->ph && c->cap_mp >= n) TRY(c->ops->gather(c, D->ph, 4, n));
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
@@ -528,6 +545,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
       c->host_tags_valid = 1;
     }
     TRY(sphdem_couple_fluid_rebuilt(c)); /* coupling: porosity array sized to the new set */
+    TRY(sphdem_mp_fluid_rebuilt(c));     /* multiphase: arrays sized, phases back to 0 */
   } else {
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }
@@ -612,6 +630,13 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
       if (rc) { free(e); return rc; }
       for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s] / fmax(e[s], D->eps_floor));
       free(e);
+    } else if (D->mp && D->ph && c->cap_mp >= n) {
+      int32_t *ph = (int32_t *)malloc(4 * (size_t)n);
+      if (!ph) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld phases", (long long)n);
+      int rc = down(c, ph, D->ph, 4 * (size_t)n);
+      if (rc) { free(ph); return rc; }
+      for (int64_t s = 0; s < n; s++) p[ui[s]] = mp_pressure_k(D, ph[s], h[s]);
+      free(ph);
     } else {
       for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
     }
@@ -672,6 +697,7 @@ int sphdem_compute_rates(sphdem_ctx c) {
   double t1 = now();
   if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(c->ops->sync(c)); }
   double t2 = now();
+  if (D->mp) TRY(sphdem_mp_prepare(c)); /* renormalisation, viscosity, shifting (mp.c) */
   TRY(c->ops->rates(c));
   TRY(c->ops->sync(c));
   if (D->couple) TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
@@ -700,6 +726,8 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   s->nlost = r.nlost;
   s->dt_cfl = P->cfl * P->h / (P->c0 + s->vmax);
   s->dt_visc = P->visc == SPHDEM_VISC_MORRIS ? 0.125 * P->h * P->h * P->rho0 / P->mu : DBL_MAX;
+  /* multiphase: Shi & Huang eq 34 with the largest mu_i / rho_i of the last rate evaluation */
+  if (D->mp) s->dt_visc = r.numax > 0 ? D->M.alpha_visc * P->h * P->h / r.numax : DBL_MAX;
   s->dt_force = s->amax > 0 ? 0.25 * sqrt(P->h / s->amax) : DBL_MAX;
   s->dt_stable = fmin(s->dt_cfl, fmin(s->dt_visc, s->dt_force));
   if (r.nnan > 0)
@@ -723,6 +751,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
     const char *lim = s->dt_stable == s->dt_cfl ? "the CFL condition cfl*h/(c0 + vmax)"
                       : s->dt_stable == s->dt_visc ? "the viscous condition 0.125 h^2 rho0/mu"
                                                    : "the force condition 0.25 sqrt(h/amax)";
+    if (D->mp && s->dt_stable == s->dt_visc) lim = "the viscous condition alpha_visc h^2 min(rho_i/mu_i) (eq 34)";
     return sphdem_fail(c, SPHDEM_ERR_UNSTABLE,
                        "time step %g s exceeds the stable SPH time step %g s, limited by %s (CFL %g s, "
                        "viscous %g s, force %g s; vmax %g m/s, amax %g m/s^2). Set the timestep to %g or less.",

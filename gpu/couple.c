@@ -184,6 +184,9 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   char msg[512];
   if (couple_check(cp, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: %s", msg);
+  if (cp->enabled && c->D.mp)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: the SPH-DEM coupling cannot be combined with the multiphase "
+                                          "fluid yet");
   c->cp = *cp;
   sphdem_dev *D = &c->D;
   if (!cp->enabled) { /* off and free */

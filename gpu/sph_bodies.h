@@ -60,6 +60,28 @@ SPHDEM_HD double eos_density(const sphdem_dev *D, int64_t i, double rho) {
   return D->couple_eos ? rho / fluid_eps(D, i) : rho;
 }
 
+/* Multiphase equation of state of phase k (Shi & Huang 2022 eq 4, or Tait with the phase's rho0),
+ * plus the background pressure P0. */
+SPHDEM_HD double mp_pressure_k(const sphdem_dev *D, int k, double rho) {
+  double r0 = D->M.phase[k].rho0;
+  if (D->M.eos == SPHDEM_EOS_LINEAR) return D->P.c0 * D->P.c0 * (rho - r0) + D->M.p0;
+  double r = rho / r0, rg;
+  if (D->gamma_is_7) { double r3 = r * r * r; rg = r3 * r3 * r; }
+  else rg = pow(r, D->P.gamma);
+  return D->Bk[k] * (rg - 1.0) + D->M.p0;
+}
+
+/* Pressure of fluid particle i at density rho: the phase's EOS (multiphase) or Tait (eq 7). */
+SPHDEM_HD double fluid_pressure(const sphdem_dev *D, int64_t i, double rho) {
+  if (D->mp) return mp_pressure_k(D, D->ph[i], rho);
+  return tait_pressure(D, eos_density(D, i, rho));
+}
+
+/* Reference density of fluid particle i. */
+SPHDEM_HD double fluid_rho0(const sphdem_dev *D, int64_t i) {
+  return D->mp ? D->M.phase[D->ph[i]].rho0 : D->P.rho0;
+}
+
 /* ---- search grid ------------------------------------------------------------------------ */
 
 /* Cell coordinate on one axis of a grid (origin lo, 1/cell inv, n cells): wrapped on periodic axes,
@@ -160,7 +182,7 @@ SPHDEM_HD double separation(const sphdem_dev *D, const double *xa, const double 
 SPHDEM_HD void predict_body(const sphdem_dev *D, int64_t i) {
   double rp = D->rho[i] + D->pred_dth * D->drho[i];
   D->rhop[i] = rp;
-  D->p[i] = tait_pressure(D, eos_density(D, i, rp));
+  D->p[i] = fluid_pressure(D, i, rp);
   D->pr2[i] = D->p[i] / (rp * rp);
   for (int d = 0; d < 3; d++) D->ve[3 * i + d] = D->v[3 * i + d] + D->pred_dth * D->a[3 * i + d];
 }
@@ -300,6 +322,14 @@ SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
   for (int d = 0; d < 3; d++) { R->acc[d] += mb * P.A[d]; R->u[d] += mb * P.U[d]; }
 }
 
+/* Monaghan 1994 wall repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 within r0. */
+SPHDEM_HD void wall_repulsion(const sphdem_dev *D, double rr, double r2, const double *r, double *acc) {
+  if (!(D->P.rep_D > 0.0) || rr >= D->P.rep_r0) return;
+  double s = D->P.rep_r0 / rr, s2 = s * s, s4 = s2 * s2, s12 = s4 * s4 * s4;
+  double k3 = D->P.rep_D * (s12 - s4) / r2;
+  for (int d = 0; d < 3; d++) acc[d] += k3 * r[d];
+}
+
 /* Wall neighbour w of a: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan repulsion. */
 SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double r[3], vv[3];
@@ -316,12 +346,7 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   }
   R->drho += mb * vdotr * F;
   pair_momentum(D, mb, R->pra, R->rhoa, D->wp[w] / (rw * rw), rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv, R->acc);
-  if (D->P.rep_D > 0.0 && rr < D->P.rep_r0) {
-    /* Monaghan 1994 repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 */
-    double s = D->P.rep_r0 / rr, s2 = s * s, s4 = s2 * s2, s12 = s4 * s4 * s4;
-    double k3 = D->P.rep_D * (s12 - s4) / r2;
-    for (int d = 0; d < 3; d++) R->acc[d] += k3 * r[d];
-  }
+  wall_repulsion(D, rr, r2, r, R->acc);
 }
 
 SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
@@ -377,7 +402,7 @@ SPHDEM_HD void probe_body(const sphdem_dev *D, const double *pts, double *out, i
       if (r2 >= D->support2) continue;
       double rho = D->rho[b], w = D->mass[b] / rho * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
       s += w;
-      sp += w * tait_pressure(D, eos_density(D, b, rho));
+      sp += w * fluid_pressure(D, b, rho);
       sr += w * rho;
       for (int d = 0; d < 3; d++) sv[d] += w * D->v[3 * b + d];
     }
@@ -428,6 +453,8 @@ SPHDEM_HD void red_init(sphdem_red *r) {
   r->v2max = r->a2max = r->rhoerr = r->ke = r->disp2max = 0.0;
   for (int d = 0; d < 3; d++) { r->lo[d] = 1e300; r->hi[d] = -1e300; }
   r->nnan = r->nlost = 0;
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) r->v2ph[k] = 0.0;
+  r->numax = 0.0;
 }
 
 SPHDEM_HD void red_combine(sphdem_red *r, const sphdem_red *o) {
@@ -439,6 +466,8 @@ SPHDEM_HD void red_combine(sphdem_red *r, const sphdem_red *o) {
   for (int d = 0; d < 3; d++) { r->lo[d] = fmin(r->lo[d], o->lo[d]); r->hi[d] = fmax(r->hi[d], o->hi[d]); }
   r->nnan += o->nnan;
   r->nlost += o->nlost;
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) r->v2ph[k] = fmax(r->v2ph[k], o->v2ph[k]);
+  r->numax = fmax(r->numax, o->numax);
 }
 
 /* Adds particle i of the set to r: fluid stats, displacement since the last sort, bounding box. */
@@ -457,7 +486,12 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
   s2 = separation(D, x, D->x0 + 3 * i, rr);
   r->v2max = fmax(r->v2max, v2);
   r->a2max = fmax(r->a2max, a2);
-  r->rhoerr = fmax(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / D->P.rho0 - 1.0)); /* intrinsic when coupled */
+  r->rhoerr = fmax(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / fluid_rho0(D, i) - 1.0)); /* intrinsic when coupled */
+  if (D->mp) {
+    int k = D->ph[i];
+    r->v2ph[k] = fmax(r->v2ph[k], v2);
+    if (D->mu_p) r->numax = fmax(r->numax, D->mu_p[i] / D->rho[i]);
+  }
   r->disp2max = fmax(r->disp2max, s2);
   r->ke += 0.5 * D->mass[i] * v2;
   r->nnan += bad;

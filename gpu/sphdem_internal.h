@@ -66,6 +66,19 @@ typedef struct {
   int64_t gncells;
   int glay[3];         /* grain-grid layers searched around a fluid particle: ceil(2 hc / cell) */
   int flay[3];         /* SPH-grid layers searched around a grain: ceil((2 hc + skin/2) / cell) */
+  /* multiphase delta-plus SPH (Shi & Huang 2022, mp_bodies.h); mp == 0 and NULL arrays while it is off */
+  int mp;
+  sphdem_mp_params M;
+  double Bk[SPHDEM_MAX_PHASES]; /* Tait constant of each phase */
+  double umax_ph[SPHDEM_MAX_PHASES]; /* max |v| per phase (eq 27), reduced before the shifting pass */
+  double wvol_inv_rho0;         /* wall volume V_w = m_w * this (1 / rho0) */
+  int32_t *ph;         /* phase of each fluid particle (gathered by sorts) */
+  double *mu_p;        /* viscosity mu_i at the force time (eqs 22-25) */
+  double *gdot;        /* shear rate |D_i| (eq 26) */
+  double *Lm;          /* renormalisation matrix L_i (eq 19), 6 per particle: xx yy zz xy xz yz */
+  double *gdr;         /* renormalised gradient of delta rho (eq 19), 3 */
+  double *lam;         /* min eigenvalue lambda_i of the same-phase B_i (§3.3) */
+  double *dus;         /* shifting velocity du_i (eqs 27-29), 3 */
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -73,6 +86,8 @@ typedef struct {
   double v2max, a2max, rhoerr, ke, disp2max;
   double lo[3], hi[3];
   int64_t nnan, nlost;
+  double v2ph[SPHDEM_MAX_PHASES]; /* multiphase: max |v|^2 per phase */
+  double numax;                   /* multiphase: max mu_i / rho_i */
 } sphdem_red;
 
 /* Which arrays a sort permutes. */
@@ -108,6 +123,9 @@ typedef struct {
   int (*couple_porosity)(struct sphdem_ctx_s *c);
   int (*couple_grains)(struct sphdem_ctx_s *c);
   int (*couple_reaction)(struct sphdem_ctx_s *c);
+  /* multiphase passes (mp_bodies.h): 1 = renormalisation, gradients, viscosity; 2 = shifting velocity.
+   * The rates pass itself switches to the multiphase body when D.mp is set. */
+  int (*mp_pass)(struct sphdem_ctx_s *c, int pass);
 } sphdem_ops;
 
 struct sphdem_ctx_s {
@@ -152,6 +170,9 @@ struct sphdem_ctx_s {
   double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
   int64_t cap_hgf;
   int forces_valid;
+  /* multiphase (mp.c) */
+  int64_t cap_mp;               /* capacity of the multiphase arrays */
+  int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
 };
 
 #ifdef __cplusplus
@@ -161,11 +182,21 @@ extern "C" {
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
 /* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (core.c). */
 int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
+/* Device memory counted in c->bytes (core.c); dfree takes the bytes allocated and clears *ptr. */
+int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
+void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
+/* Derived constants again after a parameter change (core.c). */
+void sphdem_rederive(struct sphdem_ctx_s *c);
 /* Coupling steps of compute_rates (couple.c): before the pressure pass (grain sort, porosity) and after
  * the rates pass (grain forces, reaction); and release of the coupling memory. */
 int sphdem_couple_prepare(struct sphdem_ctx_s *c);
 int sphdem_couple_finish(struct sphdem_ctx_s *c);
 void sphdem_couple_release(struct sphdem_ctx_s *c);
+/* Multiphase (mp.c): arrays sized to the fluid (after a rebuild), the passes before the rates pass,
+ * release. */
+int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c);
+int sphdem_mp_prepare(struct sphdem_ctx_s *c);
+void sphdem_mp_release(struct sphdem_ctx_s *c);
 int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c);
 /* CPU coupling passes (couple_cpu.c) */
 int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);

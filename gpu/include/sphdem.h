@@ -200,6 +200,72 @@ int sphdem_couple_stats_get(sphdem_ctx ctx, sphdem_couple_stats *s);
  * indices in upload order, written to pairs (2*maxpairs); returns the count or a negative code. */
 int64_t sphdem_debug_couple_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
 
+/* ---- Multiphase delta-plus SPH with Herschel-Bulkley phases (Shi & Huang 2022 §2-§3) -------------
+ * Off (and free) until sphdem_mp_set enables it. When on, every fluid particle carries a phase index
+ * (sphdem_set_fluid_phase; default 0) and the rates pass uses the multiphase forms of the paper instead
+ * of the Morris/Tait single-phase ones:
+ *   - per-phase reference density and equation of state: Tait (B_k = c0^2 rho0_k / gamma) or linear
+ *     P = c0^2 (rho - rho0_k) + P0 (eq 4); the background pressure P0 is added to either;
+ *   - continuity rho_i sum_j V_j (u_i + du_i - u_j - du_j).grad W (eq 15, first term), which does not
+ *     mix the densities of the two sides of an interface;
+ *   - pressure -1/m_i sum_j (P_i V_i^2 + P_j V_j^2) grad W (eq 20);
+ *   - Hu-Adams viscous term with the harmonic mean of the particle viscosities (eq 24);
+ *   - particle viscosity mu_i = Herschel-Bulkley mu_d(|D_i|) with the cut-off shear rate (eq 23) plus
+ *     the Smagorinsky mu_t = rho_i (Cs 2h)^2 |D_i| (eq 25); D_i from the renormalised velocity gradient
+ *     (eq 26, L_i of eq 19);
+ *   - density diffusion delta_d h c0 D_i on delta rho = (P - P0)/c0^2 (continuous across interfaces):
+ *     Molteni-Colagrossi psi = 2 (drho_j - drho_i), or the renormalised multiphase form
+ *     psi = 2 (drho_j - drho_i) - (<grad drho>_i^L + <grad drho>_j^L).(r_j - r_i) (eqs 16-19);
+ *   - particle shifting (delta-plus, eqs 27-29): shifting velocity from the same-phase kernel gradient
+ *     sum with the limiter, set to 0 at interfaces and free surfaces (lambda_i < lam_surface), made
+ *     tangential near them (lambda_i <= lam_near) when it points outwards; its terms in continuity
+ *     (eq 15) and momentum (eq 3: div(u x du) - u div(du)), same-phase sums. The particle moves with
+ *     v + du (+ XSPH). Wall (dummy) particles count as interior neighbours in lambda_i and the shift.
+ * Walls are the Adami dummy particles of the single-phase fluid (eqs 13-15 of He 2018), with volume
+ * m_w / rho0 (sphdem_params rho0) and, in eq 24, the viscosity of the fluid particle they face. */
+#define SPHDEM_MAX_PHASES 4
+typedef enum { SPHDEM_EOS_TAIT = 0, SPHDEM_EOS_LINEAR = 1 } sphdem_eos;
+typedef enum { SPHDEM_DIFF_NONE = 0, SPHDEM_DIFF_MOLTENI = 1, SPHDEM_DIFF_RENORM = 2 } sphdem_diffusion;
+typedef struct {
+  double rho0;          /* reference density of the phase (> 0) */
+  double tau_y;         /* Herschel-Bulkley yield stress (Pa, >= 0); 0: no yield */
+  double K;             /* consistency (Pa s^N, > 0); Newtonian: the dynamic viscosity */
+  double N;             /* flow index (> 0); 1: Newtonian (tau_y 0) or Bingham */
+  double gdot_cut;      /* cut-off shear rate (1/s): below it mu = tau_y/gdot_cut + K gdot_cut^(N-1) (eq 23);
+                           required (> 0) when tau_y > 0 or N < 1 */
+} sphdem_phase;
+typedef struct {
+  int enabled;          /* 0: single-phase fluid (default) */
+  int nphase;           /* phases in use, 1..SPHDEM_MAX_PHASES */
+  sphdem_phase phase[SPHDEM_MAX_PHASES];
+  int eos;              /* sphdem_eos */
+  double p0;            /* background pressure P0 (Pa, >= 0) */
+  int diffusion;        /* sphdem_diffusion */
+  double delta;         /* delta_d of the diffusion (paper 0.1) */
+  int shifting;         /* 1: particle shifting with its continuity and momentum terms */
+  double shift_R, shift_n;        /* eq 27: R (0.2) and n (4) */
+  double lam_surface, lam_near;   /* §3.3 thresholds on lambda_i (0.55, 0.90) */
+  double cs_les;        /* Smagorinsky constant (paper 0.12); 0: no LES viscosity */
+  double alpha_visc;    /* viscous time-step factor alpha_d of eq 34 (0.125) */
+} sphdem_mp_params;
+void sphdem_mp_params_default(sphdem_mp_params *m);
+/* Check m against the fluid parameters p (XSPH, tensile and Morris terms are single-phase options);
+ * names the bad field in msg. */
+int sphdem_mp_params_check(const sphdem_mp_params *m, const sphdem_params *p, char *msg, size_t msglen);
+int sphdem_mp_set(sphdem_ctx ctx, const sphdem_mp_params *m);
+int sphdem_mp_get(sphdem_ctx ctx, sphdem_mp_params *m);
+/* Phase index (0..nphase-1) of each fluid particle, in the order of the last sphdem_set_fluid. */
+int sphdem_set_fluid_phase(sphdem_ctx ctx, int n, const int *phase);
+/* Per-particle diagnostics of the last compute_rates, in the order of sphdem_set_fluid: viscosity mu_i
+ * (Pa s), shear rate |D_i| (1/s), lambda_i (min eigenvalue of the same-phase B_i; 0 without shifting),
+ * shifting velocity (3n). Any pointer may be NULL. */
+int sphdem_mp_get_fields(sphdem_ctx ctx, double *mu, double *gdot, double *lambda, double *shift);
+/* Equation of state of phase k (as the core evaluates it) and its inverse; for initial states. */
+double sphdem_mp_pressure(const sphdem_mp_params *m, const sphdem_params *p, int k, double rho);
+double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int k, double pressure);
+/* Herschel-Bulkley viscosity of phase k at shear rate gdot with the cut-off (eq 23). */
+double sphdem_mp_viscosity(const sphdem_phase *ph, double gdot);
+
 /* ---- GPU DEM (Yu 2024 §2.2-2.3, He 2018 §2.2) ----------------------------------------------------
  * Soft-sphere contacts between grains and with fixed planes, on the CPU (OpenMP) or CUDA. A separate
  * context: the caller (engine pair style or test driver) integrates; each call uploads the grains,

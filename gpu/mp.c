@@ -1,0 +1,240 @@
+/* mp.c - multiphase delta-plus SPH (Shi & Huang 2022): parameters, phase upload, per-particle arrays,
+ * the passes that precede the rates pass, diagnostics. The physics is in mp_bodies.h. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mp_bodies.h"
+#include "sphdem_internal.h"
+
+#define TRYM(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
+
+void sphdem_mp_params_default(sphdem_mp_params *m) {
+  memset(m, 0, sizeof *m);
+  m->nphase = 1;
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) {
+    m->phase[k].rho0 = 1000.0;
+    m->phase[k].K = 1e-3;
+    m->phase[k].N = 1.0;
+  }
+  m->eos = SPHDEM_EOS_LINEAR;
+  m->diffusion = SPHDEM_DIFF_NONE;
+  m->delta = 0.1;
+  m->shift_R = 0.2;
+  m->shift_n = 4.0;
+  m->lam_surface = 0.55;
+  m->lam_near = 0.90;
+  m->alpha_visc = 0.125;
+}
+
+int sphdem_mp_params_check(const sphdem_mp_params *m, const sphdem_params *p, char *msg, size_t msglen) {
+  char dummy[8];
+  if (!msg || msglen == 0) { msg = dummy; msglen = sizeof dummy; }
+  msg[0] = 0;
+#define MCHECK(cond, ...) do { if (!(cond)) { snprintf(msg, msglen, __VA_ARGS__); return SPHDEM_ERR_ARG; } } while (0)
+  MCHECK(m && p, "parameters missing");
+  if (!m->enabled) return SPHDEM_OK;
+  MCHECK(m->nphase >= 1 && m->nphase <= SPHDEM_MAX_PHASES, "nphase must be 1..%d (got %d)", SPHDEM_MAX_PHASES,
+         m->nphase);
+  for (int k = 0; k < m->nphase; k++) {
+    const sphdem_phase *f = &m->phase[k];
+    MCHECK(f->rho0 > 0 && isfinite(f->rho0), "phase %d: rho0 must be > 0 (got %g)", k + 1, f->rho0);
+    MCHECK(f->tau_y >= 0 && isfinite(f->tau_y), "phase %d: yield stress tau_y must be >= 0 (got %g)", k + 1, f->tau_y);
+    MCHECK(f->K >= 0 && isfinite(f->K), "phase %d: consistency K (viscosity) must be >= 0 (got %g)", k + 1, f->K);
+    MCHECK(f->N > 0 && isfinite(f->N), "phase %d: flow index N must be > 0 (got %g)", k + 1, f->N);
+    MCHECK(f->gdot_cut >= 0 && isfinite(f->gdot_cut), "phase %d: cut-off shear rate must be >= 0 (got %g)", k + 1,
+           f->gdot_cut);
+    MCHECK(!(f->tau_y > 0 || f->N < 1) || f->gdot_cut > 0,
+           "phase %d: a yield stress or a flow index N < 1 makes the viscosity infinite at rest; give a cut-off "
+           "shear rate > 0 (eq 23)", k + 1);
+  }
+  MCHECK(m->eos == SPHDEM_EOS_TAIT || m->eos == SPHDEM_EOS_LINEAR, "eos must be tait or linear");
+  MCHECK(m->p0 >= 0 && isfinite(m->p0), "background pressure p0 must be >= 0 (got %g)", m->p0);
+  MCHECK(m->diffusion >= SPHDEM_DIFF_NONE && m->diffusion <= SPHDEM_DIFF_RENORM,
+         "diffusion must be none, molteni or renormalised");
+  MCHECK(m->delta >= 0 && m->delta <= 1, "diffusion delta must be in [0, 1] (got %g)", m->delta);
+  MCHECK(m->shifting == 0 || m->shifting == 1, "shifting must be 0 or 1");
+  MCHECK(m->shift_R >= 0 && m->shift_n > 0, "shifting R must be >= 0 and n > 0 (got %g, %g)", m->shift_R, m->shift_n);
+  MCHECK(m->lam_surface > 0 && m->lam_surface <= m->lam_near && m->lam_near <= 1.5,
+         "shifting thresholds need 0 < lam_surface <= lam_near <= 1.5 (got %g, %g)", m->lam_surface, m->lam_near);
+  MCHECK(m->cs_les >= 0 && m->cs_les < 1, "Smagorinsky constant must be in [0, 1) (got %g)", m->cs_les);
+  MCHECK(m->alpha_visc > 0 && m->alpha_visc <= 1, "alpha_visc must be in (0, 1] (got %g)", m->alpha_visc);
+  MCHECK(p->visc == SPHDEM_VISC_NONE,
+         "the multiphase viscous term (eq 24, phase rheology) replaces visc morris/artificial; set visc none");
+  MCHECK(p->tensile_eps == 0, "the tensile correction is a single-phase option; use a background pressure p0");
+  MCHECK(p->delta == 0, "the single-phase delta term is replaced by the multiphase diffusion option");
+#undef MCHECK
+  return SPHDEM_OK;
+}
+
+double sphdem_mp_viscosity(const sphdem_phase *ph, double gdot) { return hb_viscosity(ph, gdot); }
+
+double sphdem_mp_pressure(const sphdem_mp_params *m, const sphdem_params *p, int k, double rho) {
+  sphdem_dev D;
+  memset(&D, 0, sizeof D);
+  D.P = *p;
+  D.M = *m;
+  D.gamma_is_7 = p->gamma == 7.0;
+  D.Bk[k] = p->c0 * p->c0 * m->phase[k].rho0 / p->gamma;
+  return mp_pressure_k(&D, k, rho);
+}
+
+double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int k, double pressure) {
+  double r0 = m->phase[k].rho0, dp = pressure - m->p0;
+  if (m->eos == SPHDEM_EOS_LINEAR) return r0 + dp / (p->c0 * p->c0);
+  double base = 1.0 + dp / (p->c0 * p->c0 * r0 / p->gamma);
+  if (base < 1e-3) base = 1e-3;
+  return r0 * pow(base, 1.0 / p->gamma);
+}
+
+/* ---- memory ------------------------------------------------------------------------------------------ */
+
+void sphdem_mp_release(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  size_t n = (size_t)c->cap_mp;
+  sphdem_dfree(c, (void **)&D->ph, 4 * n);
+  sphdem_dfree(c, (void **)&D->mu_p, 8 * n);
+  sphdem_dfree(c, (void **)&D->gdot, 8 * n);
+  sphdem_dfree(c, (void **)&D->Lm, 48 * n);
+  sphdem_dfree(c, (void **)&D->gdr, 24 * n);
+  sphdem_dfree(c, (void **)&D->lam, 8 * n);
+  sphdem_dfree(c, (void **)&D->dus, 24 * n);
+  c->cap_mp = 0;
+  c->mp_ready = 0;
+  D->mp = 0;
+}
+
+/* Arrays for n fluid particles; phases and fields zeroed when (re)allocated. */
+static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
+  sphdem_dev *D = &c->D;
+  if (n <= c->cap_mp && c->cap_mp > 0) return SPHDEM_OK;
+  int mp = D->mp;
+  sphdem_mp_release(c);
+  D->mp = mp;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  TRYM(sphdem_dalloc(c, (void **)&D->ph, 4 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mu_p, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->gdot, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->Lm, 48 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->gdr, 24 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->lam, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->dus, 24 * m));
+  c->cap_mp = (int64_t)m;
+  TRYM(c->ops->memset0(c, D->ph, 4 * m));
+  TRYM(c->ops->memset0(c, D->mu_p, 8 * m));
+  TRYM(c->ops->memset0(c, D->dus, 24 * m));
+  return SPHDEM_OK;
+}
+
+int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  if (!D->mp) return SPHDEM_OK;
+  TRYM(ensure_mp(c, D->nf));
+  c->mp_ready = 0;
+  /* a rebuilt fluid starts in phase 0 until sphdem_set_fluid_phase */
+  if (D->nf > 0) TRYM(c->ops->memset0(c, D->ph, 4 * (size_t)D->nf));
+  return SPHDEM_OK;
+}
+
+int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!m) return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: parameters missing");
+  char msg[512];
+  if (sphdem_mp_params_check(m, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: %s", msg);
+  sphdem_dev *D = &c->D;
+  if (!m->enabled) { sphdem_mp_release(c); D->M = *m; return SPHDEM_OK; }
+  if (D->couple)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: the multiphase fluid cannot be combined with the SPH-DEM "
+                                          "coupling yet");
+  int was_on = D->mp;
+  D->M = *m;
+  D->mp = 1;
+  sphdem_rederive(c);
+  if (!was_on) {
+    TRYM(ensure_mp(c, D->nf));
+    if (D->nf > 0) TRYM(c->ops->memset0(c, D->ph, 4 * (size_t)D->nf));
+    c->mp_ready = 0;
+  }
+  return SPHDEM_OK;
+}
+
+int sphdem_mp_get(sphdem_ctx c, sphdem_mp_params *m) {
+  if (!c || !m) return SPHDEM_ERR_ARG;
+  if (!c->D.mp) { sphdem_mp_params_default(m); return SPHDEM_OK; }
+  *m = c->D.M;
+  return SPHDEM_OK;
+}
+
+int sphdem_set_fluid_phase(sphdem_ctx c, int n, const int *phase) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (!D->mp) return sphdem_fail(c, SPHDEM_ERR_STATE, "set_fluid_phase: the multiphase fluid is off (sphdem_mp_set)");
+  if (n != D->nf) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: %d phases for %lld fluid particles", n,
+                                     (long long)D->nf);
+  if (n == 0) return SPHDEM_OK;
+  if (!phase) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: phase array missing");
+  for (int i = 0; i < n; i++)
+    if (phase[i] < 0 || phase[i] >= D->M.nphase)
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: particle %d has phase %d; phases are 0..%d", i,
+                         phase[i], D->M.nphase - 1);
+  TRYM(ensure_mp(c, n));
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)n), *hp = (int32_t *)malloc(4 * (size_t)n);
+  int rc = ui && hp ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_fluid_phase: cannot allocate %d entries", n);
+  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) {
+    for (int s = 0; s < n; s++) hp[s] = phase[ui[s]];
+    rc = c->ops->h2d(c, D->ph, hp, 4 * (size_t)n);
+  }
+  free(ui);
+  free(hp);
+  c->mp_ready = 0;
+  return rc;
+}
+
+/* Before the rates pass (after the pressure and wall passes): per-phase max velocity when shifting,
+ * then the gradient pass and the shifting pass. */
+int sphdem_mp_prepare(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  TRYM(ensure_mp(c, D->nf));
+  if (D->M.shifting) {
+    sphdem_red r;
+    TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
+    for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
+  }
+  TRYM(c->ops->mp_pass(c, 1));
+  TRYM(c->ops->sync(c));
+  if (D->M.shifting) {
+    TRYM(c->ops->mp_pass(c, 2));
+    TRYM(c->ops->sync(c));
+  }
+  c->mp_ready = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda, double *shift) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (!D->mp) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: the multiphase fluid is off");
+  if (!c->mp_ready) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: no rates computed since the last upload");
+  int64_t n = D->nf;
+  if (n == 0) return SPHDEM_OK;
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
+  double *h = (double *)malloc(24 * (size_t)n);
+  int rc = ui && h ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "mp_get_fields: cannot allocate %lld entries",
+                                             (long long)n);
+  if (!rc) rc = c->ops->sync(c);
+  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  struct { double *dst; const double *src; int nc; } f[] = {{mu, D->mu_p, 1}, {gdot, D->gdot, 1},
+                                                            {lambda, D->lam, 1}, {shift, D->dus, 3}};
+  for (int k = 0; k < 4 && !rc; k++) {
+    if (!f[k].dst) continue;
+    rc = c->ops->d2h(c, h, f[k].src, 8 * (size_t)f[k].nc * (size_t)n);
+    for (int64_t s = 0; s < n && !rc; s++)
+      for (int d = 0; d < f[k].nc; d++) f[k].dst[(int64_t)ui[s] * f[k].nc + d] = h[f[k].nc * s + d];
+  }
+  free(ui);
+  free(h);
+  return rc;
+}
