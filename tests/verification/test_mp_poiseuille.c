@@ -156,7 +156,7 @@ static sphdem_phase hb(double tau_y, double K, double N, double cut) {
 
 int main(int argc, char **argv) {
   const char *which = argc > 1 ? argv[1] : "all";
-  double tend = argc > 2 ? atof(argv[2]) : 4.0;
+  double tend = argc > 2 ? atof(argv[2]) : 5.0;
   int all = !strcmp(which, "all");
   FILE *out = fopen("mp_poiseuille.csv", "w"), *sum = fopen("mp_poiseuille_summary.csv", "w");
   fprintf(out, "case,res,y,u_sim,u_exact,u_cutoff\n");
