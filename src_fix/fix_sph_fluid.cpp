@@ -27,10 +27,20 @@ const char *const SYNTAX =
     "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
-    "[hydrostatic ZSURF] [every N]";
+    "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT ...] [eos tait|linear] "
+    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, skin, cfl, rho_err_max, "
-    "device, sync, check, hydrostatic, every";
+    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les";
+
+/* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
+int gravity_axis(const sphdem_params &p, double *down_sign) {
+  int axis = 0;
+  for (int d = 1; d < 3; d++)
+    if (std::fabs(p.gravity[d]) > std::fabs(p.gravity[axis])) axis = d;
+  *down_sign = p.gravity[axis] < 0 ? 1.0 : -1.0;
+  return axis;
+}
 
 double wall_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -100,6 +110,11 @@ double FixSPHFluid::parse_number(const char *kw, const char *s, const char *usag
 
 void FixSPHFluid::parse_args(int narg, char **arg) {
   sphdem_params_default(&prm_);
+  sphdem_mp_params_default(&mp_);
+  mp_.nphase = 0;
+  type_phase_.assign(atom->ntypes + 1, -1);
+  bool have_eos = false, mp_kw = false;
+  std::string mp_kw_name;
   prm_.dim = domain->dimension;
   if (domain->triclinic) fail("triclinic boxes are not supported");
   bool have_rho0 = false, have_h = false, have_c0 = false, have_dx = false, have_skin = false;
@@ -207,9 +222,51 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
              "' (usage: " + usage + ")");
       (kw == "sync" ? sync_every_ : kw == "check" ? check_every_ : every_) = n;
       iarg += 2;
+    } else if (kw == "phase") {
+      parse_phase(iarg, narg, arg);
+    } else if (kw == "eos") {
+      if (iarg + 1 >= narg) fail("eos must be tait or linear");
+      const std::string v = arg[iarg + 1];
+      if (v != "tait" && v != "linear") fail("eos must be tait or linear (got '" + v + "')");
+      mp_.eos = v == "tait" ? SPHDEM_EOS_TAIT : SPHDEM_EOS_LINEAR;
+      have_eos = mp_kw = true, mp_kw_name = kw;
+      iarg += 2;
+    } else if (kw == "p0" || kw == "les") {
+      const std::string usage = kw + (kw == "p0" ? " P0" : " CS");
+      need(1, usage.c_str());
+      double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
+      (kw == "p0" ? mp_.p0 : mp_.cs_les) = v;
+      mp_kw = true, mp_kw_name = kw;
+      iarg += 2;
+    } else if (kw == "diffusion") {
+      if (iarg + 1 >= narg) fail("diffusion must be none, molteni or renorm, then an optional DELTA");
+      const std::string v = arg[iarg + 1];
+      if (v == "none") mp_.diffusion = SPHDEM_DIFF_NONE;
+      else if (v == "molteni") mp_.diffusion = SPHDEM_DIFF_MOLTENI;
+      else if (v == "renorm") mp_.diffusion = SPHDEM_DIFF_RENORM;
+      else fail("diffusion must be none, molteni or renorm (got '" + v + "')");
+      iarg += 2;
+      double d;
+      if (optional_number(iarg, &d)) mp_.delta = d, iarg++;
+      mp_kw = true, mp_kw_name = kw;
+    } else if (kw == "shifting") {
+      if (iarg + 1 >= narg) fail("shifting must be yes or no");
+      const std::string v = arg[iarg + 1];
+      if (v != "yes" && v != "no") fail("shifting must be yes or no (got '" + v + "')");
+      mp_.shifting = v == "yes";
+      mp_kw = true, mp_kw_name = kw;
+      iarg += 2;
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
     }
+  }
+  if (mp_.nphase > 0) {
+    mp_.enabled = 1;
+    if (!have_eos) mp_.eos = SPHDEM_EOS_LINEAR; /* Shi & Huang eq 4 */
+  } else {
+    if (mp_kw) fail("keyword " + mp_kw_name + " belongs to the multiphase fluid: give at least one phase keyword "
+                    "(phase TYPE RHO0 newtonian MU | hb TAU_Y K N GDOT_CUT)");
+    mp_.nphase = 1;
   }
 
   if (!have_rho0 || !have_h || !have_c0) {
@@ -229,6 +286,38 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
   box_to_params();
   char msg[512];
   if (sphdem_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+  if (sphdem_mp_params_check(&mp_, &prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+}
+
+/* phase TYPE RHO0 newtonian MU | phase TYPE RHO0 hb TAU_Y K N GDOT_CUT: fluid atoms of TYPE form the next
+ * phase (Shi & Huang 2022); the first phase keyword switches the fix to the multiphase equations. */
+void FixSPHFluid::parse_phase(int &iarg, int narg, char **arg) {
+  const char *usage = "phase TYPE RHO0 newtonian MU | phase TYPE RHO0 hb TAU_Y K N GDOT_CUT";
+  if (iarg + 4 >= narg) fail(std::string("missing value(s) for phase (usage: ") + usage + ")");
+  long t;
+  if (!sphdem_compat::to_int(arg[iarg + 1], &t) || t < 1 || t > atom->ntypes)
+    fail("phase TYPE must be an atom type 1.." + std::to_string(atom->ntypes) + ", got '" + arg[iarg + 1] +
+         "' (usage: " + usage + ")");
+  if (type_phase_[t] >= 0) fail("atom type " + std::to_string(t) + " is given two phase keywords");
+  if (mp_.nphase >= SPHDEM_MAX_PHASES) fail("at most " + std::to_string(SPHDEM_MAX_PHASES) + " phases");
+  sphdem_phase &f = mp_.phase[mp_.nphase];
+  f.rho0 = parse_number("phase RHO0", arg[iarg + 2], usage);
+  const std::string model = arg[iarg + 3];
+  if (model == "newtonian") {
+    f.K = parse_number("phase newtonian MU", arg[iarg + 4], usage);
+    f.tau_y = 0.0, f.N = 1.0, f.gdot_cut = 0.0;
+    iarg += 5;
+  } else if (model == "hb") {
+    if (iarg + 7 >= narg) fail(std::string("missing value(s) for phase ... hb (usage: ") + usage + ")");
+    f.tau_y = parse_number("phase hb TAU_Y", arg[iarg + 4], usage);
+    f.K = parse_number("phase hb K", arg[iarg + 5], usage);
+    f.N = parse_number("phase hb N", arg[iarg + 6], usage);
+    f.gdot_cut = parse_number("phase hb GDOT_CUT", arg[iarg + 7], usage);
+    iarg += 8;
+  } else {
+    fail("phase rheology must be newtonian MU or hb TAU_Y K N GDOT_CUT (got '" + model + "')");
+  }
+  type_phase_[t] = mp_.nphase++;
 }
 
 void FixSPHFluid::box_to_params() {
@@ -293,6 +382,10 @@ void FixSPHFluid::setup(int) {
     if (rc != SPHDEM_OK) fail(std::string(msg) + " (" + sphdem_strerror(rc) + ")");
   } else {
     check(sphdem_set_params(ctx_, &prm_), "set_params");
+  }
+  if (mp_.enabled) {
+    if (coupler_) fail("the multiphase fluid (keyword phase) cannot be coupled to grains (fix sph/couple) yet");
+    check(sphdem_mp_set(ctx_, &mp_), "mp_set");
   }
   if (coupler_) {
     coupler_->couple_setup(ctx_);
@@ -378,13 +471,22 @@ bool FixSPHFluid::upload_fluid() {
   fmass_.resize(n);
   fstate_.resize(SPHDEM_NSTATE * n);
 
-  int axis = 0;
-  for (int d = 1; d < 3; d++)
-    if (std::fabs(prm_.gravity[d]) > std::fabs(prm_.gravity[axis])) axis = d;
-  const double down_sign = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* depth grows against gravity */
+  double down_sign;
+  const int axis = gravity_axis(prm_, &down_sign);
 
   bool all_valid = true, scaled_any = false;
   fresh_.clear();
+  if (mp_.enabled) {
+    fphase_.resize(n);
+    for (size_t k = 0; k < n; k++) {
+      const int t = atom->type[fidx_[k]];
+      if (type_phase_[t] < 0)
+        fail("fluid atom " + std::to_string((long long)atom->tag[fidx_[k]]) + " has type " + std::to_string(t) +
+             ", which no phase keyword names (phase TYPE RHO0 ...)");
+      fphase_[k] = type_phase_[t];
+    }
+    if (hydrostatic_) layered_pressure();
+  }
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
     ftag_[k] = (int64_t)atom->tag[i];
@@ -396,11 +498,11 @@ bool FixSPHFluid::upload_fluid() {
     } else {
       all_valid = false;
       fresh_.push_back((int)k);
-      const double depth = down_sign * (zsurf_ - x[i][axis]);
-      frho_[k] = hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, std::max(depth, 0.0)) : prm_.rho0;
+      frho_[k] = fresh_density(i, axis, down_sign);
+      const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
       /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
       if (hydrostatic_ && !mass_scaled_ && atom->rmass) {
-        atom->rmass[i] *= frho_[k] / prm_.rho0;
+        atom->rmass[i] *= frho_[k] / rho0;
         fmass_[k] = atom->rmass[i];
         scaled_any = true;
       }
@@ -410,7 +512,51 @@ bool FixSPHFluid::upload_fluid() {
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
+  if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   return all_valid;
+}
+
+/* Density of a fluid atom that has no valid state: rho0 (of its phase), or the hydrostatic density
+ * below ZSURF (single phase: Tait inverted; multiphase: the pressure of the layers above it, from
+ * layered_pressure(), through the phase's EOS). */
+double FixSPHFluid::fresh_density(int i, int axis, double down_sign) {
+  const double depth = std::max(down_sign * (zsurf_ - atom->x[i][axis]), 0.0);
+  if (!mp_.enabled) return hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, depth) : prm_.rho0;
+  const int k = type_phase_[atom->type[i]];
+  double p = mp_.p0;
+  if (hydrostatic_ && !hyd_z_.empty()) {
+    const double bw = hyd_z_[1] - hyd_z_[0];
+    size_t b = std::min((size_t)(depth / bw), hyd_z_.size() - 2);
+    const double w = (depth - hyd_z_[b]) / bw;
+    p += (1.0 - w) * hyd_p_[b] + w * hyd_p_[b + 1];
+  }
+  return sphdem_mp_density(&mp_, &prm_, k, p);
+}
+
+/* Multiphase hydrostatic start: the fluid is binned in depth below ZSURF (bins of dx); the mean reference
+ * density of the atoms in each bin, integrated from the surface down, gives p(depth) = g int rho dz. Exact
+ * for horizontal layers; an estimate elsewhere (the fluid settles from it). */
+void FixSPHFluid::layered_pressure() {
+  double down_sign;
+  const int axis = gravity_axis(prm_, &down_sign);
+  const double g = std::fabs(prm_.gravity[axis]), bw = prm_.dx;
+  double dmax = 0.0;
+  for (int i : fidx_) dmax = std::max(dmax, down_sign * (zsurf_ - atom->x[i][axis]));
+  const size_t nb = (size_t)(dmax / bw) + 2;
+  std::vector<double> srho(nb, 0.0), cnt(nb, 0.0);
+  for (int i : fidx_) {
+    const double depth = down_sign * (zsurf_ - atom->x[i][axis]);
+    if (depth < 0) continue;
+    const size_t b = std::min((size_t)(depth / bw), nb - 1);
+    srho[b] += mp_.phase[type_phase_[atom->type[i]]].rho0;
+    cnt[b] += 1.0;
+  }
+  hyd_z_.assign(nb + 1, 0.0);
+  hyd_p_.assign(nb + 1, 0.0);
+  for (size_t b = 0; b < nb; b++) {
+    hyd_z_[b + 1] = (double)(b + 1) * bw;
+    hyd_p_[b + 1] = hyd_p_[b] + (cnt[b] > 0 ? srho[b] / cnt[b] : 0.0) * g * bw;
+  }
 }
 
 /* Superficial coupling: the fluid density variable is eps rho_f (He 2018 eq 6). Fluid particles created
@@ -493,6 +639,13 @@ void FixSPHFluid::download() {
     if (rc != SPHDEM_ERR_STATE) check(rc, "get_porosity");
     have_eps = rc == SPHDEM_OK;
   }
+  bool have_mp = false;
+  if (mp_.enabled) {
+    fmu_.resize(n), fgd_.resize(n), flam_.resize(n);
+    const int rc = sphdem_mp_get_fields(ctx_, fmu_.data(), fgd_.data(), flam_.data(), nullptr);
+    if (rc != SPHDEM_ERR_STATE) check(rc, "mp_get_fields");
+    have_mp = rc == SPHDEM_OK;
+  }
   double **x = atom->x, **v = atom->v;
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
@@ -501,6 +654,11 @@ void FixSPHFluid::download() {
     sa_[i][C_P] = fp_[k];
     if (have_eps) sa_[i][C_EPS] = feps_[k];
     else if (!couple_on_) sa_[i][C_EPS] = 1.0;
+    if (have_mp) {
+      sa_[i][C_MU] = fmu_[k];
+      sa_[i][C_GDOT] = fgd_[k];
+      sa_[i][C_LAM] = flam_[k];
+    }
     for (int s = 0; s < SPHDEM_NSTATE; s++) sa_[i][C_STATE + s] = fstate_[SPHDEM_NSTATE * k + s];
     sa_[i][C_VALID] = 1.0;
   }

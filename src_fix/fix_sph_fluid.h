@@ -68,11 +68,15 @@ class FixSPHFluid : public Fix {
  private:
   /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
    * for restarts */
-  enum { C_RHO = 0, C_P = 1, C_EPS = 2, C_STATE = 3, C_WALLV = C_STATE + SPHDEM_NSTATE, C_VALID = C_WALLV + 3,
-         NCOL };
-  static const int NOUT = 3; /* visible columns */
+  /* f_ID[4] viscosity, f_ID[5] shear rate, f_ID[6] lambda (multiphase; 0 otherwise) */
+  enum { C_RHO = 0, C_P = 1, C_EPS = 2, C_MU = 3, C_GDOT = 4, C_LAM = 5, C_STATE = 6,
+         C_WALLV = C_STATE + SPHDEM_NSTATE, C_VALID = C_WALLV + 3, NCOL };
+  static const int NOUT = 6; /* visible columns */
 
   sphdem_params prm_;
+  sphdem_mp_params mp_;            /* multiphase (keyword phase); mp_.enabled 0 otherwise */
+  std::vector<int> type_phase_;    /* atom type -> phase index, -1 = none */
+  std::vector<int> fphase_;        /* phases of the uploaded fluid */
   sphdem_device device_;
   sphdem_ctx ctx_;
   int wall_igroup_, wall_groupbit_;
@@ -104,7 +108,7 @@ class FixSPHFluid : public Fix {
   std::vector<int> fidx_, widx_;
   std::vector<int> fresh_; /* upload positions k of fluid atoms whose state was not valid at the last upload */
   std::vector<int64_t> ftag_;
-  std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_, feps_;
+  std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_, feps_, fmu_, fgd_, flam_;
   std::vector<double> wx_, wv_, wa_, wmass_;
 
   sphdem_stats stats_;
@@ -118,6 +122,10 @@ class FixSPHFluid : public Fix {
   void parse_args(int, char **);
   void box_to_params();
   void build_map();
+  void parse_phase(int &iarg, int narg, char **arg);
+  double fresh_density(int i, int axis, double down_sign);
+  void layered_pressure();
+  std::vector<double> hyd_z_, hyd_p_; /* multiphase hydrostatic start: pressure at bin edges */
   bool upload_fluid();
   void upload_walls(bool each_step);
   void rates();

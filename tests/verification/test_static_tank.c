@@ -181,8 +181,10 @@ int main(int argc, char **argv) {
   }
   printf("  worst probe error from t = 1 s against the exact hydrostatic pressure: PA %.2f%%, Pint %.2f%%, PB %.2f%%\n",
          100 * worst_raw[0], 100 * worst_raw[1], 100 * worst_raw[2]);
-  printf("RESULT stable=%d reason=%s t=%.3f PA=%.4f Pint=%.4f PB=%.4f noise=%.4f disorder=%.4f crossings=%d\n", stable,
-         stable ? "-" : why, t, worst[0], worst[1], worst[2], noise, dis, cross);
+  double vrms = 0;
+  if (stable && sphdem_stats_get(c, 0, &st) == SPHDEM_OK) vrms = sqrt(2 * st.ke / ((rhoA + rhoB) * W * HL));
+  printf("RESULT stable=%d reason=%s t=%.3f PA=%.4f Pint=%.4f PB=%.4f noise=%.4f disorder=%.4f crossings=%d vrms=%.3g\n",
+         stable, stable ? "-" : why, t, worst[0], worst[1], worst[2], noise, dis, cross, vrms);
   if (check) {
     TEST_ASSERT(stable, "ran to t = %.2f s without a stop (%s)", tend, why);
     const char *nm[3] = {"PA", "Pint", "PB"};
