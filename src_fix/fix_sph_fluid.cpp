@@ -229,14 +229,17 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       const std::string v = arg[iarg + 1];
       if (v != "tait" && v != "linear") fail("eos must be tait or linear (got '" + v + "')");
       mp_.eos = v == "tait" ? SPHDEM_EOS_TAIT : SPHDEM_EOS_LINEAR;
-      have_eos = mp_kw = true, mp_kw_name = kw;
+      have_eos = true;
+      if (!mp_kw) mp_kw_name = kw;
+      mp_kw = true;
       iarg += 2;
     } else if (kw == "p0" || kw == "les") {
       const std::string usage = kw + (kw == "p0" ? " P0" : " CS");
       need(1, usage.c_str());
       double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
       (kw == "p0" ? mp_.p0 : mp_.cs_les) = v;
-      mp_kw = true, mp_kw_name = kw;
+      if (!mp_kw) mp_kw_name = kw;
+      mp_kw = true;
       iarg += 2;
     } else if (kw == "diffusion") {
       if (iarg + 1 >= narg) fail("diffusion must be none, molteni or renorm, then an optional DELTA");
@@ -248,13 +251,15 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       iarg += 2;
       double d;
       if (optional_number(iarg, &d)) mp_.delta = d, iarg++;
-      mp_kw = true, mp_kw_name = kw;
+      if (!mp_kw) mp_kw_name = kw;
+      mp_kw = true;
     } else if (kw == "shifting") {
       if (iarg + 1 >= narg) fail("shifting must be yes or no");
       const std::string v = arg[iarg + 1];
       if (v != "yes" && v != "no") fail("shifting must be yes or no (got '" + v + "')");
       mp_.shifting = v == "yes";
-      mp_kw = true, mp_kw_name = kw;
+      if (!mp_kw) mp_kw_name = kw;
+      mp_kw = true;
       iarg += 2;
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
