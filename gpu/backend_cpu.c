@@ -208,6 +208,13 @@ static int cpu_mp_pass(struct sphdem_ctx_s *c, int pass) {
   return SPHDEM_OK;
 }
 
+static int cpu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
+  const sphdem_dev *D = &c->D;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < D->nf; i++) rk_stage_body(D, i, mode, wk, cst);
+  return SPHDEM_OK;
+}
+
 static int cpu_rates(struct sphdem_ctx_s *c) {
   if (c->D.mp) {
     const sphdem_dev *D = &c->D;
@@ -284,4 +291,5 @@ const sphdem_ops sphdem_cpu_ops = {
   .couple_grains = sphdem_cpu_couple_grains,
   .couple_reaction = sphdem_cpu_couple_reaction,
   .mp_pass = cpu_mp_pass,
+  .rk = cpu_rk,
 };

@@ -72,6 +72,11 @@ __global__ void k_mp_rates(sphdem_dev D) {
   if (i < D.nf) mp_rates_body(&D, i);
 }
 
+__global__ void k_rk(sphdem_dev D, int mode, double wk, double cst) {
+  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  if (i < D.nf) rk_stage_body(&D, i, mode, wk, cst);
+}
+
 __global__ void k_rates(sphdem_dev D) {
   int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
   if (i < D.nf) rates_body(&D, i);
@@ -194,6 +199,12 @@ static int cu_mp_pass(struct sphdem_ctx_s *c, int pass) {
   return SPHDEM_OK;
 }
 
+static int cu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
+  k_rk<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, mode, wk, cst);
+  LAUNCHED(c, "Runge-Kutta stage kernel");
+  return SPHDEM_OK;
+}
+
 static int cu_rates(struct sphdem_ctx_s *c) {
   if (c->D.mp) {
     k_mp_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
@@ -240,7 +251,7 @@ extern "C" {
 const sphdem_ops sphdem_cuda_ops = {
   "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
   cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync, cu_probe,
-  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction, cu_mp_pass,
+  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction, cu_mp_pass, cu_rk,
 };
 
 /* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */

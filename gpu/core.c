@@ -345,11 +345,14 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
   return SPHDEM_OK;
 }
 
+static void free_rk(sphdem_ctx c);
+
 int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
   sphdem_couple_release(c);
   sphdem_mp_release(c);
+  free_rk(c);
   free_fluid(c);
   free_walls(c);
   free_scratch(c);
@@ -435,6 +438,12 @@ static int sort_set(sphdem_ctx c, int set) {
     if (D->fr && c->cap_cf >= n) TRY(c->ops->gather(c, D->fr, 24, n)); /* last reaction, read by the wall pass */
     /* multiphase: the phase follows its particle (the other fields are recomputed by every rate pass) */
     if (D->ph && c->cap_mp >= n) TRY(c->ops->gather(c, D->ph, 4, n));
+    /* Runge-Kutta: a resort between stages carries the state at t_n and the stage sums */
+    if (D->rkx && c->cap_rk >= n) {
+      void *rk[] = {D->rkx, D->rkv, D->rkax, D->rkav, D->rkr, D->rkar};
+      int rb[] = {24, 24, 24, 24, 8, 8};
+      for (int k = 0; k < 6; k++) TRY(c->ops->gather(c, rk[k], rb[k], n));
+    }
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
@@ -705,6 +714,57 @@ int sphdem_compute_rates(sphdem_ctx c) {
   c->timers[SPHDEM_T_WALL] += t2 - t1;
   c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2);
   c->have_rates = 1;
+  return SPHDEM_OK;
+}
+
+static void free_rk(sphdem_ctx c) {
+  sphdem_dev *D = &c->D;
+  size_t n = (size_t)c->cap_rk;
+  DFREE(c, D->rkx, 24 * n); DFREE(c, D->rkv, 24 * n); DFREE(c, D->rkr, 8 * n);
+  DFREE(c, D->rkax, 24 * n); DFREE(c, D->rkav, 24 * n); DFREE(c, D->rkar, 8 * n);
+  c->cap_rk = 0;
+}
+
+static int ensure_rk(sphdem_ctx c, int64_t n) {
+  if (n <= c->cap_rk && c->cap_rk > 0) return SPHDEM_OK;
+  free_rk(c);
+  sphdem_dev *D = &c->D;
+  size_t m = (size_t)(n > 0 ? n : 1);
+  TRY(dalloc(c, (void **)&D->rkx, 24 * m)); TRY(dalloc(c, (void **)&D->rkv, 24 * m));
+  TRY(dalloc(c, (void **)&D->rkr, 8 * m)); TRY(dalloc(c, (void **)&D->rkax, 24 * m));
+  TRY(dalloc(c, (void **)&D->rkav, 24 * m)); TRY(dalloc(c, (void **)&D->rkar, 8 * m));
+  c->cap_rk = (int64_t)m;
+  return SPHDEM_OK;
+}
+
+/* After a stage moved the particles: resort before the next rate evaluation when needed. */
+static int rk_moved(sphdem_ctx c) {
+  sphdem_red r;
+  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_step_rk4(sphdem_ctx c, double dt) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "step_rk4: the Runge-Kutta integrator cannot be used with "
+                                                         "the SPH-DEM coupling (use velocity Verlet)");
+  if (!(dt > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "step_rk4: dt must be > 0 (got %g)", dt);
+  if (D->nf == 0) return SPHDEM_OK;
+  TRY(ensure_rk(c, D->nf));
+  c->half_kicked = 0;
+  /* stage weights dt/6, dt/3, dt/3, dt/6; the next stage's state at t + dt/2, t + dt/2, t + dt */
+  const double wk[4] = {dt / 6.0, dt / 3.0, dt / 3.0, dt / 6.0}, cst[3] = {0.5 * dt, 0.5 * dt, dt};
+  for (int s = 0; s < 4; s++) {
+    TRY(sphdem_compute_rates(c));
+    double t0 = now();
+    if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
+    TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
+    TRY(c->ops->sync(c));
+    c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+    TRY(rk_moved(c));
+  }
   return SPHDEM_OK;
 }
 

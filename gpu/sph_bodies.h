@@ -447,6 +447,36 @@ SPHDEM_HD void drift_body(const sphdem_dev *D, int64_t i, double dt) {
   }
 }
 
+/* Fourth-order Runge-Kutta (Shi & Huang 2022 §3.5) on (x, v, rho) with the rates dx/dt = v + u
+ * (XSPH / shifting), dv/dt = a, drho/dt = drho. mode 0: save the state at t_n, clear the sums. mode 1:
+ * add wk times the rates of the current stage to the sums and move the state to state_n + cst * rates
+ * (the next stage's state). mode 2: add wk times the rates, state = state_n + sums (the step's end). */
+SPHDEM_HD void rk_stage_body(const sphdem_dev *D, int64_t i, int mode, double wk, double cst) {
+  if (mode == 0) {
+    for (int d = 0; d < 3; d++) {
+      D->rkx[3 * i + d] = D->x[3 * i + d]; D->rkv[3 * i + d] = D->v[3 * i + d];
+      D->rkax[3 * i + d] = D->rkav[3 * i + d] = 0.0;
+    }
+    D->rkr[i] = D->rho[i];
+    D->rkar[i] = 0.0;
+    return;
+  }
+  for (int d = 0; d < D->P.dim; d++) {
+    double kx = D->v[3 * i + d] + D->u[3 * i + d], kv = D->a[3 * i + d];
+    D->rkax[3 * i + d] += wk * kx;
+    D->rkav[3 * i + d] += wk * kv;
+    double x = D->rkx[3 * i + d] + (mode == 2 ? D->rkax[3 * i + d] : cst * kx);
+    if (D->P.periodic[d]) {
+      double lo = D->P.boxlo[d], L = D->L[d];
+      if (x < lo) x += L; else if (x >= lo + L) x -= L;
+    }
+    D->x[3 * i + d] = x;
+    D->v[3 * i + d] = D->rkv[3 * i + d] + (mode == 2 ? D->rkav[3 * i + d] : cst * kv);
+  }
+  D->rkar[i] += wk * D->drho[i];
+  D->rho[i] = D->rkr[i] + (mode == 2 ? D->rkar[i] : cst * D->drho[i]);
+}
+
 /* ---- reductions ---------------------------------------------------------------------------- */
 
 SPHDEM_HD void red_init(sphdem_red *r) {

@@ -79,6 +79,8 @@ typedef struct {
   double *gdr;         /* renormalised gradient of delta rho (eq 19), 3 */
   double *lam;         /* min eigenvalue lambda_i of the same-phase B_i (§3.3) */
   double *dus;         /* shifting velocity du_i (eqs 27-29), 3 */
+  /* fourth-order Runge-Kutta (sphdem_step_rk4): state at t_n and the weighted sums of the stage rates */
+  double *rkx, *rkv, *rkr, *rkax, *rkav, *rkar;
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -126,6 +128,8 @@ typedef struct {
   /* multiphase passes (mp_bodies.h): 1 = renormalisation, gradients, viscosity; 2 = shifting velocity.
    * The rates pass itself switches to the multiphase body when D.mp is set. */
   int (*mp_pass)(struct sphdem_ctx_s *c, int pass);
+  /* Runge-Kutta stage (rk_stage_body): mode 0 saves the state at t_n and clears the sums */
+  int (*rk)(struct sphdem_ctx_s *c, int mode, double wk, double cst);
 } sphdem_ops;
 
 struct sphdem_ctx_s {
@@ -173,6 +177,7 @@ struct sphdem_ctx_s {
   /* multiphase (mp.c) */
   int64_t cap_mp;               /* capacity of the multiphase arrays */
   int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
+  int64_t cap_rk;               /* capacity of the Runge-Kutta arrays */
 };
 
 #ifdef __cplusplus

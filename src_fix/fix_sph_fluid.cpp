@@ -28,10 +28,10 @@ const char *const SYNTAX =
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
     "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT ...] [eos tait|linear] "
-    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS]";
+    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, skin, cfl, rho_err_max, "
-    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les";
+    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator";
 
 /* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
 int gravity_axis(const sphdem_params &p, double *down_sign) {
@@ -52,7 +52,7 @@ double wall_seconds() {
 FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), ctx_(nullptr), wall_igroup_(-1),
       wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), mass_scaled_(false), zsurf_(0.0),
-      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1),
+      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1), rk4_(false),
       last_fluid_step_(0), fluid_step_(false), dt_fluid_(0.0), nfluid_steps_(0), coupler_(nullptr),
       couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
   std::memset(&stats_, 0, sizeof stats_);
@@ -253,6 +253,12 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       if (optional_number(iarg, &d)) mp_.delta = d, iarg++;
       if (!mp_kw) mp_kw_name = kw;
       mp_kw = true;
+    } else if (kw == "integrator") {
+      if (iarg + 1 >= narg) fail("integrator must be verlet or rk4");
+      const std::string v = arg[iarg + 1];
+      if (v != "verlet" && v != "rk4") fail("integrator must be verlet or rk4 (got '" + v + "')");
+      rk4_ = v == "rk4";
+      iarg += 2;
     } else if (kw == "shifting") {
       if (iarg + 1 >= narg) fail("shifting must be yes or no");
       const std::string v = arg[iarg + 1];
@@ -388,6 +394,7 @@ void FixSPHFluid::setup(int) {
   } else {
     check(sphdem_set_params(ctx_, &prm_), "set_params");
   }
+  if (rk4_ && coupler_) fail("integrator rk4 cannot be used with fix sph/couple (grains need velocity Verlet)");
   if (mp_.enabled) {
     if (coupler_) fail("the multiphase fluid (keyword phase) cannot be coupled to grains (fix sph/couple) yet");
     check(sphdem_mp_set(ctx_, &mp_), "mp_set");
@@ -681,19 +688,24 @@ void FixSPHFluid::initial_integrate(int) {
   if (!fluid_step_) return;
   dt_fluid_ = (double)(step - last_fluid_step_) * update->dt;
   host_current_ = false;
+  if (rk4_) { /* the whole step here: four rate evaluations with the walls as they are now */
+    if (walls_move_) upload_walls(true);
+    check(sphdem_step_rk4(ctx_, dt_fluid_), "step_rk4");
+    return;
+  }
   check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   check(sphdem_drift(ctx_, dt_fluid_), "drift");
 }
 
 void FixSPHFluid::post_force(int) {
-  if (!fluid_step_) return;
+  if (!fluid_step_ || rk4_) return;
   if (walls_move_) upload_walls(true);
   rates();
 }
 
 void FixSPHFluid::final_integrate() {
   if (!fluid_step_) return;
-  check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
+  if (!rk4_) check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   host_current_ = false;
   const bigint step = update->ntimestep, prev = last_fluid_step_;
   last_fluid_step_ = step;

@@ -93,6 +93,7 @@ class FixSPHFluid : public Fix {
   /* sub-cycling (keyword every): the fluid advances on the steps where fluid_step_ is set, by
    * dt_fluid_ = (step - last_fluid_step_) * dt, i.e. every_ * dt, shorter at the end of a run */
   long every_;
+  bool rk4_;            /* integrator rk4: whole Runge-Kutta steps in initial_integrate */
   bigint last_fluid_step_;
   bool fluid_step_;
   double dt_fluid_;

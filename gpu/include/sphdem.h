@@ -121,7 +121,12 @@ int sphdem_get_fluid(sphdem_ctx ctx, double *x, double *v, double *rho, double *
 /* Time stepping (velocity Verlet, kick-drift-kick; forces see the half-step velocity). */
 int sphdem_kick(sphdem_ctx ctx, double dt_half);   /* v += dt/2 a; rho += dt/2 drho */
 int sphdem_drift(sphdem_ctx ctx, double dt);       /* x += dt (v + XSPH); periodic wrap */
-int sphdem_compute_rates(sphdem_ctx ctx);          /* resort if needed; wall state (eqs 13-15); drho, a, XSPH */
+int sphdem_compute_rates(sphdem_ctx ctx);
+/* One whole step of the classical fourth-order Runge-Kutta scheme (Shi & Huang 2022 §3.5) on x, v, rho:
+ * four rate evaluations (each as sphdem_compute_rates, resorting when particles moved skin/2), walls
+ * held at their state for the whole step. Not with the SPH-DEM coupling (SPHDEM_ERR_STATE). Do not mix
+ * with sphdem_kick/drift inside a step; the rates left behind are those of the last stage. */
+int sphdem_step_rk4(sphdem_ctx ctx, double dt);          /* resort if needed; wall state (eqs 13-15); drho, a, XSPH */
 /* Statistics; returns SPHDEM_ERR_NAN / _LOST / _DENSITY (with a message naming the likely cause)
  * when the state is broken, SPHDEM_OK otherwise. s is filled in either case. dt is the time step
  * in use: when dt > s->dt_stable it returns SPHDEM_ERR_UNSTABLE. Pass dt = 0 to skip that check. */

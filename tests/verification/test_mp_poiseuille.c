@@ -8,11 +8,14 @@
  * bisection on tau0: once with the exact Herschel-Bulkley law, once with the law the solver uses
  * (viscosity held at its cut-off value below the cut-off shear rate, eq 23).
  *
- * Usage: verify_mp_poiseuille [newtonian|convergence|hb|all] [TEND]. Writes mp_poiseuille.csv
+ * Usage: verify_mp_poiseuille [newtonian|convergence|hb|rk4|all] [TEND] [rk4]. rk4: mu_A/mu_B = 4 at res 20
+ * with Runge-Kutta steps against velocity Verlet (same bound).  Writes mp_poiseuille.csv
  * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_summary.csv. */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"
+
+static int use_rk4 = 0; /* third argument rk4: Runge-Kutta steps instead of velocity Verlet */
 
 #define H 2.0
 #define A 1.0
@@ -120,7 +123,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
       dt = 0.8 * st.dt_stable;
     }
     if (t + dt > tend) dt = tend - t;
-    SPHDEM_CHECK_RC(c, scene_step(c, dt));
+    SPHDEM_CHECK_RC(c, use_rk4 ? sphdem_step_rk4(c, dt) : scene_step(c, dt));
     t += dt;
     nstep++;
   }
@@ -158,6 +161,7 @@ int main(int argc, char **argv) {
   const char *which = argc > 1 ? argv[1] : "all";
   double tend = argc > 2 ? atof(argv[2]) : 5.0;
   int all = !strcmp(which, "all");
+  use_rk4 = argc > 3 && !strcmp(argv[3], "rk4");
   FILE *out = fopen("mp_poiseuille.csv", "w"), *sum = fopen("mp_poiseuille_summary.csv", "w");
   fprintf(out, "case,res,y,u_sim,u_exact,u_cutoff\n");
   fprintf(sum, "case,res,l2_exact,l2_cutoff\n");
@@ -213,6 +217,19 @@ int main(int argc, char **argv) {
       TEST_ASSERT(ex[1] < ex[0], "%s: error against the exact law falls with the cut-off (%.3f%% at 1/s, %.3f%% "
                   "at 0.2/s)", nn[k].name, 100 * ex[0], 100 * ex[1]);
     }
+  }
+  if (all || !strcmp(which, "rk4")) {
+    printf("  mu_A/mu_B = 4, res 20: velocity Verlet and fourth-order Runge-Kutta (bound: both < 2 %%, within 0.2 %% "
+           "of each other)\n");
+    mp_case cs = {"rk_ratio4", {newtonian(1.0), newtonian(0.25)}};
+    int keep = use_rk4;
+    use_rk4 = 0;
+    double ev = run_case(&cs, 20, tend, NULL, NULL, NULL);
+    use_rk4 = 1;
+    double er = run_case(&cs, 20, tend, NULL, NULL, NULL);
+    use_rk4 = keep;
+    TEST_ASSERT(ev < 0.02 && er < 0.02, "Verlet %.3f%%, RK4 %.3f%% < 2%%", 100 * ev, 100 * er);
+    TEST_ASSERT(fabs(ev - er) < 0.002, "RK4 and Verlet agree at steady state (%.3f%% vs %.3f%%)", 100 * er, 100 * ev);
   }
   fclose(out);
   fclose(sum);
