@@ -8,14 +8,26 @@
  * bisection on tau0: once with the exact Herschel-Bulkley law, once with the law the solver uses
  * (viscosity held at its cut-off value below the cut-off shear rate, eq 23).
  *
- * Usage: verify_mp_poiseuille [newtonian|convergence|hb|rk4|all] [TEND] [rk4]. rk4: mu_A/mu_B = 4 at res 20
+ * Usage: verify_mp_poiseuille [newtonian|convergence|hb|rk4|all|accuracy] [TEND] [rk4]. accuracy (not in "all"):
+ * the bench table mp_accuracy.csv (bench/mp_accuracy.py). rk4: mu_A/mu_B = 4 at res 20
  * with Runge-Kutta steps against velocity Verlet (same bound).  Writes mp_poiseuille.csv
  * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_summary.csv. */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"
 
+#include <time.h>
+
 static int use_rk4 = 0; /* third argument rk4: Runge-Kutta steps instead of velocity Verlet */
+/* terms: -1 the tests' setting (renormalised diffusion, no shifting); 0 plain (neither); 1 delta-plus (both) */
+static int terms = -1;
+static double last_wall = 0; /* wall-clock seconds of the last run_case time loop */
+
+static double wall_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
 
 #define H 2.0
 #define A 1.0
@@ -92,6 +104,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
   sphdem_mp_params_default(&m);
   m.enabled = 1; m.nphase = 2; m.phase[0] = cs->ph[0]; m.phase[1] = cs->ph[1];
   m.eos = SPHDEM_EOS_LINEAR; m.diffusion = SPHDEM_DIFF_RENORM; m.delta = 0.1;
+  if (terms >= 0) { m.diffusion = terms ? SPHDEM_DIFF_RENORM : SPHDEM_DIFF_NONE; m.shifting = terms; }
   scene s;
   memset(&s, 0, sizeof s);
   double vol = p.dx * p.dx;
@@ -115,7 +128,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
   sphdem_stats st;
   SPHDEM_CHECK_RC(c, sphdem_stats_get(c, 0, &st));
-  double t = 0, dt = 0;
+  double t = 0, dt = 0, w0 = wall_now();
   long nstep = 0;
   while (t < tend - 1e-12) {
     if (nstep % 20 == 0) {
@@ -127,6 +140,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
     t += dt;
     nstep++;
   }
+  last_wall = wall_now() - w0;
   double *x = (double *)malloc(24 * (size_t)s.nf), *v = (double *)malloc(24 * (size_t)s.nf);
   SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, x, v, NULL, NULL, NULL));
   double e2 = 0, n2 = 0, c2 = 0, n2c = 0, usim = 0;
@@ -230,6 +244,23 @@ int main(int argc, char **argv) {
     use_rk4 = keep;
     TEST_ASSERT(ev < 0.02 && er < 0.02, "Verlet %.3f%%, RK4 %.3f%% < 2%%", 100 * ev, 100 * er);
     TEST_ASSERT(fabs(ev - er) < 0.002, "RK4 and Verlet agree at steady state (%.3f%% vs %.3f%%)", 100 * er, 100 * ev);
+  }
+  if (!strcmp(which, "accuracy")) {
+    /* accuracy against cost (bench/mp_accuracy.py): mu_A/mu_B = 4, Verlet / RK4 x plain / delta-plus x res */
+    FILE *acc = fopen("mp_accuracy.csv", "w");
+    fprintf(acc, "integrator,terms,res,l2,wall_s,wall_per_sim_s\n");
+    mp_case cs = {"acc_ratio4", {newtonian(1.0), newtonian(0.25)}};
+    int res[] = {20, 40, 80};
+    for (int ig = 0; ig < 2; ig++)
+      for (int tm = 0; tm < 2; tm++)
+        for (int k = 0; k < 3; k++) {
+          use_rk4 = ig; terms = tm;
+          double e = run_case(&cs, res[k], tend, NULL, NULL, NULL);
+          fprintf(acc, "%s,%s,%d,%.6e,%.4f,%.4f\n", ig ? "rk4" : "verlet", tm ? "delta-plus" : "plain", res[k], e,
+                  last_wall, last_wall / tend);
+          fflush(acc);
+        }
+    fclose(acc);
   }
   fclose(out);
   fclose(sum);
