@@ -41,13 +41,17 @@ static void usage(const char *prog) {
   fprintf(stderr,
           "usage: %s [--n NFLUID | --res R] [--steps S] [--warmup W] [--device cpu|gpu|auto]\n"
           "          [--threads T] [--dim 2|3] [--width W/a] [--skin S/h] [--tensile EPS]\n"
-          "          [--alpha A] [--write-liggghts FILE [--liggghts-split 1]]\n"
+          "          [--alpha A] [--write-liggghts FILE [--liggghts-split 1]] [--mp 0|1|2]\n"
           "  --n        target fluid particle count (res chosen so that nfluid ~ NFLUID), default 1e4\n"
           "  --res      particles across the column width a (overrides --n)\n"
           "  --steps    timed steps (default 100); --warmup untimed steps before (default 5)\n"
           "  --threads  OpenMP threads (omp_set_num_threads), default: OpenMP's default\n"
           "  --dim 3    3D box of width W*a (default W = 1)\n"
-          "  --skin     resort skin in units of h (default 0.25, as LIGGGHTS' sph tutorials)\n",
+          "  --skin     resort skin in units of h (default 0.25, as LIGGGHTS' sph tutorials)\n"
+          "  --mp       multiphase fluid (Shi & Huang 2022): the column's left half phase 0 (Herschel-Bulkley\n"
+          "             tau_y 1, K 0.1, N 0.8, cut 1), right half phase 1 (Newtonian 1e-3), both rho0 1000, linear\n"
+          "             EOS; 1: no delta-plus terms, 2: renormalised diffusion, shifting and LES on (default 0:\n"
+          "             the single-phase fluid with artificial viscosity and tensile correction)\n",
           prog);
 }
 
@@ -87,7 +91,7 @@ static int write_liggghts_data(const char *fn, const scene *s, const sphdem_para
 int main(int argc, char **argv) {
   double ntarget = 1e4, width = 1.0, skin_h = 0.25, tensile = 0.01, alpha = 0.02;
   int res = 0, steps = 100, warmup = 5, threads = 0, dim = 2;
-  int lig_split = 0;
+  int lig_split = 0, mpmode = 0;
   const char *devname = "cpu", *lig = NULL;
   for (int i = 1; i < argc; i++) {
     const char *k = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -106,6 +110,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(k, "--alpha")) alpha = atof(v);
     else if (!strcmp(k, "--write-liggghts")) lig = v;
     else if (!strcmp(k, "--liggghts-split")) lig_split = atoi(v);
+    else if (!strcmp(k, "--mp")) mpmode = atoi(v);
     else { usage(argv[0]); return 2; }
     i++;
   }
@@ -173,7 +178,25 @@ int main(int argc, char **argv) {
     printf("BENCH code=sphdem status=create_failed device=%s\n", devname);
     return 1;
   }
+  if (mpmode > 0) {
+    sphdem_params pm = p;
+    pm.visc = SPHDEM_VISC_NONE; pm.tensile_eps = 0.0;
+    SPHDEM_CHECK_RC(c, sphdem_set_params(c, &pm));
+    sphdem_mp_params m;
+    sphdem_mp_params_default(&m);
+    m.enabled = 1; m.nphase = 2;
+    sphdem_phase mud = {1000, 1.0, 0.1, 0.8, 1.0}, water = {1000, 0, 1e-3, 1, 0};
+    m.phase[0] = mud; m.phase[1] = water;
+    if (mpmode == 2) { m.diffusion = SPHDEM_DIFF_RENORM; m.shifting = 1; m.cs_les = 0.12; }
+    SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
+  }
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  if (mpmode > 0) {
+    int *ph = (int *)malloc(sizeof(int) * s.nf);
+    for (int i = 0; i < s.nf; i++) ph[i] = s.x[3 * i] < 0.5 * a ? 0 : 1;
+    SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, ph));
+    free(ph);
+  }
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
   for (int k = 0; k < warmup; k++) SPHDEM_CHECK_RC(c, scene_step(c, dt));
@@ -203,11 +226,11 @@ int main(int argc, char **argv) {
     front /= a;
   }
   double psteps = (double)s.nf * done / wall_s;
-  printf("BENCH code=sphdem backend=%s dim=%d threads=%d res=%d nfluid=%d nwall=%d steps=%d warmup=%d "
+  printf("BENCH code=sphdem mp=%d backend=%s dim=%d threads=%d res=%d nfluid=%d nwall=%d steps=%d warmup=%d "
          "dt=%.6e wall_s=%.6f psteps_per_s=%.6e t_sort=%.6f t_wall=%.6f t_rates=%.6f t_integrate=%.6f "
          "t_transfer=%.6f t_reduce=%.6f bytes_per_particle=%.1f nsorts=%lld setup_s=%.3f "
          "vmax=%.4g ke=%.6g front=%.5f rho_err=%.4g status=%s\n",
-         sphdem_backend(c) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", dim, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? 0 : threads,
+         mpmode, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", dim, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? 0 : threads,
          res, s.nf, s.nw, done, warmup, dt, wall_s, psteps, tm[SPHDEM_T_SORT], tm[SPHDEM_T_WALL], tm[SPHDEM_T_RATES],
          tm[SPHDEM_T_INTEGRATE], tm[SPHDEM_T_TRANSFER], tm[SPHDEM_T_REDUCE],
          (double)sphdem_device_bytes(c) / (double)s.nf, (long long)(sphdem_nsorts(c) - sorts0), t_setup, st.vmax, st.ke, front,

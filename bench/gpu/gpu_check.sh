@@ -32,6 +32,11 @@ done
 for n in $SIZES; do
   step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
   grep BENCH "$OUT/bench3d_gpu_$n.log"
+  # multiphase (issue 4): two phases without (mp 1) and with (mp 2) the delta-plus terms
+  for mp in 1 2; do
+    step "bench3d_gpu_mp${mp}_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 100 --warmup 10 --mp $mp
+    grep BENCH "$OUT/bench3d_gpu_mp${mp}_$n.log"
+  done
 done
 # CFD-DEM gas grid + DEM (issue 6) and the DEM contacts alone (issue 5), GPU and CPU side by side
 if [ -x "$BIN/cfd_bench" ]; then
