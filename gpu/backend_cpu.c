@@ -97,7 +97,10 @@ static int cpu_pressure(struct sphdem_ctx_s *c) {
 static int cpu_wall_state(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
 #pragma omp parallel for schedule(static)
-  for (int64_t w = 0; w < D->nw; w++) wall_state_body(D, w);
+  for (int64_t w = 0; w < D->nw; w++) {
+    if (D->wmls) mls_wall_state_body(D, w);
+    else wall_state_body(D, w);
+  }
   return SPHDEM_OK;
 }
 

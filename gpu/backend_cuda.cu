@@ -54,7 +54,10 @@ __global__ void k_pressure(sphdem_dev D) {
 
 __global__ void k_wall_state(sphdem_dev D) {
   int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nw) wall_state_body(&D, i);
+  if (i < D.nw) {
+    if (D.wmls) mls_wall_state_body(&D, i);
+    else wall_state_body(&D, i);
+  }
 }
 
 __global__ void k_mp_grad(sphdem_dev D) {

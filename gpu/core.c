@@ -353,6 +353,8 @@ int sphdem_destroy(sphdem_ctx *pc) {
   sphdem_couple_release(c);
   sphdem_mp_release(c);
   free_rk(c);
+  DFREE(c, c->D.wxi, 24 * (size_t)c->cap_wm);
+  DFREE(c, c->D.wmu, 8 * (size_t)c->cap_wm);
   free_fluid(c);
   free_walls(c);
   free_scratch(c);
@@ -448,6 +450,7 @@ static int sort_set(sphdem_ctx c, int set) {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
+    if (D->wmls) TRY(c->ops->gather(c, D->wxi, 24, n)); /* ghost walls: the mirror point follows its particle */
   }
   c->wl_dirty = 1;
   if (set == SPHDEM_SET_FLUID) c->nl_dirty = 1;
@@ -605,6 +608,34 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   }
   c->timers[SPHDEM_T_TRANSFER] += now() - t0;
   c->need_wall_sort = 1;
+  D->wmls = 0; /* Adami walls until sphdem_set_wall_mirror */
+  return SPHDEM_OK;
+}
+
+int sphdem_set_wall_mirror(sphdem_ctx c, int n, const double *xi) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (!xi) { D->wmls = 0; return SPHDEM_OK; }
+  if (n != D->nw) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_wall_mirror: %d points for %lld wall particles", n,
+                                     (long long)D->nw);
+  if (n == 0) return SPHDEM_OK;
+  if (n > c->cap_wm) {
+    DFREE(c, D->wxi, 24 * (size_t)c->cap_wm);
+    DFREE(c, D->wmu, 8 * (size_t)c->cap_wm);
+    c->cap_wm = 0;
+    TRY(dalloc(c, (void **)&D->wxi, 24 * (size_t)n));
+    TRY(dalloc(c, (void **)&D->wmu, 8 * (size_t)n));
+    c->cap_wm = n;
+  }
+  /* device order: wall tags are the caller index + 1 */
+  TRY(ensure_host(c, n));
+  TRY(down(c, c->htag, D->wtag, 8 * (size_t)n));
+  c->host_tags_valid = 0;
+  for (int64_t s = 0; s < n; s++)
+    for (int d = 0; d < 3; d++) c->hbuf[3 * s + d] = xi[3 * (c->htag[s] - 1) + d];
+  TRY(up(c, D->wxi, c->hbuf, 24 * (size_t)n));
+  TRY(c->ops->memset0(c, D->wmu, 8 * (size_t)n));
+  D->wmls = 1;
   return SPHDEM_OK;
 }
 

@@ -86,6 +86,87 @@ SPHDEM_HD double mp_drho(const sphdem_dev *D, double p) {
 
 SPHDEM_HD double wall_volume(const sphdem_dev *D, int64_t w) { return D->wmass[w] * D->wvol_inv_rho0; }
 
+/* ---- fixed ghost walls with MLS interpolation (§3.4, eqs 29-31) -------------------------------------- */
+
+/* Solves the (n x n, n <= 4) symmetric system M a = e1 by Gaussian elimination with partial pivoting;
+ * 0 if singular (pivot below 1e-12 of the largest diagonal entry). */
+SPHDEM_HD int mls_solve_e1(double *M, int n, double *a) {
+  double b[4] = {1, 0, 0, 0}, scale = 0.0;
+  for (int i = 0; i < n; i++) scale = fmax(scale, fabs(M[5 * i]));
+  if (!(scale > 0.0)) return 0;
+  for (int k = 0; k < n; k++) {
+    int piv = k;
+    for (int i = k + 1; i < n; i++) if (fabs(M[4 * i + k]) > fabs(M[4 * piv + k])) piv = i;
+    if (fabs(M[4 * piv + k]) < 1e-12 * scale) return 0;
+    if (piv != k) {
+      for (int j = 0; j < n; j++) { double t = M[4 * k + j]; M[4 * k + j] = M[4 * piv + j]; M[4 * piv + j] = t; }
+      double t = b[k]; b[k] = b[piv]; b[piv] = t;
+    }
+    for (int i = k + 1; i < n; i++) {
+      double f = M[4 * i + k] / M[4 * k + k];
+      for (int j = k; j < n; j++) M[4 * i + j] -= f * M[4 * k + j];
+      b[i] -= f * b[k];
+    }
+  }
+  for (int i = n - 1; i >= 0; i--) {
+    double s = b[i];
+    for (int j = i + 1; j < n; j++) s -= M[4 * i + j] * a[j];
+    a[i] = s / M[4 * i + i];
+  }
+  return 1;
+}
+
+/* Ghost wall particle w: MLS interpolation of the fluid at its mirror point x_I (eq 30), pressure with
+ * the hydrostatic offset (eq 29), no-slip velocity (eq 31 as 2 v_wall - u_I), ghost viscosity of the
+ * phase with the larger M11 share (multiphase). */
+SPHDEM_HD void mls_wall_state_body(const sphdem_dev *D, int64_t w) {
+  const double *xi = D->wxi + 3 * w, *xw = D->wx + 3 * w;
+  int dim = D->P.dim, nb = dim + 1;
+  double M[16], m11[SPHDEM_MAX_PHASES], r[3], b[4], a[4] = {1, 0, 0, 0};
+  for (int k = 0; k < 16; k++) M[k] = 0.0;
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) m11[k] = 0.0;
+  int32_t cells[27];
+  int nn = neighbor_cells(D, cell_of(D, xi), cells);
+  for (int k = 0; k < nn; k++)
+    for (int32_t f = D->cstart[cells[k]]; f < D->cend[cells[k]]; f++) {
+      double r2 = separation(D, D->x + 3 * f, xi, r); /* x_f - x_I */
+      if (r2 >= D->support2) continue;
+      double WV = wendland_w(D->alphaD, sqrt(r2) * D->inv_h) * D->mass[f] / D->rhop[f];
+      b[0] = 1.0;
+      for (int d = 0; d < dim; d++) b[1 + d] = r[d];
+      for (int i = 0; i < nb; i++) for (int j = 0; j < nb; j++) M[4 * i + j] += b[i] * b[j] * WV;
+      if (D->mp) m11[D->ph[f]] += WV;
+    }
+  /* W_MLS(x_f) = (M^-1 e1) . b_f W; where the kernel support at x_I is truncated (free surface: Shepard
+   * sum M11 below 0.7) the linear fit extrapolates wildly, so the Shepard interpolation is used there */
+  int mls = M[0] >= 0.7 && mls_solve_e1(M, nb, a);
+  double s = 0.0, sp = 0.0, su[3] = {0, 0, 0}, sg = 0.0, sgw = 0.0;
+  int kph = 0;
+  if (D->mp) for (int k = 1; k < D->M.nphase; k++) if (m11[k] > m11[kph]) kph = k;
+  for (int k = 0; k < nn; k++)
+    for (int32_t f = D->cstart[cells[k]]; f < D->cend[cells[k]]; f++) {
+      double r2 = separation(D, D->x + 3 * f, xi, r);
+      if (r2 >= D->support2) continue;
+      double WV = wendland_w(D->alphaD, sqrt(r2) * D->inv_h) * D->mass[f] / D->rhop[f], wm = a[0];
+      if (mls) for (int d = 0; d < dim; d++) wm += a[1 + d] * r[d];
+      wm *= WV;
+      s += wm;
+      sp += D->p[f] * wm;
+      for (int d = 0; d < 3; d++) su[d] += D->ve[3 * f + d] * wm;
+      if (D->mp && D->ph[f] == kph) { sg += D->gdot[f] * WV; sgw += WV; }
+    }
+  if (!mls && s > 0.0) { sp /= s; for (int d = 0; d < 3; d++) su[d] /= s; } /* Shepard fallback */
+  const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
+  double rhof = D->mp ? D->M.phase[kph].rho0 : D->P.rho0, gx = 0.0;
+  for (int d = 0; d < dim; d++) gx += (D->P.gravity[d] - aw[d]) * (xw[d] - xi[d]);
+  double pw = s != 0.0 ? sp + rhof * gx : 0.0;
+  if (D->P.wall_clamp && pw < 0.0) pw = 0.0;
+  D->wp[w] = pw;
+  D->wrho[w] = tait_density(D, pw);
+  for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = s != 0.0 ? 2.0 * vw[d] - su[d] : vw[d];
+  if (D->wmu) D->wmu[w] = D->mp ? hb_viscosity(&D->M.phase[kph], sgw > 0.0 ? sg / sgw : 0.0) : 0.0;
+}
+
 /* ---- pass 1: renormalisation, gradients, viscosity ------------------------------------------------ */
 
 /* Adds neighbour j (at r = x_i - x_j, F the kernel-gradient factor, volume V) to the sums of pass 1:
@@ -283,7 +364,9 @@ SPHDEM_HD void mp_rates_body(const sphdem_dev *D, int64_t a) {
       for (int d = 0; d < 3; d++) s1 += (va[d] + dua[d] - D->wv[3 * w + d]) * r[d]; /* prescribed wall velocity */
       drho += rhoa * Vw * F * s1;
       double kp = -(paV + D->wp[w] * Vw * Vw / ma) * F;
-      double kv = mua * (Va2 + Vw * Vw) * F * r2 * ie / ma; /* the wall takes the fluid particle's viscosity */
+      /* Adami walls take the fluid particle's viscosity; MLS ghosts their own (§3.4), harmonic mean as eq 24 */
+      double muw = D->wmls ? D->wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
+      double kv = mub * (Va2 + Vw * Vw) * F * r2 * ie / ma;
       for (int d = 0; d < 3; d++) acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
       wall_repulsion(D, rr, r2, r, acc);
     }

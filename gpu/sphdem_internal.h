@@ -79,6 +79,10 @@ typedef struct {
   double *gdr;         /* renormalised gradient of delta rho (eq 19), 3 */
   double *lam;         /* min eigenvalue lambda_i of the same-phase B_i (§3.3) */
   double *dus;         /* shifting velocity du_i (eqs 27-29), 3 */
+  /* fixed ghost walls with MLS interpolation (Shi & Huang §3.4; sphdem_set_wall_mirror): wmls == 0 while off */
+  int wmls;
+  double *wxi;         /* interpolation (mirror) point of each wall particle, 3 */
+  double *wmu;         /* ghost viscosity (multiphase), from the phase with the larger M11 share */
   /* fourth-order Runge-Kutta (sphdem_step_rk4): state at t_n and the weighted sums of the stage rates */
   double *rkx, *rkv, *rkr, *rkax, *rkav, *rkar;
 } sphdem_dev;
@@ -178,6 +182,7 @@ struct sphdem_ctx_s {
   int64_t cap_mp;               /* capacity of the multiphase arrays */
   int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
   int64_t cap_rk;               /* capacity of the Runge-Kutta arrays */
+  int64_t cap_wm;               /* capacity of the ghost-wall arrays */
 };
 
 #ifdef __cplusplus

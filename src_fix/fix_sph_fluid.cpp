@@ -28,10 +28,11 @@ const char *const SYNTAX =
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
     "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT ...] [eos tait|linear] "
-    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4]";
+    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
+    "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, skin, cfl, rho_err_max, "
-    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator";
+    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost";
 
 /* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
 int gravity_axis(const sphdem_params &p, double *down_sign) {
@@ -52,7 +53,7 @@ double wall_seconds() {
 FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), device_(SPHDEM_DEVICE_AUTO), ctx_(nullptr), wall_igroup_(-1),
       wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), mass_scaled_(false), zsurf_(0.0),
-      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1), rk4_(false),
+      walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1), rk4_(false), ghost_(false),
       last_fluid_step_(0), fluid_step_(false), dt_fluid_(0.0), nfluid_steps_(0), coupler_(nullptr),
       couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
   std::memset(&stats_, 0, sizeof stats_);
@@ -253,6 +254,20 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       if (optional_number(iarg, &d)) mp_.delta = d, iarg++;
       if (!mp_kw) mp_kw_name = kw;
       mp_kw = true;
+    } else if (kw == "ghost") {
+      const int nv = 2 * domain->dimension;
+      const char *usage = domain->dimension == 2 ? "ghost mirror XLO XHI YLO YHI" : "ghost mirror XLO XHI YLO YHI ZLO ZHI";
+      if (iarg + 1 >= narg || std::string(arg[iarg + 1]) != "mirror")
+        fail(std::string("ghost must be followed by mirror and the fluid box (usage: ") + usage + ")");
+      if (iarg + 1 + nv >= narg) fail(std::string("missing value(s) for ghost mirror (usage: ") + usage + ")");
+      for (int d = 0; d < 3; d++) ghost_lo_[d] = -1e300, ghost_hi_[d] = 1e300;
+      for (int d = 0; d < domain->dimension; d++) {
+        ghost_lo_[d] = parse_number("ghost mirror", arg[iarg + 2 + 2 * d], usage);
+        ghost_hi_[d] = parse_number("ghost mirror", arg[iarg + 3 + 2 * d], usage);
+        if (!(ghost_hi_[d] > ghost_lo_[d])) fail(std::string("ghost mirror: HI must exceed LO (usage: ") + usage + ")");
+      }
+      ghost_ = true;
+      iarg += 2 + nv;
     } else if (kw == "integrator") {
       if (iarg + 1 >= narg) fail("integrator must be verlet or rk4");
       const std::string v = arg[iarg + 1];
@@ -630,6 +645,27 @@ void FixSPHFluid::upload_walls(bool each_step) {
     }
   }
   check(sphdem_set_walls(ctx_, (int)n, wx_.data(), wv_.data(), wa_.data(), wmass_.data()), "set_walls");
+  if (!ghost_) return;
+  /* fixed ghost walls (Shi & Huang §3.4): each wall particle's interpolation point is its mirror image
+   * across the faces of the fluid box it lies outside of */
+  wxi_.resize(3 * n);
+  for (size_t k = 0; k < n; k++) {
+    bool outside = false;
+    for (int d = 0; d < 3; d++) {
+      double x = wx_[3 * k + d];
+      if (x < ghost_lo_[d]) x = 2.0 * ghost_lo_[d] - x, outside = true;
+      else if (x > ghost_hi_[d]) x = 2.0 * ghost_hi_[d] - x, outside = true;
+      wxi_[3 * k + d] = x;
+    }
+    if (!outside) {
+      char m[256];
+      snprintf(m, sizeof m, "ghost mirror: wall atom %lld at (%g, %g, %g) lies inside the fluid box; mirror ghosts "
+               "need every wall atom outside it (use the Adami walls, i.e. no ghost keyword, for other shapes)",
+               (long long)atom->tag[widx_[k]], wx_[3 * k], wx_[3 * k + 1], wx_[3 * k + 2]);
+      fail(m);
+    }
+  }
+  check(sphdem_set_wall_mirror(ctx_, (int)n, wxi_.data()), "set_wall_mirror");
 }
 
 /* Device -> host: x, v and the per-atom columns of the fluid, in the order of the last upload. */

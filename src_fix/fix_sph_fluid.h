@@ -94,6 +94,9 @@ class FixSPHFluid : public Fix {
    * dt_fluid_ = (step - last_fluid_step_) * dt, i.e. every_ * dt, shorter at the end of a run */
   long every_;
   bool rk4_;            /* integrator rk4: whole Runge-Kutta steps in initial_integrate */
+  bool ghost_;          /* ghost mirror: fixed ghost walls with MLS interpolation at mirror points */
+  double ghost_lo_[3], ghost_hi_[3];
+  std::vector<double> wxi_;
   bigint last_fluid_step_;
   bool fluid_step_;
   double dt_fluid_;

@@ -115,6 +115,15 @@ int sphdem_set_fluid(sphdem_ctx ctx, int n, const int64_t *tag, const double *x,
 /* Upload wall (dummy) particles: positions, prescribed velocity, acceleration (NULL = 0), mass. */
 int sphdem_set_walls(sphdem_ctx ctx, int n, const double *x, const double *v, const double *a,
                      const double *mass);
+/* Fixed ghost walls (Shi & Huang 2022 §3.4, eqs 29-31): xi (3n) is the interpolation point of each wall
+ * particle of the last sphdem_set_walls (same order): its mirror image across the wall surface, inside
+ * the fluid. The wall particle then takes the moving-least-squares interpolation of the fluid at xi:
+ * pressure P_I + rho_f g.(x_G - x_I) (eq 29, rho_f the reference density of the phase with the larger
+ * share of M11, 1 phase: rho0), velocity 2 v_wall - u_I (no slip), and in the multiphase viscous term the
+ * viscosity of that phase's rheology at the interpolated shear rate (§3.4). Where fewer than dim + 1
+ * fluid particles are in reach the MLS matrix is singular and the Shepard interpolation is used. Must
+ * follow every sphdem_set_walls (which switches the ghosts back to the Adami walls); xi NULL: Adami. */
+int sphdem_set_wall_mirror(sphdem_ctx ctx, int n, const double *xi);
 /* Download the fluid in the order of the last sphdem_set_fluid call. Any pointer may be NULL. */
 int sphdem_get_fluid(sphdem_ctx ctx, double *x, double *v, double *rho, double *p, double *state);
 

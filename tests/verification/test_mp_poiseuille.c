@@ -8,7 +8,8 @@
  * bisection on tau0: once with the exact Herschel-Bulkley law, once with the law the solver uses
  * (viscosity held at its cut-off value below the cut-off shear rate, eq 23).
  *
- * Usage: verify_mp_poiseuille [newtonian|convergence|hb|rk4|all|accuracy] [TEND] [rk4]. accuracy (not in "all"):
+ * Usage: verify_mp_poiseuille [newtonian|convergence|hb|rk4|all|accuracy] [TEND] [rk4|mls] (mls: fixed ghost
+ * walls with MLS interpolation, Shi & Huang §3.4, instead of the Adami walls). accuracy (not in "all"):
  * the bench table mp_accuracy.csv (bench/mp_accuracy.py). rk4: mu_A/mu_B = 4 at res 20
  * with Runge-Kutta steps against velocity Verlet (same bound).  Writes mp_poiseuille.csv
  * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_summary.csv. */
@@ -19,6 +20,7 @@
 #include <time.h>
 
 static int use_rk4 = 0; /* third argument rk4: Runge-Kutta steps instead of velocity Verlet */
+static int use_mls = 0; /* third argument mls: fixed ghost walls with MLS interpolation (§3.4) */
 /* terms: -1 the tests' setting (renormalised diffusion, no shifting); 0 plain (neither); 1 delta-plus (both) */
 static int terms = -1;
 static double last_wall = 0; /* wall-clock seconds of the last run_case time loop */
@@ -123,6 +125,15 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
   if (rc) { fprintf(stderr, "create: %s\n", msg); exit(1); }
   SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
+  if (use_mls) { /* mirror points across y = 0 and y = H */
+    double *xi = (double *)malloc(24 * (size_t)s.nw);
+    for (int i = 0; i < s.nw; i++) {
+      double y = s.wx[3 * i + 1];
+      xi[3 * i] = s.wx[3 * i]; xi[3 * i + 1] = y < 0 ? -y : 2 * H - y; xi[3 * i + 2] = 0;
+    }
+    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
+    free(xi);
+  }
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, phase));
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
@@ -176,7 +187,9 @@ int main(int argc, char **argv) {
   double tend = argc > 2 ? atof(argv[2]) : 5.0;
   int all = !strcmp(which, "all");
   use_rk4 = argc > 3 && !strcmp(argv[3], "rk4");
-  FILE *out = fopen("mp_poiseuille.csv", "w"), *sum = fopen("mp_poiseuille_summary.csv", "w");
+  use_mls = argc > 3 && !strcmp(argv[3], "mls");
+  FILE *out = fopen(use_mls ? "mp_poiseuille_mls.csv" : "mp_poiseuille.csv", "w");
+  FILE *sum = fopen(use_mls ? "mp_poiseuille_mls_summary.csv" : "mp_poiseuille_summary.csv", "w");
   fprintf(out, "case,res,y,u_sim,u_exact,u_cutoff\n");
   fprintf(sum, "case,res,l2_exact,l2_cutoff\n");
   if (all || !strcmp(which, "newtonian")) {

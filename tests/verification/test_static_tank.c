@@ -5,7 +5,7 @@
  *
  * Usage: verify_static_tank [key=value ...] with dx=0.02 tend=1.5 diffusion=renorm|molteni|none
  *   shifting=1|0 eos=linear|tait ratio=2 (rho_A/rho_B) dtfac=0.8 (times the stable step) p0=0 cut=1
- *   integrator=verlet|rk4 out=static_tank (prefix of the CSV files) check=1 (assert the paper's bounds)
+ *   integrator=verlet|rk4 walls=adami|mls (MLS: fixed ghosts mirrored across x = 0, x = W, y = 0) out=static_tank (prefix of the CSV files) check=1 (assert the paper's bounds)
  *   scene=tank|dambreak (dambreak: the tank full, phase A a 0.4 m x 0.6 m column at the left wall, phase B
  *   everywhere else; no probe bounds).
  * Prints one RESULT line (stable, probe errors, pressure noise, disorder, crossings) that
@@ -64,6 +64,7 @@ int main(int argc, char **argv) {
   const char *prefix = opt(argc, argv, "out", "static_tank");
   int dambreak = !strcmp(opt(argc, argv, "scene", "tank"), "dambreak");
   int rk4 = !strcmp(opt(argc, argv, "integrator", "verlet"), "rk4");
+  int mls = !strcmp(opt(argc, argv, "walls", "adami"), "mls");
   if (dambreak) check = 0;
   /* ratio rho_A/rho_B: up to 2 phase B is water (the paper's 2000/1000); above, phase A is water and phase B the
    * light phase (1000 / ratio: 1000 gives a water/air-like pair) */
@@ -114,6 +115,17 @@ int main(int argc, char **argv) {
   if (sphdem_create(&c, &p, test_device(), msg, sizeof msg)) { fprintf(stderr, "create: %s\n", msg); return 1; }
   SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
+  if (mls) {
+    double *xi = (double *)malloc(24 * (size_t)s.nw);
+    for (int i = 0; i < s.nw; i++) {
+      double x = s.wx[3 * i], y = s.wx[3 * i + 1];
+      xi[3 * i] = x < 0 ? -x : x > W ? 2 * W - x : x;
+      xi[3 * i + 1] = y < 0 ? -y : y;
+      xi[3 * i + 2] = 0;
+    }
+    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
+    free(xi);
+  }
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, phase));
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
