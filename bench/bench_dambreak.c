@@ -185,7 +185,7 @@ int main(int argc, char **argv) {
     sphdem_mp_params m;
     sphdem_mp_params_default(&m);
     m.enabled = 1; m.nphase = 2;
-    sphdem_phase mud = {1000, 1.0, 0.1, 0.8, 1.0}, water = {1000, 0, 1e-3, 1, 0};
+    sphdem_phase mud = {1000, 1.0, 0.1, 0.8, 1.0, 0}, water = {1000, 0, 1e-3, 1, 0, 0};
     m.phase[0] = mud; m.phase[1] = water;
     if (mpmode == 2) { m.diffusion = SPHDEM_DIFF_RENORM; m.shifting = 1; m.cs_les = 0.12; }
     SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));

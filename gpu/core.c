@@ -133,7 +133,12 @@ static void derive(sphdem_dev *D) {
   D->tensile_n_is_4 = p->tensile_n == 4.0;
   for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
   /* multiphase: Tait constant per phase, wall volume m_w / rho0 */
-  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->Bk[k] = p->c0 * p->c0 * D->M.phase[k].rho0 / p->gamma;
+  D->cmax = p->c0;
+  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) {
+    D->ck[k] = D->M.phase[k].c0 > 0 ? D->M.phase[k].c0 : p->c0;
+    D->Bk[k] = D->ck[k] * D->ck[k] * D->M.phase[k].rho0 / p->gamma;
+    if (D->mp && k < D->M.nphase) D->cmax = fmax(D->cmax, D->ck[k]);
+  }
   D->wvol_inv_rho0 = 1.0 / p->rho0;
 }
 
@@ -815,7 +820,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   s->ke = r.ke;
   s->nnan = r.nnan;
   s->nlost = r.nlost;
-  s->dt_cfl = P->cfl * P->h / (P->c0 + s->vmax);
+  s->dt_cfl = P->cfl * P->h / (D->cmax + s->vmax); /* the largest sound speed (multiphase: of any phase) */
   s->dt_visc = P->visc == SPHDEM_VISC_MORRIS ? 0.125 * P->h * P->h * P->rho0 / P->mu : DBL_MAX;
   /* multiphase: Shi & Huang eq 34 with the largest mu_i / rho_i of the last rate evaluation */
   if (D->mp) s->dt_visc = r.numax > 0 ? D->M.alpha_visc * P->h * P->h / r.numax : DBL_MAX;
@@ -839,7 +844,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
                        "(stable %g s), or tensile clumping (try the tensile keyword).",
                        r.rhoerr, P->rho_err_max, s->vmax / P->c0, s->dt_stable);
   if (dt > 0 && dt > s->dt_stable) {
-    const char *lim = s->dt_stable == s->dt_cfl ? "the CFL condition cfl*h/(c0 + vmax)"
+    const char *lim = s->dt_stable == s->dt_cfl ? (D->mp ? "the CFL condition cfl*h/(c0 + vmax) with the largest phase sound speed" : "the CFL condition cfl*h/(c0 + vmax)")
                       : s->dt_stable == s->dt_visc ? "the viscous condition 0.125 h^2 rho0/mu"
                                                    : "the force condition 0.25 sqrt(h/amax)";
     if (D->mp && s->dt_stable == s->dt_visc) lim = "the viscous condition alpha_visc h^2 min(rho_i/mu_i) (eq 34)";

@@ -45,6 +45,8 @@ int sphdem_mp_params_check(const sphdem_mp_params *m, const sphdem_params *p, ch
     MCHECK(f->N > 0 && isfinite(f->N), "phase %d: flow index N must be > 0 (got %g)", k + 1, f->N);
     MCHECK(f->gdot_cut >= 0 && isfinite(f->gdot_cut), "phase %d: cut-off shear rate must be >= 0 (got %g)", k + 1,
            f->gdot_cut);
+    MCHECK(f->c0 >= 0 && isfinite(f->c0), "phase %d: sound speed c0 must be > 0 (or 0: the fluid's) (got %g)", k + 1,
+           f->c0);
     MCHECK(!(f->tau_y > 0 || f->N < 1) || f->gdot_cut > 0,
            "phase %d: a yield stress or a flow index N < 1 makes the viscosity infinite at rest; give a cut-off "
            "shear rate > 0 (eq 23)", k + 1);
@@ -76,14 +78,15 @@ double sphdem_mp_pressure(const sphdem_mp_params *m, const sphdem_params *p, int
   D.P = *p;
   D.M = *m;
   D.gamma_is_7 = p->gamma == 7.0;
-  D.Bk[k] = p->c0 * p->c0 * m->phase[k].rho0 / p->gamma;
+  D.ck[k] = m->phase[k].c0 > 0 ? m->phase[k].c0 : p->c0;
+  D.Bk[k] = D.ck[k] * D.ck[k] * m->phase[k].rho0 / p->gamma;
   return mp_pressure_k(&D, k, rho);
 }
 
 double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int k, double pressure) {
-  double r0 = m->phase[k].rho0, dp = pressure - m->p0;
-  if (m->eos == SPHDEM_EOS_LINEAR) return r0 + dp / (p->c0 * p->c0);
-  double base = 1.0 + dp / (p->c0 * p->c0 * r0 / p->gamma);
+  double r0 = m->phase[k].rho0, dp = pressure - m->p0, c = m->phase[k].c0 > 0 ? m->phase[k].c0 : p->c0;
+  if (m->eos == SPHDEM_EOS_LINEAR) return r0 + dp / (c * c);
+  double base = 1.0 + dp / (c * c * r0 / p->gamma);
   if (base < 1e-3) base = 1e-3;
   return r0 * pow(base, 1.0 / p->gamma);
 }

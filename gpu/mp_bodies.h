@@ -1,6 +1,6 @@
 /* mp_bodies.h - multiphase delta-plus SPH with Herschel-Bulkley phases (Shi & Huang 2022 §2-§3),
  * written once for the CPU loops and the CUDA kernels. Three passes per rate evaluation:
- *   mp_grad_body   renormalisation L_i (eq 19), lambda_i (§3.3), <grad delta rho>^L (eq 19), shear rate
+ *   mp_grad_body   renormalisation L_i (eq 19), lambda_i (§3.3), <grad P>^L (eq 19), shear rate
  *                  |D_i| (eq 26) and viscosity mu_i (eqs 22-25);
  *   mp_shift_body  shifting velocity du_i (eqs 27-29), only with shifting on;
  *   mp_rates_body  continuity (eq 15) with diffusion (eqs 16-18), pressure (eq 20), viscous (eq 24) and
@@ -79,10 +79,6 @@ SPHDEM_HD double hb_viscosity(const sphdem_phase *f, double gd) {
   return f->tau_y / g + f->K * pow(g, f->N - 1.0);
 }
 
-/* delta rho of eq 18: (P - P0) / c0^2, continuous across an interface where P is. */
-SPHDEM_HD double mp_drho(const sphdem_dev *D, double p) {
-  return (p - D->M.p0) / (D->P.c0 * D->P.c0);
-}
 
 SPHDEM_HD double wall_volume(const sphdem_dev *D, int64_t w) { return D->wmass[w] * D->wvol_inv_rho0; }
 
@@ -185,7 +181,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
   const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
   double Bm[6] = {0, 0, 0, 0, 0, 0}, Bc[6] = {0, 0, 0, 0, 0, 0}, gr[3] = {0, 0, 0}, G[9], r[3], dv[3];
   for (int k = 0; k < 9; k++) G[k] = 0.0;
-  double dra = mp_drho(D, D->p[a]);
+  double pa = D->p[a];
   int pha = D->ph[a];
   int32_t cells[27];
   int nn = neighbor_cells(D, D->cell[a], cells);
@@ -195,7 +191,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
       if (r2 >= D->support2 || r2 == 0.0) continue;
       double F = wendland_grad_factor(D->alphaD, D->inv_h, sqrt(r2) * D->inv_h);
       for (int d = 0; d < 3; d++) dv[d] = D->ve[3 * b + d] - va[d];
-      mp_grad_add(Bm, Bc, D->ph[b] == pha, gr, G, r, F, D->mass[b] / D->rhop[b], mp_drho(D, D->p[b]) - dra, dv);
+      mp_grad_add(Bm, Bc, D->ph[b] == pha, gr, G, r, F, D->mass[b] / D->rhop[b], D->p[b] - pa, dv);
     }
     if (D->nw == 0) continue;
     for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) {
@@ -203,7 +199,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
       if (r2 >= D->support2 || r2 == 0.0) continue;
       double F = wendland_grad_factor(D->alphaD, D->inv_h, sqrt(r2) * D->inv_h);
       for (int d = 0; d < 3; d++) dv[d] = D->wvx[3 * w + d] - va[d]; /* no-slip ghost velocity (eq 13) */
-      mp_grad_add(Bm, Bc, 1, gr, G, r, F, wall_volume(D, w), mp_drho(D, D->wp[w]) - dra, dv);
+      mp_grad_add(Bm, Bc, 1, gr, G, r, F, wall_volume(D, w), D->wp[w] - pa, dv);
     }
   }
   int dim = D->P.dim;
@@ -230,7 +226,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
     mu += D->rhop[a] * l * l * gd;    /* eq 25 */
   }
   for (int k = 0; k < 6; k++) D->Lm[6 * a + k] = L[k];
-  for (int d = 0; d < 3; d++) D->gdr[3 * a + d] = d < dim ? g[d] : 0.0;
+  for (int d = 0; d < 3; d++) D->gdr[3 * a + d] = d < dim ? g[d] : 0.0; /* <grad P>^L */
   D->gdot[a] = gd;
   D->mu_p[a] = mu;
   D->lam[a] = D->M.shifting ? sym_min_eig(Bc, dim) : 0.0;
@@ -308,7 +304,9 @@ SPHDEM_HD void mp_rates_body(const sphdem_dev *D, int64_t a) {
   int pha = D->ph[a];
   if (shift) for (int d = 0; d < 3; d++) dua[d] = D->dus[3 * a + d];
   for (int d = 0; d < 3; d++) acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0;
-  double dra = mp_drho(D, pa), kdiff = D->M.delta * D->h * D->P.c0;
+  /* diffusion on delta rho = (P - P0) / c_a^2 (eq 18 with the particle's sound speed): P is continuous
+   * across an interface, so is delta rho measured in a's units; delta_d h c_a D_a */
+  double ca = D->ck[pha], ic2 = 1.0 / (ca * ca), kdiff = D->M.delta * D->h * ca;
   double paV = pa * Va * Va / ma, Va2 = Va * Va, dua_r;
   const double *ga = D->gdr + 3 * a;
   int32_t cells[27];
@@ -331,11 +329,12 @@ SPHDEM_HD void mp_rates_body(const sphdem_dev *D, int64_t a) {
         drho += Vb * F * t;                                                 /* eq 15, div(rho du) */
       }
       if (diff) {
-        double psi = 2.0 * (mp_drho(D, pb) - dra);                          /* eq 17 */
+        double psi = 2.0 * (pb - pa);                                       /* eq 17, times c_a^2 */
         if (diff == SPHDEM_DIFF_RENORM) {
           const double *gb = D->gdr + 3 * b;
           for (int d = 0; d < 3; d++) psi += (ga[d] + gb[d]) * r[d];       /* -(<>_i + <>_j).(x_j - x_i) */
         }
+        psi *= ic2;
         drho += kdiff * psi * (-F) * r2 * ie * Vb;                          /* eq 16: (x_j - x_i).grad W / r^2 */
       }
       double kp = -(paV + pb * Vb * Vb / ma) * F;                           /* eq 20 */

@@ -64,7 +64,7 @@ SPHDEM_HD double eos_density(const sphdem_dev *D, int64_t i, double rho) {
  * plus the background pressure P0. */
 SPHDEM_HD double mp_pressure_k(const sphdem_dev *D, int k, double rho) {
   double r0 = D->M.phase[k].rho0;
-  if (D->M.eos == SPHDEM_EOS_LINEAR) return D->P.c0 * D->P.c0 * (rho - r0) + D->M.p0;
+  if (D->M.eos == SPHDEM_EOS_LINEAR) return D->ck[k] * D->ck[k] * (rho - r0) + D->M.p0;
   double r = rho / r0, rg;
   if (D->gamma_is_7) { double r3 = r * r * r; rg = r3 * r3 * r; }
   else rg = pow(r, D->P.gamma);

@@ -70,13 +70,15 @@ typedef struct {
   int mp;
   sphdem_mp_params M;
   double Bk[SPHDEM_MAX_PHASES]; /* Tait constant of each phase */
+  double ck[SPHDEM_MAX_PHASES]; /* sound speed of each phase */
+  double cmax;                  /* largest sound speed (the CFL limit) */
   double umax_ph[SPHDEM_MAX_PHASES]; /* max |v| per phase (eq 27), reduced before the shifting pass */
   double wvol_inv_rho0;         /* wall volume V_w = m_w * this (1 / rho0) */
   int32_t *ph;         /* phase of each fluid particle (gathered by sorts) */
   double *mu_p;        /* viscosity mu_i at the force time (eqs 22-25) */
   double *gdot;        /* shear rate |D_i| (eq 26) */
   double *Lm;          /* renormalisation matrix L_i (eq 19), 6 per particle: xx yy zz xy xz yz */
-  double *gdr;         /* renormalised gradient of delta rho (eq 19), 3 */
+  double *gdr;         /* renormalised pressure gradient <grad P>^L (eq 19 on P = c_i^2 delta rho), 3 */
   double *lam;         /* min eigenvalue lambda_i of the same-phase B_i (§3.3) */
   double *dus;         /* shifting velocity du_i (eqs 27-29), 3 */
   /* fixed ghost walls with MLS interpolation (Shi & Huang §3.4; sphdem_set_wall_mirror): wmls == 0 while off */

@@ -27,7 +27,7 @@ const char *const SYNTAX =
     "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
-    "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT ...] [eos tait|linear] "
+    "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
     "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
     "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]]";
 const char *const KEYWORDS =
@@ -318,7 +318,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
 /* phase TYPE RHO0 newtonian MU | phase TYPE RHO0 hb TAU_Y K N GDOT_CUT: fluid atoms of TYPE form the next
  * phase (Shi & Huang 2022); the first phase keyword switches the fix to the multiphase equations. */
 void FixSPHFluid::parse_phase(int &iarg, int narg, char **arg) {
-  const char *usage = "phase TYPE RHO0 newtonian MU | phase TYPE RHO0 hb TAU_Y K N GDOT_CUT";
+  const char *usage = "phase TYPE RHO0 newtonian MU [c0 C] | phase TYPE RHO0 hb TAU_Y K N GDOT_CUT [c0 C]";
   if (iarg + 4 >= narg) fail(std::string("missing value(s) for phase (usage: ") + usage + ")");
   long t;
   if (!sphdem_compat::to_int(arg[iarg + 1], &t) || t < 1 || t > atom->ntypes)
@@ -342,6 +342,13 @@ void FixSPHFluid::parse_phase(int &iarg, int narg, char **arg) {
     iarg += 8;
   } else {
     fail("phase rheology must be newtonian MU or hb TAU_Y K N GDOT_CUT (got '" + model + "')");
+  }
+  f.c0 = 0.0; /* the fluid's c0 */
+  if (iarg < narg && std::string(arg[iarg]) == "c0") {
+    if (iarg + 1 >= narg) fail(std::string("missing value for phase ... c0 (usage: ") + usage + ")");
+    f.c0 = parse_number("phase c0", arg[iarg + 1], usage);
+    if (!(f.c0 > 0)) fail(std::string("phase c0 must be > 0 (usage: ") + usage + ")");
+    iarg += 2;
   }
   type_phase_[t] = mp_.nphase++;
 }

@@ -247,6 +247,9 @@ typedef struct {
   double N;             /* flow index (> 0); 1: Newtonian (tau_y 0) or Bingham */
   double gdot_cut;      /* cut-off shear rate (1/s): below it mu = tau_y/gdot_cut + K gdot_cut^(N-1) (eq 23);
                            required (> 0) when tau_y > 0 or N < 1 */
+  double c0;            /* sound speed of the phase (> 0), or 0: the fluid's c0. A light phase beside a heavy one
+                           (air/water) needs its own: with one c0 stiff enough for the light phase the heavy
+                           phase's pressure noise blows the light one apart */
 } sphdem_phase;
 typedef struct {
   int enabled;          /* 0: single-phase fluid (default) */
@@ -274,7 +277,8 @@ int sphdem_set_fluid_phase(sphdem_ctx ctx, int n, const int *phase);
  * (Pa s), shear rate |D_i| (1/s), lambda_i (min eigenvalue of the same-phase B_i; 0 without shifting),
  * shifting velocity (3n). Any pointer may be NULL. */
 int sphdem_mp_get_fields(sphdem_ctx ctx, double *mu, double *gdot, double *lambda, double *shift);
-/* Equation of state of phase k (as the core evaluates it) and its inverse; for initial states. */
+/* Equation of state of phase k (as the core evaluates it: P = c_k^2 (rho - rho0_k) + P0, or Tait with
+ * B_k = c_k^2 rho0_k / gamma, c_k the phase's c0 or the fluid's) and its inverse; for initial states. */
 double sphdem_mp_pressure(const sphdem_mp_params *m, const sphdem_params *p, int k, double rho);
 double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int k, double pressure);
 /* Herschel-Bulkley viscosity of phase k at shear rate gdot with the cut-off (eq 23). */

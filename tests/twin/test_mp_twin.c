@@ -16,7 +16,7 @@ static void run(int dim, sphdem_device dev, double *xo, double *ro, double *muo,
   sphdem_mp_params m;
   sphdem_mp_params_default(&m);
   m.enabled = 1; m.nphase = 2;
-  sphdem_phase mud = {1800, 5, 0.5, 0.8, 2.0}, water = {1000, 0, 1e-3, 1, 0};
+  sphdem_phase mud = {1800, 5, 0.5, 0.8, 2.0, 0}, water = {1000, 0, 1e-3, 1, 0, 0};
   m.phase[0] = mud; m.phase[1] = water;
   m.diffusion = SPHDEM_DIFF_RENORM; m.shifting = 1; m.cs_les = 0.12;
   scene s;

@@ -7,7 +7,7 @@
 #include "testlib.h"
 
 static sphdem_phase phase(double rho0, double ty, double K, double N, double cut) {
-  sphdem_phase f = {rho0, ty, K, N, cut};
+  sphdem_phase f = {rho0, ty, K, N, cut, 0};
   return f;
 }
 

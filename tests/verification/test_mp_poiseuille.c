@@ -173,12 +173,12 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
 }
 
 static sphdem_phase newtonian(double mu) {
-  sphdem_phase f = {1.0, 0.0, mu, 1.0, 0.0};
+  sphdem_phase f = {1.0, 0.0, mu, 1.0, 0.0, 0.0};
   return f;
 }
 
 static sphdem_phase hb(double tau_y, double K, double N, double cut) {
-  sphdem_phase f = {1.0, tau_y, K, N, cut};
+  sphdem_phase f = {1.0, tau_y, K, N, cut, 0.0};
   return f;
 }
 

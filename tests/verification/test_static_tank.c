@@ -5,7 +5,7 @@
  *
  * Usage: verify_static_tank [key=value ...] with dx=0.02 tend=1.5 diffusion=renorm|molteni|none
  *   shifting=1|0 eos=linear|tait ratio=2 (rho_A/rho_B) dtfac=0.8 (times the stable step) p0=0 cut=1
- *   integrator=verlet|rk4 walls=adami|mls (MLS: fixed ghosts mirrored across x = 0, x = W, y = 0) out=static_tank (prefix of the CSV files) check=1 (assert the paper's bounds)
+ *   c0=single|phase (phase: each phase its own sound speed 10 sqrt(p_max / rho_k)) integrator=verlet|rk4 walls=adami|mls (MLS: fixed ghosts mirrored across x = 0, x = W, y = 0) out=static_tank (prefix of the CSV files) check=1 (assert the paper's bounds)
  *   scene=tank|dambreak (dambreak: the tank full, phase A a 0.4 m x 0.6 m column at the left wall, phase B
  *   everywhere else; no probe bounds).
  * Prints one RESULT line (stable, probe errors, pressure noise, disorder, crossings) that
@@ -80,7 +80,13 @@ int main(int argc, char **argv) {
   sphdem_mp_params m;
   sphdem_mp_params_default(&m);
   m.enabled = 1; m.nphase = 2;
-  sphdem_phase A = {rhoA, 10.0, 100.0, 0.8, cut}, B = {rhoB, 0.0, 1e-3, 1.0, 0.0};
+  sphdem_phase A = {rhoA, 10.0, 100.0, 0.8, cut, 0.0}, B = {rhoB, 0.0, 1e-3, 1.0, 0.0, 0.0};
+  if (!strcmp(opt(argc, argv, "c0", "single"), "phase")) {
+    /* a sound speed per phase: eq 5 with each phase's own density; the fluid's c0 is the heavy phase's */
+    A.c0 = 10.0 * sqrt(pmax / rhoA);
+    B.c0 = p.c0;
+    p.c0 = A.c0;
+  }
   m.phase[0] = A; m.phase[1] = B;
   m.eos = !strcmp(eos, "tait") ? SPHDEM_EOS_TAIT : SPHDEM_EOS_LINEAR;
   m.p0 = p0;
