@@ -9,7 +9,8 @@ held at its value at the cut-off shear rate below it, eq 23), which shows how mu
 the cut-off.
 
   /usr/bin/python3 plot.py --dir run20 run40 run80 [--muB 0.25] [--modelA "newtonian 1.0"]
-  /usr/bin/python3 plot.py --summary mp_poiseuille_summary.csv   # the ctest's cases (verify_mp_poiseuille)
+  /usr/bin/python3 plot.py --summary build/tests/mp_poiseuille_convergence_summary.csv \
+                                     build/tests/mp_poiseuille_hb_summary.csv   # the ctest's cases
 
 Writes profile.png (and convergence.png with several resolutions, cutoff.png with --summary).
 Needs python3, numpy and matplotlib (Debian: python3-numpy, python3-matplotlib).
@@ -84,7 +85,7 @@ def main():
     ap.add_argument("--muB", type=float, default=0.25)
     ap.add_argument("--modelA", default="newtonian 1.0")
     ap.add_argument("--cut", action="store_true", help="compare with the cut-off law of the solver")
-    ap.add_argument("--summary", help="mp_poiseuille_summary.csv of verify_mp_poiseuille")
+    ap.add_argument("--summary", nargs="*", help="mp_poiseuille_*_summary.csv files of verify_mp_poiseuille")
     a = ap.parse_args()
     import matplotlib
     matplotlib.use("Agg")
@@ -92,7 +93,7 @@ def main():
 
     if a.summary:
         import csv
-        rows = list(csv.DictReader(open(a.summary)))
+        rows = [r for path in a.summary for r in csv.DictReader(open(path))]
         conv = [r for r in rows if r["case"] == "conv_ratio4"]
         if conv:
             dx = np.array([H / int(r["res"]) for r in conv])

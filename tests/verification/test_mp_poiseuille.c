@@ -12,7 +12,7 @@
  * walls with MLS interpolation, Shi & Huang §3.4, instead of the Adami walls). accuracy (not in "all"):
  * the bench table mp_accuracy.csv (bench/mp_accuracy.py). rk4: mu_A/mu_B = 4 at res 20
  * with Runge-Kutta steps against velocity Verlet (same bound).  Writes mp_poiseuille.csv
- * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_summary.csv. */
+ * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_MODE_summary.csv. */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"
@@ -188,8 +188,10 @@ int main(int argc, char **argv) {
   int all = !strcmp(which, "all");
   use_rk4 = argc > 3 && !strcmp(argv[3], "rk4");
   use_mls = argc > 3 && !strcmp(argv[3], "mls");
-  FILE *out = fopen(use_mls ? "mp_poiseuille_mls.csv" : "mp_poiseuille.csv", "w");
-  FILE *sum = fopen(use_mls ? "mp_poiseuille_mls_summary.csv" : "mp_poiseuille_summary.csv", "w");
+  char fo[128], fs[128];
+  snprintf(fo, sizeof fo, "mp_poiseuille_%s%s.csv", which, use_mls ? "_mls" : "");
+  snprintf(fs, sizeof fs, "mp_poiseuille_%s%s_summary.csv", which, use_mls ? "_mls" : "");
+  FILE *out = fopen(fo, "w"), *sum = fopen(fs, "w");
   fprintf(out, "case,res,y,u_sim,u_exact,u_cutoff\n");
   fprintf(sum, "case,res,l2_exact,l2_cutoff\n");
   if (all || !strcmp(which, "newtonian")) {
