@@ -10,7 +10,7 @@ the cut-off.
 
   /usr/bin/python3 plot.py --dir run20 run40 run80 [--muB 0.25] [--modelA "newtonian 1.0"]
   /usr/bin/python3 plot.py --summary build/tests/mp_poiseuille_convergence_summary.csv \
-                                     build/tests/mp_poiseuille_hb_summary.csv   # the ctest's cases
+                                     build/tests/mp_poiseuille_hb_*_summary.csv   # the ctest's cases
 
 Writes profile.png (and convergence.png with several resolutions, cutoff.png with --summary).
 Needs python3, numpy and matplotlib (Debian: python3-numpy, python3-matplotlib).
