@@ -71,6 +71,19 @@ static void scene_tank(scene *s, const sphdem_params *p, double L, double W, dou
       }
 }
 
+/* Mirror points of the wall particles for the fixed ghost walls (sphdem_set_wall_mirror): each coordinate
+ * outside [lo, hi] is reflected across that face (the rule of fix sph/fluid's ghost mirror); 3 nw doubles,
+ * caller frees. */
+static double *scene_mirror(const scene *s, const double *lo, const double *hi) {
+  double *xi = (double *)malloc(24 * (size_t)(s->nw > 0 ? s->nw : 1));
+  for (int i = 0; i < s->nw; i++)
+    for (int d = 0; d < 3; d++) {
+      double x = s->wx[3 * i + d];
+      xi[3 * i + d] = x < lo[d] ? 2 * lo[d] - x : x > hi[d] ? 2 * hi[d] - x : x;
+    }
+  return xi;
+}
+
 static void scene_free(scene *s) {
   free(s->tag); free(s->x); free(s->v); free(s->rho); free(s->mass);
   free(s->wx); free(s->wv); free(s->wmass);

@@ -126,11 +126,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
   SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   if (use_mls) { /* mirror points across y = 0 and y = H */
-    double *xi = (double *)malloc(24 * (size_t)s.nw);
-    for (int i = 0; i < s.nw; i++) {
-      double y = s.wx[3 * i + 1];
-      xi[3 * i] = s.wx[3 * i]; xi[3 * i + 1] = y < 0 ? -y : 2 * H - y; xi[3 * i + 2] = 0;
-    }
+    double lo[3] = {-1e300, 0, -1e300}, hi[3] = {1e300, H, 1e300}, *xi = scene_mirror(&s, lo, hi);
     SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
     free(xi);
   }

@@ -122,13 +122,7 @@ int main(int argc, char **argv) {
   SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   if (mls) {
-    double *xi = (double *)malloc(24 * (size_t)s.nw);
-    for (int i = 0; i < s.nw; i++) {
-      double x = s.wx[3 * i], y = s.wx[3 * i + 1];
-      xi[3 * i] = x < 0 ? -x : x > W ? 2 * W - x : x;
-      xi[3 * i + 1] = y < 0 ? -y : y;
-      xi[3 * i + 2] = 0;
-    }
+    double lo[3] = {0, 0, -1e300}, hi[3] = {W, 1e300, 1e300}, *xi = scene_mirror(&s, lo, hi);
     SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
     free(xi);
   }
