@@ -113,6 +113,27 @@ static inline sphdem_ctx scene_start(const sphdem_params *p, const scene *s, sph
   return c;
 }
 
+/* Multiphase context (Shi & Huang 2022) on device dev: mp parameters, walls (MLS ghosts at the mirror points
+ * of the box lo..hi when lo is not NULL, else Adami walls), fluid with its phases, first rates computed. */
+static inline sphdem_ctx scene_start_mp(const sphdem_params *p, const sphdem_mp_params *m, const scene *s,
+                                        const int *phase, const double *lo, const double *hi, sphdem_device dev) {
+  sphdem_ctx c;
+  char msg[512];
+  int rc = sphdem_create(&c, p, dev, msg, sizeof msg);
+  if (rc != SPHDEM_OK) { fprintf(stderr, "sphdem_create: %s (%s)\n", sphdem_strerror(rc), msg); exit(1); }
+  SPHDEM_CHECK_RC(c, sphdem_mp_set(c, m));
+  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s->nw, s->wx, s->wv, NULL, s->wmass));
+  if (lo) {
+    double *xi = scene_mirror(s, lo, hi);
+    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s->nw, xi));
+    free(xi);
+  }
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s->nf, s->tag, s->x, s->v, s->rho, s->mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s->nf, phase));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  return c;
+}
+
 /* Channel-flow check: L2 error of the streamwise velocity against exact(y, t, ctx) relative to uref,
  * printed; the profile of the first particle column (x < col) is appended to out as t,y,u_sim,u_exact. */
 static inline double scene_profile_l2(sphdem_ctx c, int nf, double t, double uref, double col, FILE *out,

@@ -28,19 +28,9 @@ static void run(int dim, sphdem_device dev, double *xo, double *ro, double *muo,
     ph[i] = dim == 2 ? (x < 0.12 && z < 0.2) == 0 : z >= 0.15; /* 2D: mud column at the left; 3D: mud below */
     if (ph[i] == 0) { s.rho[i] *= 1.8; s.mass[i] *= 1.8; }
   }
-  sphdem_ctx c;
-  char msg[512];
-  if (sphdem_create(&c, &p, dev, msg, sizeof msg)) { fprintf(stderr, "create: %s\n", msg); exit(1); }
-  SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  if (dim == 2) { /* 2D: fixed ghost walls with MLS interpolation at the mirror points (§3.4) */
-    double lo[3] = {0, 0, -1e300}, hi[3] = {W, 1e300, 1e300}, *xi = scene_mirror(&s, lo, hi);
-    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
-    free(xi);
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, ph));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  /* 2D: fixed ghost walls with MLS interpolation at the mirror points (§3.4); 3D: Adami walls */
+  double lo[3] = {0, 0, -1e300}, hi[3] = {W, 1e300, 1e300};
+  sphdem_ctx c = scene_start_mp(&p, &m, &s, ph, dim == 2 ? lo : NULL, hi, dev);
   double dt = 0.2 * p.h / p.c0;
   int nv = dim == 2 ? 400 : 200, nr = dim == 2 ? 10 : 0;
   for (int n = 0; n < nv; n++) SPHDEM_CHECK_RC(c, scene_step(c, dt));

@@ -119,20 +119,8 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
     }
   int *phase = (int *)malloc(sizeof(int) * s.nf);
   for (int i = 0; i < s.nf; i++) phase[i] = s.x[3 * i + 1] < A ? 0 : 1;
-  sphdem_ctx c;
-  char msg[512];
-  int rc = sphdem_create(&c, &p, test_device(), msg, sizeof msg);
-  if (rc) { fprintf(stderr, "create: %s\n", msg); exit(1); }
-  SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  if (use_mls) { /* mirror points across y = 0 and y = H */
-    double lo[3] = {-1e300, 0, -1e300}, hi[3] = {1e300, H, 1e300}, *xi = scene_mirror(&s, lo, hi);
-    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
-    free(xi);
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, phase));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  double lo[3] = {-1e300, 0, -1e300}, hi[3] = {1e300, H, 1e300}; /* MLS ghosts: mirror across y = 0, y = H */
+  sphdem_ctx c = scene_start_mp(&p, &m, &s, phase, use_mls ? lo : NULL, hi, test_device());
   sphdem_stats st;
   SPHDEM_CHECK_RC(c, sphdem_stats_get(c, 0, &st));
   double t = 0, dt = 0, w0 = wall_now();

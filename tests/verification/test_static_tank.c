@@ -116,19 +116,8 @@ int main(int argc, char **argv) {
       if (s.nf > cap) { cap = 2 * s.nf + 1024; phase = (int *)realloc(phase, sizeof(int) * cap); }
       phase[s.nf - 1] = k;
     }
-  sphdem_ctx c;
-  char msg[512];
-  if (sphdem_create(&c, &p, test_device(), msg, sizeof msg)) { fprintf(stderr, "create: %s\n", msg); return 1; }
-  SPHDEM_CHECK_RC(c, sphdem_mp_set(c, &m));
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  if (mls) {
-    double lo[3] = {0, 0, -1e300}, hi[3] = {W, 1e300, 1e300}, *xi = scene_mirror(&s, lo, hi);
-    SPHDEM_CHECK_RC(c, sphdem_set_wall_mirror(c, s.nw, xi));
-    free(xi);
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s.nf, phase));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  double lo[3] = {0, 0, -1e300}, hi[3] = {W, 1e300, 1e300}; /* MLS ghosts: mirror across x = 0, x = W, y = 0 */
+  sphdem_ctx c = scene_start_mp(&p, &m, &s, phase, mls ? lo : NULL, hi, test_device());
 
   double probes[9] = {0.3, 0.9, 0, 0.3, 0.6, 0, 0.3, 0.3, 0};
   double exact[3] = {rhoB * g * 0.3 + p0, rhoB * g * HL + p0, rhoB * g * HL + rhoA * g * 0.3 + p0};
