@@ -11,7 +11,17 @@ out="$root/demo-output"
 rm -rf "$out"
 mkdir -p "$out"
 cd "$out"
-export OMP_NUM_THREADS="${OMP_NUM_THREADS:-$(nproc)}"
+# threads: the cores this process may use, capped by a cgroup CPU quota (containers, CI runners), where
+# nproc reports the host's cores and surplus OpenMP threads would spin at barriers
+cpus=$(nproc)
+if [ -r /sys/fs/cgroup/cpu.max ]; then
+  read -r quota period < /sys/fs/cgroup/cpu.max || true
+  if [ "${quota:-max}" != max ] && [ "${period:-0}" -gt 0 ]; then
+    q=$(( (quota + period - 1) / period ))
+    [ "$q" -ge 1 ] && [ "$q" -lt "$cpus" ] && cpus=$q
+  fi
+fi
+export OMP_NUM_THREADS="${OMP_NUM_THREADS:-$cpus}"
 echo "== running examples/dambreak2d/in.dambreak2d with lmp_sphdem ($OMP_NUM_THREADS threads)"
 "$root/build/src_fix/lmp_sphdem" -in "$root/examples/dambreak2d/in.dambreak2d" -log log.lammps -screen none
 grep -m1 "Fix sph/fluid:" log.lammps || true

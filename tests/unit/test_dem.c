@@ -332,7 +332,7 @@ static void test_single_contacts(void) {
   sphdem_dem_destroy(&d);
 }
 
-/* Above 2048 grains the CPU loops run on OpenMP threads (OMP_NUM_THREADS=2 under ctest): the atomic
+/* Above 2048 grains the CPU loops run on OpenMP threads (ctest runs unit_dem with OMP_NUM_THREADS=2): the atomic
  * pair-parallel sums and the particle-parallel pass must still agree, and detection stay exact. */
 static void test_threaded(void) {
   double lo[3] = {0, 0, 0}, hi[3] = {3, 3, 3};
