@@ -89,6 +89,10 @@ static int cpu_cell_ranges(struct sphdem_ctx_s *c, int set) {
 
 static int cpu_pressure(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
+  if (D->ksum) {
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < D->nf; i++) ksum_body(D, i);
+  }
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < D->nf; i++) predict_body(D, i);
   return SPHDEM_OK;

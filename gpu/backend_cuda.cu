@@ -47,6 +47,11 @@ __global__ void k_cell_ranges(const int32_t *cell, int64_t n, int32_t *cs, int32
   if (i < n) cell_range_body(cell, n, i, cs, ce);
 }
 
+__global__ void k_ksum(sphdem_dev D) {
+  int64_t i = (int64_t)blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < D.nf) ksum_body(&D, i);
+}
+
 __global__ void k_pressure(sphdem_dev D) {
   int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
   if (i < D.nf) predict_body(&D, i);
@@ -186,6 +191,10 @@ static int cu_cell_ranges(struct sphdem_ctx_s *c, int set) {
 }
 
 static int cu_pressure(struct sphdem_ctx_s *c) {
+  if (c->D.ksum) {
+    k_ksum<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
+    LAUNCHED(c, "kernel-sum kernel");
+  }
   k_pressure<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
   LAUNCHED(c, "pressure kernel");
   return SPHDEM_OK;

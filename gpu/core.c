@@ -93,6 +93,8 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   CHECK(p->xsph_eps >= 0 && p->xsph_eps <= 1, "xsph eps must be in [0, 1] (got %g)", p->xsph_eps);
   CHECK(p->delta >= 0 && p->delta <= 1, "delta (density diffusion) must be in [0, 1] (got %g)", p->delta);
   CHECK(p->wall_clamp == 0 || p->wall_clamp == 1, "wall_clamp must be 0 or 1 (got %d)", p->wall_clamp);
+  CHECK(p->isolated >= 0 && p->isolated < 1, "isolated (kernel-sum threshold) must be in [0, 1) (got %g)",
+        p->isolated);
   CHECK(p->rep_D >= 0, "repulsion D must be >= 0 (got %g)", p->rep_D);
   CHECK(p->rep_D == 0 || p->rep_r0 > 0, "repulsion r0 must be > 0 (got %g)", p->rep_r0);
   CHECK(p->skin >= 0, "skin must be >= 0 (got %g)", p->skin);
@@ -352,12 +354,33 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
 
 static void free_rk(sphdem_ctx c);
 
+/* Kernel-sum array of the keyword isolated: allocated while it is on (computed fresh each evaluation, so it
+ * is not carried through sorts). */
+static int ensure_ksum(sphdem_ctx c) {
+  sphdem_dev *D = &c->D;
+  if (!(D->P.isolated > 0.0)) {
+    DFREE(c, D->ksum, 8 * (size_t)c->cap_ks);
+    D->ksum = NULL;
+    c->cap_ks = 0;
+    return SPHDEM_OK;
+  }
+  if (D->ksum && c->cap_ks >= D->nf) return SPHDEM_OK;
+  DFREE(c, D->ksum, 8 * (size_t)c->cap_ks);
+  D->ksum = NULL;
+  c->cap_ks = 0;
+  size_t m = (size_t)(D->nf > 0 ? D->nf : 1);
+  TRY(dalloc(c, (void **)&D->ksum, 8 * m));
+  c->cap_ks = (int64_t)m;
+  return SPHDEM_OK;
+}
+
 int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
   sphdem_couple_release(c);
   sphdem_mp_release(c);
   free_rk(c);
+  DFREE(c, c->D.ksum, 8 * (size_t)c->cap_ks);
   DFREE(c, c->D.wxi, 24 * (size_t)c->cap_wm);
   DFREE(c, c->D.wmu, 8 * (size_t)c->cap_wm);
   free_fluid(c);
@@ -436,6 +459,7 @@ static int sort_set(sphdem_ctx c, int set) {
   if (n == 0) return SPHDEM_OK;
   TRY(c->ops->sort_perm(c, set));
   if (set == SPHDEM_SET_FLUID) {
+    D->ks_ok = 0; /* the kernel sums are in the old order until the next evaluation */
     void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx};
     int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
     for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
@@ -542,6 +566,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
   if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: negative particle count");
   if (n > 0 && (!x || !v || !rho || !mass))
     return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: x, v, rho and mass are required");
+  c->D.ks_ok = 0;
   for (int64_t i = 0; i < n; i++) {
     if (!(mass[i] > 0) || !(rho[i] > 0))
       return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: particle %lld (tag %lld) has mass %g and density %g; "
@@ -737,6 +762,8 @@ int sphdem_compute_rates(sphdem_ctx c) {
   double t0 = now();
   /* SPH-DEM coupling (couple.c): grain sort and porosity before the EOS; its time counts as rates */
   if (D->couple) TRY(sphdem_couple_prepare(c));
+  TRY(ensure_ksum(c));
+  D->ks_ok = D->ksum != NULL;
   TRY(c->ops->pressure(c));
   TRY(c->ops->sync(c));
   double t1 = now();

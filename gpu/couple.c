@@ -22,9 +22,11 @@
  * ceil(d/2h) (for hc = h, d <= 2h) are the special cases.
  *
  * Not exchanged: the reaction of the optional rotational-drag torque (angular momentum goes to the grains
- * only). With superficial density, wall particles get the porosity of the fluid beside them (Shepard
- * average, as eqs 13-14 extrapolate velocity and pressure) and act with the superficial density eps_w rho_w
- * (eq 15). Coupling time is counted in SPHDEM_T_RATES.
+ * only). With superficial density and wall_eps 1, wall particles get the porosity of the fluid beside them
+ * (Shepard average, as eqs 13-14 extrapolate velocity and pressure) and act with the superficial density
+ * eps_w rho_w (eq 15); with wall_eps 0 (default) they act as plain fluid (eps_w = 1). wall_eps 1 made the
+ * rotating drum (examples/drum, coarse) stop at the start of the rotation: where a grain packs the fluid against
+ * the wall, eps_w reaches the floor eps_min and the wall pressure term, ~ V_w P_w / (eps_w rho_w), grows 1/eps_w. Coupling time is counted in SPHDEM_T_RATES.
  * A fluid that starts inside a packed bed should be uploaded consistently: rho = eps rho_f and mass =
  * eps rho_f V (V its lattice volume; eps from get_porosity after a first compute_rates), else the EOS
  * sees a compression of 1/eps and pushes the fluid out of the bed (unit_couple's packed bed does this). */
@@ -58,6 +60,7 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
          "mu (fluid viscosity of the drag law) must be > 0 (got %g)", cp->mu);
   CCHECK(cp->eps_min > 0 && cp->eps_min < 1, "eps_min (porosity floor) must be in (0, 1) (got %g)", cp->eps_min);
   CCHECK(cp->superficial == 0 || cp->superficial == 1, "superficial must be 0 or 1 (got %d)", cp->superficial);
+  CCHECK(cp->wall_eps == 0 || cp->wall_eps == 1, "wall_eps (wall porosity) must be 0 or 1 (got %d)", cp->wall_eps);
   CCHECK(cp->dmax >= 0 && isfinite(cp->dmax), "dmax (largest grain diameter) must be >= 0 (got %g)", cp->dmax);
   double hc = cp->hc > 0 ? cp->hc : P->h;
   for (int d = 0; d < P->dim; d++)
@@ -321,12 +324,12 @@ static void set_layers(sphdem_dev *D) {
 int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
-  if (D->couple_eos && (D->nw > c->cap_cw || !D->weps)) { /* wall porosity, written by the wall-state pass */
+  if (D->couple_eos && c->cp.wall_eps && (D->nw > c->cap_cw || !D->weps)) { /* wall porosity, written by the wall-state pass */
     free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
     TRYC(calloc_dev(c, (void **)&D->weps, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
     c->cap_cw = D->nw > 0 ? D->nw : 1;
-  } else if (!D->couple_eos && D->weps) {
+  } else if ((!D->couple_eos || !c->cp.wall_eps) && D->weps) {
     free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
   }

@@ -87,6 +87,8 @@ typedef struct {
   double *wmu;         /* ghost viscosity (multiphase), from the phase with the larger M11 share */
   /* fourth-order Runge-Kutta (sphdem_step_rk4): state at t_n and the weighted sums of the stage rates */
   double *rkx, *rkv, *rkr, *rkax, *rkav, *rkar;
+  double *ksum;        /* fluid kernel sum of each fluid particle (keyword isolated; NULL when off) */
+  int ks_ok;           /* ksum is in the current particle order (set by the evaluation, cleared by sorts/uploads) */
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -184,6 +186,7 @@ struct sphdem_ctx_s {
   int64_t cap_mp;               /* capacity of the multiphase arrays */
   int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
   int64_t cap_rk;               /* capacity of the Runge-Kutta arrays */
+  int64_t cap_ks;               /* capacity of the kernel-sum array (keyword isolated) */
   int64_t cap_wm;               /* capacity of the ghost-wall arrays */
 };
 

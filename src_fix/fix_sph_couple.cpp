@@ -22,8 +22,8 @@ using namespace FixConst;
 namespace {
 const char *const SYNTAX =
     "fix ID group sph/couple FLUID-FIX-ID [drag ergun-wenyu|difelice|schiller-naumann|none] [mu V] [hc V] "
-    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V]";
-const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax";
+    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid]";
+const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity";
 const char *const DRAGS = "ergun-wenyu, difelice, schiller-naumann or none";
 
 const char *drag_name(int d) {
@@ -103,6 +103,7 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
     if (iarg + 1 >= narg) {
       if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
       if (kw == "superficial" || kw == "torque") fail(kw + " must be yes or no");
+      if (kw == "wall_porosity") fail("wall_porosity must be none or fluid");
       if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax")
         fail("missing value for " + kw + " (usage: " + kw + " V)");
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
@@ -114,6 +115,9 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
       else if (val == "schiller-naumann") cp_.drag = SPHDEM_DRAG_SCHILLER_NAUMANN;
       else if (val == "none") cp_.drag = SPHDEM_DRAG_NONE;
       else fail(std::string("drag must be ") + DRAGS + " (got '" + val + "')");
+    } else if (kw == "wall_porosity") {
+      if (val != "none" && val != "fluid") fail("wall_porosity must be none or fluid (got '" + val + "')");
+      cp_.wall_eps = val == "fluid";
     } else if (kw == "superficial" || kw == "torque") {
       if (val != "yes" && val != "no") fail(kw + " must be yes or no (got '" + val + "')");
       (kw == "superficial" ? cp_.superficial : cp_.torque) = val == "yes";
@@ -186,10 +190,12 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
   if (comm->me == 0) {
     char line[512];
     snprintf(line, sizeof line,
-             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s; fluid "
+             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, wall_porosity %s; "
+             "fluid "
              "step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
-             cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)", fluid_->every());
+             cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
+             cp_.wall_eps ? "fluid" : "none", fluid_->every());
     sphdem_compat::logmesg(lmp, line);
   }
 }

@@ -26,13 +26,14 @@ const char *const SYNTAX =
     "fix ID group sph/fluid rho0 V h V c0 V [dx V] [gamma V] [gravity gx gy gz] "
     "[visc none|morris MU|artificial ALPHA] [tensile EPS [N]] [xsph EPS] [delta D [hydrostatic|plain]] "
     "[repulsion D [R0]] "
-    "[wall GROUP-ID] [wall_clamp yes|no] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] [sync N] [check N] "
+    "[wall GROUP-ID] [wall_clamp yes|no] [isolated KSUM] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] "
+    "[sync N] [check N] "
     "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
     "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
     "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]]";
 const char *const KEYWORDS =
-    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, skin, cfl, rho_err_max, "
-    "device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost";
+    "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, isolated, skin, cfl, "
+    "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost";
 
 /* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
 int gravity_axis(const sphdem_params &p, double *down_sign) {
@@ -134,7 +135,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
   while (iarg < narg) {
     const std::string kw = arg[iarg];
     if (kw == "rho0" || kw == "h" || kw == "c0" || kw == "dx" || kw == "gamma" || kw == "skin" ||
-        kw == "cfl" || kw == "rho_err_max" || kw == "xsph" || kw == "hydrostatic") {
+        kw == "cfl" || kw == "rho_err_max" || kw == "xsph" || kw == "hydrostatic" || kw == "isolated") {
       const std::string usage = kw + (kw == "hydrostatic" ? " ZSURF" : kw == "xsph" ? " EPS" : " V");
       need(1, usage.c_str());
       double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
@@ -146,6 +147,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       else if (kw == "skin") prm_.skin = v, have_skin = true;
       else if (kw == "cfl") prm_.cfl = v;
       else if (kw == "rho_err_max") prm_.rho_err_max = v;
+      else if (kw == "isolated") prm_.isolated = v;
       else if (kw == "xsph") prm_.xsph_eps = v;
       else hydrostatic_ = true, zsurf_ = v;
       iarg += 2;

@@ -55,6 +55,10 @@ typedef struct {
   int delta_hydro;      /* 1: subtract the hydrostatic density difference (Fourtakas et al. 2019), 0: plain */
   int wall_clamp;       /* 1: the extrapolated Adami wall pressure (eq 14) is floored at 0, so walls never pull
                            on fluid beside a free surface; 0 (default): as the paper */
+  double isolated;      /* > 0: a fluid particle whose fluid kernel sum sum_b (m_b/rho_b) W_ab (itself included;
+                           ~1 inside the fluid, ~0.6 at a flat free surface) is below this value is isolated
+                           (a splash, drops, water carried in a lifted grain bed) and its EOS density is kept at
+                           or above the reference: it never goes into tension. 0 (default): off, as the papers */
   double rep_D;         /* Monaghan wall repulsion strength (m^2/s^2); 0 = off */
   double rep_r0;        /* repulsion cut-off distance (default dx) */
   double skin;          /* gap added to the 2h cell size; resort when a particle moved skin/2 */
@@ -184,6 +188,9 @@ typedef struct {
   double eps_min;       /* floor of the porosity used in the fluid equations and drag (default 0.2) */
   int superficial;      /* 1 (default): eps enters continuity and the EOS (eqs 6-7); 0: porosity only reported */
   int torque;           /* 1: fluid torque on grains (rotational drag); 0 (default): none */
+  int wall_eps;         /* with superficial density: 1 = wall particles carry the Shepard average of the porosity of
+                           the fluid beside them (superficial wall density eps_w rho_w); 0 (default) = walls are
+                           plain fluid (eps_w = 1). See doc/fix_sph_couple.md for what each does. */
   double dmax;          /* largest grain diameter expected (sizes the DEM cells); 0 = from the grains */
 } sphdem_couple_params;
 

@@ -197,6 +197,7 @@ def test_badkw(exe, engine):
         ("cfl abc", "Fix sph/fluid: cfl expects a number, got 'abc'"),
         ("cfl 2", "Fix sph/fluid: cfl must be in (0, 1]"),
         ("wall nosuchgroup", "Fix sph/fluid: wall group 'nosuchgroup' does not exist"),
+        ("isolated 1.5", "Fix sph/fluid: isolated (kernel-sum threshold) must be in [0, 1) (got 1.5)"),
     ]
     fails = 0
     for i, (extra, want) in enumerate(cases):
@@ -569,8 +570,9 @@ def test_couple_badkw(exe, engine):
         ("hc -1", "Fix sph/couple: hc must be > 0 (got -1)"),
         ("mu abc", "Fix sph/couple: mu expects a number, got 'abc' (usage: mu V)"),
         ("dmax", "Fix sph/couple: missing value for dmax (usage: dmax V)"),
+        ("wall_porosity yes", "Fix sph/couple: wall_porosity must be none or fluid (got 'yes')"),
         ("bogus 1", "Fix sph/couple: unknown keyword 'bogus'; keywords are drag, mu, hc, eps_min, superficial, "
-                    "torque, dmax"),
+                    "torque, dmax, wall_porosity"),
     ]
     fails = 0
     for i, (extra, want) in enumerate(cases):

@@ -352,6 +352,7 @@ static void bed_at_rest(void) {
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = getenv("BED_DRAG") ? atoi(getenv("BED_DRAG")) : SPHDEM_DRAG_ERGUN_WENYU; cp.mu = 1e-3;
   if (getenv("BED_SUPERFICIAL")) cp.superficial = atoi(getenv("BED_SUPERFICIAL"));
+  cp.wall_eps = getenv("BED_WALLEPS") ? atoi(getenv("BED_WALLEPS")) : 1; /* as recorded in the note above */
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   /* grains: lattice spacing dx, radius 0.39 dx, in 0 < z < 0.05 (fluid depth 0.1) */
   double a = p.dx, r = 0.39 * a;
