@@ -154,8 +154,14 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
   double scr[3] = {0, 0, 0}, sgr[3] = {0, 0, 0}, r[3];
   cell_walk w;
   int64_t cc;
+  double sigw = 0.0;
   walk_fluid_around(D, xj, &w);
-  while (walk_next(&w, &cc))
+  while (walk_next(&w, &cc)) {
+    if (D->cimm > 0.0 && D->nw > 0)
+      for (int32_t b = D->wcstart[cc]; b < D->wcend[cc]; b++) {
+        double r2 = separation(D, xj, D->wx + 3 * b, r);
+        if (r2 < D->support2c) sigw += D->wmass[b] / D->P.rho0 * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
+      }
     for (int32_t b = D->cstart[cc]; b < D->cend[cc]; b++) {
       double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
       if (r2 >= D->support2c) continue;
@@ -177,7 +183,14 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
         for (int d = 0; d < 3; d++) sgr[d] += k * r[d];
       }
     }
-  double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0};
+  }
+  double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0}, imm = 1.0;
+  if (D->cimm > 0.0) {
+    /* keyword immersion: the share of the grain's kernel support outside the walls that holds fluid */
+    double room = 1.0 - sigw;
+    imm = room > 1e-12 ? sig / (room * D->cimm) : 1.0;
+    if (imm > 1.0) imm = 1.0;
+  }
   if (sig > 0.0) {
     double inv = 1.0 / sig, u[3] = {0, 0, 0}, rel[3] = {0, 0, 0}, w2 = 0.0;
     double rj = D->grad[j], V = grain_volume(dim, rj);
@@ -185,15 +198,15 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
       u[d] = su[d] * inv;
       rel[d] = u[d] - vj[d];
       w2 += rel[d] * rel[d];
-      fpg[d] = V * sth[d] * inv;                                         /* eqs 27-29 */
+      fpg[d] = imm * V * sth[d] * inv;                                   /* eqs 27-29 */
     }
     double K = drag_coefficient(D->drag, D->cmu, se * inv, srf * inv, 2.0 * rj, sqrt(w2));
-    for (int d = 0; d < dim; d++) fd[d] = K * V * rel[d];                /* eq 30 */
+    for (int d = 0; d < dim; d++) fd[d] = imm * K * V * rel[d];          /* eq 30 */
     if (D->torque) {
       /* curl u = sum_b V_b grad_j W x (u_b - u_j) = scr - sgr x u */
       double cu[3] = {scr[0] - (sgr[1] * u[2] - sgr[2] * u[1]), scr[1] - (sgr[2] * u[0] - sgr[0] * u[2]),
                       scr[2] - (sgr[0] * u[1] - sgr[1] * u[0])};
-      double kt = (dim == 3 ? 6.0 : 4.0) * D->cmu * V;
+      double kt = imm * (dim == 3 ? 6.0 : 4.0) * D->cmu * V;
       const double *om = D->gom + 3 * j;
       if (dim == 3) for (int d = 0; d < 3; d++) tq[d] = kt * (0.5 * cu[d] - om[d]);
       else tq[2] = kt * (0.5 * cu[2] - om[2]);

@@ -46,6 +46,7 @@ typedef struct {
   /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
   int couple;          /* coupling passes run in compute_rates */
   int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
+  double cimm;         /* keyword immersion S of the coupling (0 = off) */
   int drag, torque;    /* sphdem_drag, rotational drag on/off */
   double cmu;          /* fluid viscosity in the drag laws */
   double eps_floor;    /* eps_min */

@@ -22,8 +22,8 @@ using namespace FixConst;
 namespace {
 const char *const SYNTAX =
     "fix ID group sph/couple FLUID-FIX-ID [drag ergun-wenyu|difelice|schiller-naumann|none] [mu V] [hc V] "
-    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid]";
-const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity";
+    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid] [immersion S]";
+const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity, immersion";
 const char *const DRAGS = "ergun-wenyu, difelice, schiller-naumann or none";
 
 const char *drag_name(int d) {
@@ -104,7 +104,7 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
       if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
       if (kw == "superficial" || kw == "torque") fail(kw + " must be yes or no");
       if (kw == "wall_porosity") fail("wall_porosity must be none or fluid");
-      if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax")
+      if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax" || kw == "immersion")
         fail("missing value for " + kw + " (usage: " + kw + " V)");
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
     }
@@ -115,6 +115,9 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
       else if (val == "schiller-naumann") cp_.drag = SPHDEM_DRAG_SCHILLER_NAUMANN;
       else if (val == "none") cp_.drag = SPHDEM_DRAG_NONE;
       else fail(std::string("drag must be ") + DRAGS + " (got '" + val + "')");
+    } else if (kw == "immersion") {
+      cp_.immersion = parse_number("immersion", val.c_str(), "immersion S");
+      if (!(cp_.immersion >= 0 && cp_.immersion <= 1)) fail("immersion must be in [0, 1], 0 = off (got " + val + ")");
     } else if (kw == "wall_porosity") {
       if (val != "none" && val != "fluid") fail("wall_porosity must be none or fluid (got '" + val + "')");
       cp_.wall_eps = val == "fluid";
@@ -190,12 +193,13 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
   if (comm->me == 0) {
     char line[512];
     snprintf(line, sizeof line,
-             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, wall_porosity %s; "
+             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, wall_porosity %s, "
+             "immersion %g; "
              "fluid "
              "step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
              cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
-             cp_.wall_eps ? "fluid" : "none", fluid_->every());
+             cp_.wall_eps ? "fluid" : "none", cp_.immersion, fluid_->every());
     sphdem_compat::logmesg(lmp, line);
   }
 }

@@ -188,6 +188,12 @@ typedef struct {
   double eps_min;       /* floor of the porosity used in the fluid equations and drag (default 0.2) */
   int superficial;      /* 1 (default): eps enters continuity and the EOS (eqs 6-7); 0: porosity only reported */
   int torque;           /* 1: fluid torque on grains (rotational drag); 0 (default): none */
+  double immersion;     /* S in (0, 1]: the fluid force on a grain (pressure gradient, drag, torque) is scaled by
+                           min(1, sigma_f / (S (1 - sigma_w))), sigma_f = sum_b V_b W_jb over the fluid (the Shepard
+                           sum of eq 28), sigma_w the same over wall particles (V_w = m_w/rho0): a grain in air or
+                           touched by a few fluid particles feels a share of the force, not the whole (eq 28's
+                           Shepard correction alone gives it the full force, and eq 33 puts the reaction on those
+                           few particles). 0 (default): off, as the paper */
   int wall_eps;         /* with superficial density: 1 = wall particles carry the Shepard average of the porosity of
                            the fluid beside them (superficial wall density eps_w rho_w); 0 (default) = walls are
                            plain fluid (eps_w = 1). See doc/fix_sph_couple.md for what each does. */

@@ -207,6 +207,8 @@ static void tank_scene(sphdem_params *p, scene *s, int dim) {
   scene_tank(s, p, 0.1, 0.05, 0.15, 0.1, 0.1, 3);
 }
 
+static double g_immersion = 0.0; /* immersion keyword of the momentum_exchange cases */
+
 static void momentum_exchange(int dim, int drag, int torque) {
   sphdem_params p;
   scene s;
@@ -223,11 +225,12 @@ static void momentum_exchange(int dim, int drag, int torque) {
   sphdem_ctx c = make_ctx(&p);
   sphdem_couple_params cp;
   sphdem_couple_params_default(&cp);
-  cp.enabled = 1; cp.drag = drag; cp.mu = 1e-3; cp.torque = torque;
+  cp.enabled = 1; cp.drag = drag; cp.mu = 1e-3; cp.torque = torque; cp.immersion = g_immersion;
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   double dt = 0.2 * p.h / (1.2 * p.c0), worst = 0, fmag = 0;
+  if (g_immersion > 0) printf("  (immersion %g)\n", g_immersion);
   for (int n = 0; n < 20; n++) {
     SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, om));
     if (n == 0) SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
@@ -342,6 +345,37 @@ static void disabled_identical(int dim) {
  * uploaded consistently with the superficial formulation: rho = eps rho_hydro, m = rho V_lattice (so m/rho is
  * the mixture volume of the lattice). Then the fluid must stay at rest, the pressure must stay hydrostatic in
  * the intrinsic density (P(rho/eps)), and each grain feels Archimedes' rho_f V g. */
+/* Keyword immersion: grains at rest in still water (3D tank, surface z = 0.1). A grain deep in the water (far from
+ * walls, or beside a wall: the wall volume is not counted against it) feels bit-identically the force it feels
+ * without the keyword; a grain just above the surface, touched by the top fluid layer, feels a share of it. */
+static void immersion_forces(void) {
+  sphdem_params p;
+  scene s;
+  tank_scene(&p, &s, 3);
+  double gx[12] = {0.05, 0.025, 0.05, 0.004, 0.025, 0.05, 0.05, 0.025, 0.1 + 0.9 * p.h, 0.05, 0.025, 0.1},
+         gv[12] = {0}, gr[4] = {0.001, 0.001, 0.001, 0.001}, f[2][12];
+  for (int on = 0; on <= 1; on++) {
+    sphdem_ctx c = make_ctx(&p);
+    sphdem_couple_params cp;
+    sphdem_couple_params_default(&cp);
+    cp.enabled = 1; cp.mu = 1e-3; cp.immersion = on ? 0.5 : 0.0;
+    SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
+    SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
+    SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+    SPHDEM_CHECK_RC(c, sphdem_set_grains(c, 4, gx, gv, gr, NULL));
+    SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+    SPHDEM_CHECK_RC(c, sphdem_get_grain_forces(c, f[on], NULL, NULL, NULL));
+    sphdem_destroy(&c);
+  }
+  const char *name[4] = {"deep, centre", "deep, 4 mm from a wall", "above the surface (0.9 h)", "at the surface"};
+  for (int j = 0; j < 4; j++)
+    printf("  immersion 0.5: grain %-26s F_z %.4e N (off: %.4e N)\n", name[j], f[1][3 * j + 2], f[0][3 * j + 2]);
+  TEST_ASSERT(memcmp(f[0], f[1], 6 * sizeof(double)) == 0, "immersion 0.5: submerged grains feel the same force");
+  TEST_ASSERT(fabs(f[1][8]) < 0.8 * fabs(f[0][8]) && f[0][8] * f[1][8] >= 0,
+              "immersion 0.5: a grain above the surface feels a share of the force (%.3e of %.3e)", f[1][8], f[0][8]);
+  scene_free(&s);
+}
+
 static void bed_at_rest(void) {
   sphdem_params p;
   scene s;
@@ -481,6 +515,10 @@ int main(void) {
   momentum_exchange(2, SPHDEM_DRAG_ERGUN_WENYU, 1);
   momentum_exchange(3, SPHDEM_DRAG_ERGUN_WENYU, 1);
   momentum_exchange(3, SPHDEM_DRAG_DIFELICE, 0);
+  g_immersion = 0.5;
+  momentum_exchange(3, SPHDEM_DRAG_ERGUN_WENYU, 1);
+  g_immersion = 0.0;
+  immersion_forces();
   for (int dim = 2; dim <= 3; dim++) disabled_identical(dim);
   if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
   argument_errors();
