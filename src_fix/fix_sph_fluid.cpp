@@ -467,6 +467,7 @@ void FixSPHFluid::setup(int) {
   }
   run_step0_ = update->ntimestep;
   run_t0_ = wall_seconds();
+  sphdem_timers_reset(ctx_); /* the split printed at the end of the run covers the run only */
   last_fluid_step_ = update->ntimestep;
   nfluid_steps_ = 0;
   fluid_step_ = false;
@@ -800,7 +801,24 @@ void FixSPHFluid::pre_neighbor() {
   if (!walls_move_) upload_walls(false); /* moving walls are uploaded in post_force anyway */
 }
 
-void FixSPHFluid::post_run() { download(); }
+void FixSPHFluid::post_run() {
+  download();
+  /* where the fluid's time went in this run (the engine's own breakdown counts all of it under Modify) */
+  const bigint steps = update->ntimestep - run_step0_;
+  if (comm->me == 0 && ctx_ && steps > 0) {
+    double t[SPHDEM_NTIMERS];
+    sphdem_timers(ctx_, t);
+    double tot = 0.0;
+    for (int k = 0; k < SPHDEM_NTIMERS; k++) tot += t[k];
+    char line[512];
+    snprintf(line, sizeof line,
+             "Fix sph/fluid timing (s, this run): sort %.4g, walls %.4g, rates %.4g, coupling %.4g, integrate %.4g, "
+             "transfer %.4g, reduce %.4g; total %.4g over %ld fluid steps\n",
+             t[SPHDEM_T_SORT], t[SPHDEM_T_WALL], t[SPHDEM_T_RATES], t[SPHDEM_T_COUPLE], t[SPHDEM_T_INTEGRATE],
+             t[SPHDEM_T_TRANSFER], t[SPHDEM_T_REDUCE], tot, (long)nfluid_steps_);
+    sphdem_compat::logmesg(lmp, line);
+  }
+}
 
 /* ---- output ------------------------------------------------------------------------------------------ */
 

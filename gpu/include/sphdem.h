@@ -80,9 +80,10 @@ typedef struct {
   int64_t nlost;        /* fluid particles outside a non-periodic box side */
 } sphdem_stats;
 
-/* Wall-clock time spent per phase (seconds, accumulated since create or reset). */
+/* Wall-clock time spent per phase (seconds, accumulated since create or reset). SPHDEM_T_COUPLE: the SPH-DEM
+ * coupling passes inside the rate evaluation (grain sort, porosity, grain forces, reaction; not in RATES). */
 enum { SPHDEM_T_SORT = 0, SPHDEM_T_WALL, SPHDEM_T_RATES, SPHDEM_T_INTEGRATE,
-       SPHDEM_T_TRANSFER, SPHDEM_T_REDUCE, SPHDEM_NTIMERS };
+       SPHDEM_T_TRANSFER, SPHDEM_T_REDUCE, SPHDEM_T_COUPLE, SPHDEM_NTIMERS };
 
 /* Per-particle rate state carried by the engine between runs and through restarts,
  * SPHDEM_NSTATE doubles per particle: drho, ax, ay, az, ux, uy, uz (XSPH correction). */

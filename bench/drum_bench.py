@@ -1,0 +1,117 @@
+#!/usr/bin/python3
+"""Rotating drum at four sizes (He 2018 Fig. 16: 100, 200, 300, 400 mm diameter at constant fill fractions):
+time per engine step split into SPH, coupling and host DEM, with the particle counts.
+
+Each size runs examples/drum/in.drum through a launcher with the drum diameter D (= length), the grain
+count scaled with D^3 (the same fill fraction of grains; water fills the lower half at every size), a
+short settling stage (the grains start packed on their lattice; no physics is measured here) and a few
+hundred steps of rotation, which are timed. Sources of the split, all for the rotation run only:
+  - LAMMPS/LIGGGHTS' own breakdown: Pair (+ Neigh) = the host DEM contacts and their neighbour lists;
+  - `Fix sph/fluid timing` (printed at the end of each run): sort, walls, rates, integrate, transfer,
+    reduce = SPH; coupling = porosity, grain forces, reaction (inside the fluid's rate evaluation);
+  - the rest of the loop (fix move of the wall particles, nve/sphere, output, ...) = other host work.
+
+Usage: /usr/bin/python3 bench/drum_bench.py [--exe build/src_fix/lmp_sphdem] [--sizes 0.1 0.2 0.3 0.4]
+           [--steps 200] [--coarse | --full] [--out bench/results_drum]
+--coarse (default): grains 5.4 mm, fluid dx 6 mm, DEM dt 1e-5 s, fluid every 2 steps (the README's coarse
+variant, 969 grains at D = 0.1 m); --full: the paper's 2.7 mm grains, dx 3 mm, dt 2.5e-6 s (7755 grains at
+D = 0.1 m). Writes drum_bench.csv and drum_bench.md (table) in --out, and prints the table.
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def run_size(exe, D, steps, full, workdir, threads):
+    n0, dg, dx, dt, every = (7755, 0.0027, 0.003, 2.5e-6, 2) if full else (969, 0.0054, 0.006, 1e-5, 2)
+    ngrain = int(round(n0 * (D / 0.1) ** 3))
+    trot = steps * dt
+    os.makedirs(workdir, exist_ok=True)
+    cmd = [exe, "-in", os.path.join(ROOT, "examples", "drum", "in.drum"), "-log", "log.bench", "-screen", "none",
+           "-var", "D", str(D), "-var", "ngrain", str(ngrain), "-var", "dg", str(dg), "-var", "dx", str(dx),
+           "-var", "dt", str(dt), "-var", "every", str(every), "-var", "tsettle", str(20 * dt),
+           "-var", "trot", "%.10g" % trot, "-var", "tavg", "%.10g" % trot, "-var", "nsamp", "1",
+           "-var", "nfluid", "1"]
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    t0 = time.time()
+    p = subprocess.run(cmd, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.time() - t0
+    log = open(os.path.join(workdir, "log.bench")).read()
+    if p.returncode != 0 or "ERROR" in log:
+        err = [l for l in log.splitlines() if "ERROR" in l]
+        raise RuntimeError("D = %g: run failed: %s" % (D, err[-1] if err else p.stdout[-500:]))
+    # the last run of the input is the rotation: its loop time, breakdown and the fix's timing line
+    loops = re.findall(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms", log)
+    loop_s, nsteps, natoms = float(loops[-1][0]), int(loops[-1][1]), int(loops[-1][2])
+    tail = log[log.rfind("Loop time of"):]
+
+    def section(name):
+        m = re.search(r"^%s\s*\|\s*([0-9.eE+-]+)" % name, tail, re.M)
+        if m:
+            return float(m.group(1))
+        m = re.search(r"^%s\s+time \(%%\) = ([0-9.eE+-]+)" % name, tail, re.M)  # LIGGGHTS' format
+        return float(m.group(1)) if m else 0.0
+
+    pair, neigh = section("Pair"), section("Neigh")
+    fl = re.findall(r"Fix sph/fluid timing \(s, this run\): sort ([0-9.eE+-]+), walls ([0-9.eE+-]+), rates "
+                    r"([0-9.eE+-]+), coupling ([0-9.eE+-]+), integrate ([0-9.eE+-]+), transfer ([0-9.eE+-]+), "
+                    r"reduce ([0-9.eE+-]+); total ([0-9.eE+-]+) over (\d+) fluid steps", log)
+    f = [float(x) for x in fl[-1][:8]]
+    nfs = int(fl[-1][8])
+    sph = f[0] + f[1] + f[2] + f[4] + f[5] + f[6]
+    coup = f[3]
+    m = re.search(r"Fix sph/fluid: \w+ backend.*?; (\d+) fluid \+ (\d+) wall particles", log)
+    nfluid, nwall = int(m.group(1)), int(m.group(2))
+    return dict(D=D, ngrain=ngrain, nfluid=nfluid, nwall=nwall, natoms=natoms, steps=nsteps, fluid_steps=nfs,
+                loop_s=loop_s, dem_s=pair + neigh, sph_s=sph, couple_s=coup, other_s=loop_s - pair - neigh - sph - coup,
+                wall_s=wall)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--exe", default=os.path.join(ROOT, "build", "src_fix", "lmp_sphdem"))
+    ap.add_argument("--sizes", type=float, nargs="+", default=[0.1, 0.2, 0.3, 0.4])
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--threads", type=int, default=1)
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument("--coarse", action="store_true", default=True)
+    g.add_argument("--full", action="store_true")
+    ap.add_argument("--out", default=os.path.join(HERE, "results_drum"))
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    exe = os.path.abspath(a.exe)
+    rows = []
+    for D in a.sizes:
+        r = run_size(exe, D, a.steps, a.full, os.path.join(a.out, "run_D%g" % D), a.threads)
+        rows.append(r)
+        print("D = %.2f m: %d grains, %d fluid, %d wall; %.1f ms/step (DEM %.1f, SPH %.1f, coupling %.1f, other %.1f)"
+              % (D, r["ngrain"], r["nfluid"], r["nwall"], 1e3 * r["loop_s"] / r["steps"], 1e3 * r["dem_s"] / r["steps"],
+                 1e3 * r["sph_s"] / r["steps"], 1e3 * r["couple_s"] / r["steps"], 1e3 * r["other_s"] / r["steps"]),
+              flush=True)
+    keys = ["D", "ngrain", "nfluid", "nwall", "steps", "fluid_steps", "loop_s", "dem_s", "sph_s", "couple_s", "other_s"]
+    with open(os.path.join(a.out, "drum_bench.csv"), "w") as fcsv:
+        fcsv.write(",".join(keys) + "\n")
+        for r in rows:
+            fcsv.write(",".join(str(r[k]) for k in keys) + "\n")
+    lines = ["| D (mm) | grains | fluid | wall | ms / engine step | host DEM | SPH | coupling | other host |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        n = r["steps"]
+        pct = lambda x: "%.1f (%.0f %%)" % (1e3 * x / n, 100 * x / r["loop_s"])
+        lines.append("| %.0f | %d | %d | %d | %.1f | %s | %s | %s | %s |" % (
+            1e3 * r["D"], r["ngrain"], r["nfluid"], r["nwall"], 1e3 * r["loop_s"] / n, pct(r["dem_s"]), pct(r["sph_s"]),
+            pct(r["couple_s"]), pct(r["other_s"])))
+    txt = "\n".join(lines) + "\n"
+    open(os.path.join(a.out, "drum_bench.md"), "w").write(txt)
+    print(txt)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
