@@ -4,8 +4,8 @@ time per engine step split into SPH, coupling and host DEM, with the particle co
 
 Each size runs examples/drum/in.drum through a launcher with the drum diameter D (= length), the grain
 count scaled with D^3 (the same fill fraction of grains; water fills the lower half at every size), a
-short settling stage (the grains start packed on their lattice; no physics is measured here) and a few
-hundred steps of rotation, which are timed. Sources of the split, all for the rotation run only:
+settling stage without fluid (--tsettle, 0.2 s: the grains fall from their lattice into a bed with
+contacts; not timed) and a few hundred steps of rotation, which are timed. Sources of the split, all for the rotation run only:
   - LAMMPS/LIGGGHTS' own breakdown: Pair (+ Neigh) = the host DEM contacts and their neighbour lists;
   - `Fix sph/fluid timing` (printed at the end of each run): sort, walls, rates, integrate, transfer,
     reduce = SPH; coupling = porosity, grain forces, reaction (inside the fluid's rate evaluation);
@@ -28,14 +28,14 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def run_size(exe, D, steps, full, workdir, threads):
+def run_size(exe, D, steps, full, workdir, threads, tsettle, dmax):
     n0, dg, dx, dt, every = (7755, 0.0027, 0.003, 2.5e-6, 2) if full else (969, 0.0054, 0.006, 1e-5, 2)
     ngrain = int(round(n0 * (D / 0.1) ** 3))
     trot = steps * dt
     os.makedirs(workdir, exist_ok=True)
     cmd = [exe, "-in", os.path.join(ROOT, "examples", "drum", "in.drum"), "-log", "log.bench", "-screen", "none",
            "-var", "D", str(D), "-var", "ngrain", str(ngrain), "-var", "dg", str(dg), "-var", "dx", str(dx),
-           "-var", "dt", str(dt), "-var", "every", str(every), "-var", "tsettle", str(20 * dt),
+           "-var", "dt", str(dt), "-var", "every", str(every), "-var", "tsettle", str(tsettle), "-var", "dmax", str(dmax),
            "-var", "trot", "%.10g" % trot, "-var", "tavg", "%.10g" % trot, "-var", "nsamp", "1",
            "-var", "nfluid", "1"]
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
@@ -79,6 +79,9 @@ def main():
     ap.add_argument("--sizes", type=float, nargs="+", default=[0.1, 0.2, 0.3, 0.4])
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--tsettle", type=float, default=0.2, help="settling time without fluid before the timed "
+                    "rotation (s): the grains fall from their lattice into a bed with contacts")
+    ap.add_argument("--dmax", type=float, default=0.0, help="dmax of fix sph/couple (grain search cell size)")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--coarse", action="store_true", default=True)
     g.add_argument("--full", action="store_true")
@@ -88,7 +91,7 @@ def main():
     exe = os.path.abspath(a.exe)
     rows = []
     for D in a.sizes:
-        r = run_size(exe, D, a.steps, a.full, os.path.join(a.out, "run_D%g" % D), a.threads)
+        r = run_size(exe, D, a.steps, a.full, os.path.join(a.out, "run_D%g" % D), a.threads, a.tsettle, a.dmax)
         rows.append(r)
         print("D = %.2f m: %d grains, %d fluid, %d wall; %.1f ms/step (DEM %.1f, SPH %.1f, coupling %.1f, other %.1f)"
               % (D, r["ngrain"], r["nfluid"], r["nwall"], 1e3 * r["loop_s"] / r["steps"], 1e3 * r["dem_s"] / r["steps"],
@@ -110,7 +113,35 @@ def main():
     txt = "\n".join(lines) + "\n"
     open(os.path.join(a.out, "drum_bench.md"), "w").write(txt)
     print(txt)
+    plot(rows, os.path.join(a.out, "drum_bench.png"))
     return 0
+
+
+def plot(rows, path):
+    """Stacked bars: ms per engine step by part, one bar per drum size."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing: no PNG")
+        return
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    labels = ["%.0f mm\n%d grains\n%d fluid" % (1e3 * r["D"], r["ngrain"], r["nfluid"]) for r in rows]
+    bottom = [0.0] * len(rows)
+    for key, name in (("dem_s", "host DEM"), ("sph_s", "SPH"), ("couple_s", "coupling"), ("other_s", "other host")):
+        vals = [100.0 * r[key] / r["loop_s"] for r in rows]
+        ax.bar(labels, vals, bottom=bottom, label=name)
+        bottom = [b + v for b, v in zip(bottom, vals)]
+    for i, r in enumerate(rows):
+        ax.text(i, 101, "%.1f ms/step" % (1e3 * r["loop_s"] / r["steps"]), ha="center", va="bottom", fontsize=8)
+    ax.set_ylim(0, 112)
+    ax.set_ylabel("share of the engine step (%)")
+    ax.set_title("rotating drum, CPU backend, 1 core: time per engine step", fontsize=10)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print("wrote", path)
 
 
 if __name__ == "__main__":
