@@ -12,7 +12,9 @@ contacts; not timed) and a few hundred steps of rotation, which are timed. Sourc
   - the rest of the loop (fix move of the wall particles, nve/sphere, output, ...) = other host work.
 
 Usage: /usr/bin/python3 bench/drum_bench.py [--exe build/src_fix/lmp_sphdem] [--sizes 0.1 0.2 0.3 0.4]
-           [--steps 200] [--coarse | --full] [--out bench/results_drum]
+           [--steps 200] [--coarse | --full] [--tsettle 0.2] [--dmax V] [--var NAME VALUE ...]
+           [--out bench/results_drum]
+On a GPU: --var lmppair gran/hertz/history/gpu (LAMMPS) or --var ligpair gran/gpu (LIGGGHTS).
 --coarse (default): grains 5.4 mm, fluid dx 6 mm, DEM dt 1e-5 s, fluid every 2 steps (the README's coarse
 variant, 969 grains at D = 0.1 m); --full: the paper's 2.7 mm grains, dx 3 mm, dt 2.5e-6 s (7755 grains at
 D = 0.1 m). Writes drum_bench.csv and drum_bench.md (table) in --out, and prints the table.
@@ -28,7 +30,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def run_size(exe, D, steps, full, workdir, threads, tsettle, dmax):
+def run_size(exe, D, steps, full, workdir, threads, tsettle, dmax, extra=()):
     n0, dg, dx, dt, every = (7755, 0.0027, 0.003, 2.5e-6, 2) if full else (969, 0.0054, 0.006, 1e-5, 2)
     ngrain = int(round(n0 * (D / 0.1) ** 3))
     trot = steps * dt
@@ -38,6 +40,8 @@ def run_size(exe, D, steps, full, workdir, threads, tsettle, dmax):
            "-var", "dt", str(dt), "-var", "every", str(every), "-var", "tsettle", str(tsettle), "-var", "dmax", str(dmax),
            "-var", "trot", "%.10g" % trot, "-var", "tavg", "%.10g" % trot, "-var", "nsamp", "1",
            "-var", "nfluid", "1"]
+    for name, value in extra:
+        cmd += ["-var", name, value]
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
     t0 = time.time()
     p = subprocess.run(cmd, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -82,6 +86,8 @@ def main():
     ap.add_argument("--tsettle", type=float, default=0.2, help="settling time without fluid before the timed "
                     "rotation (s): the grains fall from their lattice into a bed with contacts")
     ap.add_argument("--dmax", type=float, default=0.0, help="dmax of fix sph/couple (grain search cell size)")
+    ap.add_argument("--var", nargs=2, action="append", default=[], metavar=("NAME", "VALUE"),
+                    help="more -var settings of in.drum, e.g. --var lmppair gran/hertz/history/gpu (GPU DEM)")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--coarse", action="store_true", default=True)
     g.add_argument("--full", action="store_true")
@@ -91,7 +97,8 @@ def main():
     exe = os.path.abspath(a.exe)
     rows = []
     for D in a.sizes:
-        r = run_size(exe, D, a.steps, a.full, os.path.join(a.out, "run_D%g" % D), a.threads, a.tsettle, a.dmax)
+        r = run_size(exe, D, a.steps, a.full, os.path.join(a.out, "run_D%g" % D), a.threads, a.tsettle, a.dmax,
+                     a.var)
         rows.append(r)
         print("D = %.2f m: %d grains, %d fluid, %d wall; %.1f ms/step (DEM %.1f, SPH %.1f, coupling %.1f, other %.1f)"
               % (D, r["ngrain"], r["nfluid"], r["nwall"], 1e3 * r["loop_s"] / r["steps"], 1e3 * r["dem_s"] / r["steps"],
