@@ -358,16 +358,12 @@ static void free_rk(sphdem_ctx c);
  * is not carried through sorts). */
 static int ensure_ksum(sphdem_ctx c) {
   sphdem_dev *D = &c->D;
-  if (!(D->P.isolated > 0.0)) {
+  const int on = D->P.isolated > 0.0;
+  if (D->ksum && (!on || c->cap_ks < D->nf)) { /* off, or too small */
     DFREE(c, D->ksum, 8 * (size_t)c->cap_ks);
-    D->ksum = NULL;
     c->cap_ks = 0;
-    return SPHDEM_OK;
   }
-  if (D->ksum && c->cap_ks >= D->nf) return SPHDEM_OK;
-  DFREE(c, D->ksum, 8 * (size_t)c->cap_ks);
-  D->ksum = NULL;
-  c->cap_ks = 0;
+  if (!on || D->ksum) return SPHDEM_OK;
   size_t m = (size_t)(D->nf > 0 ? D->nf : 1);
   TRY(dalloc(c, (void **)&D->ksum, 8 * m));
   c->cap_ks = (int64_t)m;

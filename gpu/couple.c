@@ -25,8 +25,9 @@
  * only). With superficial density and wall_eps 1, wall particles get the porosity of the fluid beside them
  * (Shepard average, as eqs 13-14 extrapolate velocity and pressure) and act with the superficial density
  * eps_w rho_w (eq 15); with wall_eps 0 (default) they act as plain fluid (eps_w = 1). wall_eps 1 made the
- * rotating drum (examples/drum, coarse) stop at the start of the rotation: where a grain packs the fluid against
- * the wall, eps_w reaches the floor eps_min and the wall pressure term, ~ V_w P_w / (eps_w rho_w), grows 1/eps_w. Coupling time is counted in SPHDEM_T_RATES.
+ * rotating drum (examples/drum, coarse) stop at the start of the rotation: where a grain packs the fluid
+ * against the wall, eps_w reaches the floor eps_min and the wall pressure term, ~ V_w P_w / (eps_w rho_w),
+ * grows as 1/eps_w. Coupling time is counted in SPHDEM_T_COUPLE.
  * A fluid that starts inside a packed bed should be uploaded consistently: rho = eps rho_f and mass =
  * eps rho_f V (V its lattice volume; eps from get_porosity after a first compute_rates), else the EOS
  * sees a compression of 1/eps and pushes the fluid out of the bed (unit_couple's packed bed does this). */
@@ -326,7 +327,8 @@ static void set_layers(sphdem_dev *D) {
 int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
-  if (D->couple_eos && c->cp.wall_eps && (D->nw > c->cap_cw || !D->weps)) { /* wall porosity, written by the wall-state pass */
+  /* wall porosity (wall_eps 1), written by the wall-state pass */
+  if (D->couple_eos && c->cp.wall_eps && (D->nw > c->cap_cw || !D->weps)) {
     free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
     TRYC(calloc_dev(c, (void **)&D->weps, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));

@@ -157,11 +157,7 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
   double sigw = 0.0;
   walk_fluid_around(D, xj, &w);
   while (walk_next(&w, &cc)) {
-    if (D->cimm > 0.0 && D->nw > 0)
-      for (int32_t b = D->wcstart[cc]; b < D->wcend[cc]; b++) {
-        double r2 = separation(D, xj, D->wx + 3 * b, r);
-        if (r2 < D->support2c) sigw += D->wmass[b] / D->P.rho0 * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
-      }
+    if (D->cimm > 0.0) wall_volume_sum_cell(D, xj, cc, D->alphaC, D->inv_hc, D->support2c, &sigw);
     for (int32_t b = D->cstart[cc]; b < D->cend[cc]; b++) {
       double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
       if (r2 >= D->support2c) continue;

@@ -197,6 +197,18 @@ SPHDEM_HD void predict_body(const sphdem_dev *D, int64_t i) {
   for (int d = 0; d < 3; d++) D->ve[3 * i + d] = D->v[3 * i + d] + D->pred_dth * D->a[3 * i + d];
 }
 
+/* Adds V_w W(x - x_w) of the wall particles of SPH cell c to *s (V_w = m_w / rho0, Adami), with the kernel of
+ * normalisation alpha, 1/h inv_h and support^2 support2 (the fluid's or the coupling's). */
+SPHDEM_HD void wall_volume_sum_cell(const sphdem_dev *D, const double *x, int64_t c, double alpha, double inv_h,
+                                    double support2, double *s) {
+  double r[3];
+  if (D->nw == 0) return;
+  for (int32_t w = D->wcstart[c]; w < D->wcend[c]; w++) {
+    double r2 = separation(D, x, D->wx + 3 * w, r);
+    if (r2 < support2) *s += D->wmass[w] / D->P.rho0 * wendland_w(alpha, sqrt(r2) * inv_h);
+  }
+}
+
 /* Kernel sum of fluid particle i, sum_b V_b W_ib over the fluid (V_b = m_b / rho_b, i itself included) and the
  * wall particles (V_w = m_w / rho0, Adami): ~1 inside the fluid and beside walls, ~0.6 at a flat free surface,
  * less for drops and thin jets (keyword isolated). */
@@ -210,12 +222,7 @@ SPHDEM_HD void ksum_body(const sphdem_dev *D, int64_t i) {
       double r2 = separation(D, xi, D->x + 3 * b, r);
       if (r2 < D->support2) s += D->mass[b] / D->rho[b] * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
     }
-  if (D->nw > 0)
-    for (int k = 0; k < nn; k++)
-      for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) {
-        double r2 = separation(D, xi, D->wx + 3 * w, r);
-        if (r2 < D->support2) s += D->wmass[w] / D->P.rho0 * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
-      }
+  for (int k = 0; k < nn; k++) wall_volume_sum_cell(D, xi, cells[k], D->alphaD, D->inv_h, D->support2, &s);
   D->ksum[i] = s;
 }
 

@@ -193,10 +193,8 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
   if (comm->me == 0) {
     char line[512];
     snprintf(line, sizeof line,
-             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, wall_porosity %s, "
-             "immersion %g; "
-             "fluid "
-             "step every %ld engine steps\n",
+             "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, "
+             "wall_porosity %s, immersion %g; fluid step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
              cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
              cp_.wall_eps ? "fluid" : "none", cp_.immersion, fluid_->every());

@@ -55,8 +55,9 @@ typedef struct {
   int delta_hydro;      /* 1: subtract the hydrostatic density difference (Fourtakas et al. 2019), 0: plain */
   int wall_clamp;       /* 1: the extrapolated Adami wall pressure (eq 14) is floored at 0, so walls never pull
                            on fluid beside a free surface; 0 (default): as the paper */
-  double isolated;      /* > 0: a fluid particle whose fluid kernel sum sum_b (m_b/rho_b) W_ab (itself included;
-                           ~1 inside the fluid, ~0.6 at a flat free surface) is below this value is isolated
+  double isolated;      /* > 0: a fluid particle whose kernel sum sum_b V_b W_ab over fluid (V_b = m_b/rho_b, itself
+                           included) and wall particles (V_w = m_w/rho0) (~1 inside the fluid and beside walls,
+                           ~0.6 at a flat free surface) is below this value is isolated
                            (a splash, drops, water carried in a lifted grain bed) and its EOS density is kept at
                            or above the reference: it never goes into tension. 0 (default): off, as the papers */
   double rep_D;         /* Monaghan wall repulsion strength (m^2/s^2); 0 = off */
