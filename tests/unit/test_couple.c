@@ -208,6 +208,7 @@ static void tank_scene(sphdem_params *p, scene *s, int dim) {
 }
 
 static double g_immersion = 0.0; /* immersion keyword of the momentum_exchange cases */
+static int g_wall_eps = 0;        /* wall_porosity fluid (1) in the momentum_exchange cases */
 
 static void momentum_exchange(int dim, int drag, int torque) {
   sphdem_params p;
@@ -218,7 +219,8 @@ static void momentum_exchange(int dim, int drag, int torque) {
   double gx[60] = {0}, gv[60] = {0}, gr[20], om[60] = {0};
   for (int j = 0; j < ng; j++) {
     gx[3 * j] = 0.1 * urand(); gx[3 * j + 1] = (dim == 3 ? 0.05 : 0.1) * urand();
-    if (dim == 3) gx[3 * j + 2] = 0.1 * urand();
+    /* with immersion the grains reach above the surface (z = 0.1), so that some feel a share of the force */
+    if (dim == 3) gx[3 * j + 2] = (g_immersion > 0 ? 0.115 : 0.1) * urand();
     for (int d = 0; d < dim; d++) { gv[3 * j + d] = 0.1 * (urand() - 0.5); om[3 * j + d] = 10 * (urand() - 0.5); }
     gr[j] = 0.001 + 0.002 * urand();
   }
@@ -226,11 +228,12 @@ static void momentum_exchange(int dim, int drag, int torque) {
   sphdem_couple_params cp;
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = drag; cp.mu = 1e-3; cp.torque = torque; cp.immersion = g_immersion;
+  cp.wall_eps = g_wall_eps;
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   double dt = 0.2 * p.h / (1.2 * p.c0), worst = 0, fmag = 0;
-  if (g_immersion > 0) printf("  (immersion %g)\n", g_immersion);
+  if (g_immersion > 0 || g_wall_eps) printf("  (immersion %g, wall_porosity %s)\n", g_immersion, g_wall_eps ? "fluid" : "none");
   for (int n = 0; n < 20; n++) {
     SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, om));
     if (n == 0) SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
@@ -518,6 +521,9 @@ int main(void) {
   g_immersion = 0.5;
   momentum_exchange(3, SPHDEM_DRAG_ERGUN_WENYU, 1);
   g_immersion = 0.0;
+  g_wall_eps = 1;
+  momentum_exchange(3, SPHDEM_DRAG_ERGUN_WENYU, 1);
+  g_wall_eps = 0;
   immersion_forces();
   for (int dim = 2; dim <= 3; dim++) disabled_identical(dim);
   if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
