@@ -771,12 +771,14 @@ int sphdem_compute_rates(sphdem_ctx c) {
   if (D->mp) TRY(sphdem_mp_prepare(c)); /* renormalisation, viscosity, shifting (mp.c) */
   TRY(c->ops->rates(c));
   TRY(c->ops->sync(c));
-  double t3 = now();
-  if (D->couple) TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
-  double t4 = now();
+  double t3 = now(), tf = 0.0;
+  if (D->couple) {
+    TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
+    tf = now() - t3;
+  }
   c->timers[SPHDEM_T_WALL] += t2 - t1;
   c->timers[SPHDEM_T_RATES] += (t1 - t0 - tc) + (t3 - t2);
-  c->timers[SPHDEM_T_COUPLE] += tc + (t4 - t3);
+  c->timers[SPHDEM_T_COUPLE] += tc + tf;
   c->have_rates = 1;
   return SPHDEM_OK;
 }

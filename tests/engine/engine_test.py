@@ -30,6 +30,7 @@ Differences are relative to the largest magnitude of each column (x, y, vx, vy, 
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import os
+import re
 import subprocess
 import sys
 
@@ -167,12 +168,30 @@ def test_restart(exe, engine):
     return verdict(compare(a, b, "restart"), 1e-9, "restart at step %d vs unbroken (%s)" % (STEPS // 2, engine))
 
 
+def check_timing(out, steps, what):
+    """The split fix sph/fluid prints at the end of a run: present, one entry per phase, the parts add up to the
+    total (each printed to 4 digits), and it counts the run's fluid steps."""
+    m = re.search(r"Fix sph/fluid timing \(s, this run\): (.*); total ([0-9.eE+-]+) over (\d+) fluid steps", out)
+    if not m:
+        print("FAIL %s: no 'Fix sph/fluid timing' line" % what)
+        return 1
+    parts = dict((k, float(v)) for k, v in re.findall(r"(\w+) ([0-9.eE+-]+)", m.group(1)))
+    total, nsteps = float(m.group(2)), int(m.group(3))
+    names = ["sort", "walls", "rates", "coupling", "integrate", "transfer", "reduce"]
+    ok = (sorted(parts) == sorted(names) and total > 0 and nsteps == steps and
+          abs(sum(parts.values()) - total) <= 2e-3 * total + 1e-6)
+    print("%s %s: timing line %s, total %.4g s over %d fluid steps (want %d)" %
+          ("PASS" if ok else "FAIL", what, parts, total, nsteps, steps))
+    return 0 if ok else 1
+
+
 def test_sync(exe, engine):
     wd = "sync_" + engine
-    must_run([exe], wd + "/default", scene(engine))
+    out = must_run([exe], wd + "/default", scene(engine))
     must_run([exe], wd + "/sync1", scene(engine, "sync 1"))
     a, b = final_dump(wd + "/default"), final_dump(wd + "/sync1")
-    return verdict(compare(a, b, "sync"), 1e-12, "sync 1 vs default (%s)" % engine)
+    fails = check_timing(out, STEPS, "end-of-run timing (%s)" % engine)
+    return fails + verdict(compare(a, b, "sync"), 1e-12, "sync 1 vs default (%s)" % engine)
 
 
 def test_mpi(exe, engine, mpirun):
