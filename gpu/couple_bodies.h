@@ -19,7 +19,7 @@
 /* ---- search: a box of (2L+1)^dim cells around a cell, periodic wrap, each cell visited once ---- */
 
 typedef struct {
-  int c0[3], cnt[3], n[3], k[3];
+  int x[3], x0[3], cnt[3], n[3], k[3]; /* x: current cell coordinates, x0: first ones, wrapped into [0, n) */
   int done;
 } cell_walk;
 
@@ -27,13 +27,17 @@ SPHDEM_HD void walk_init(cell_walk *w, const int *nc, const int *periodic, int d
   for (int d = 0; d < 3; d++) {
     w->n[d] = nc[d];
     w->k[d] = 0;
-    if (d >= dim) { w->c0[d] = 0; w->cnt[d] = 1; }
-    else if (periodic[d] && 2 * L[d] + 1 >= nc[d]) { w->c0[d] = 0; w->cnt[d] = nc[d]; } /* whole axis once */
-    else if (periodic[d]) { w->c0[d] = c[d] - L[d]; w->cnt[d] = 2 * L[d] + 1; }
+    int c0;
+    if (d >= dim) { c0 = 0; w->cnt[d] = 1; }
+    else if (periodic[d] && 2 * L[d] + 1 >= nc[d]) { c0 = 0; w->cnt[d] = nc[d]; } /* whole axis once */
+    else if (periodic[d]) { c0 = c[d] - L[d]; w->cnt[d] = 2 * L[d] + 1; }
     else {
       int lo = c[d] - L[d] < 0 ? 0 : c[d] - L[d], hi = c[d] + L[d] > nc[d] - 1 ? nc[d] - 1 : c[d] + L[d];
-      w->c0[d] = lo; w->cnt[d] = hi - lo + 1;
+      c0 = lo; w->cnt[d] = hi - lo + 1;
     }
+    /* the walk steps and wraps by compare, not modulo: 3 modulos per cell cost more than the cell itself */
+    int v = nc[d] > 0 ? c0 % nc[d] : 0;
+    w->x0[d] = w->x[d] = v < 0 ? v + nc[d] : v;
   }
   w->done = w->cnt[0] <= 0 || w->cnt[1] <= 0 || w->cnt[2] <= 0;
 }
@@ -41,16 +45,14 @@ SPHDEM_HD void walk_init(cell_walk *w, const int *nc, const int *periodic, int d
 /* Next cell of the box (x fastest); 0 when the box is exhausted. */
 SPHDEM_HD int walk_next(cell_walk *w, int64_t *cell) {
   if (w->done) return 0;
-  int x[3];
+  *cell = ((int64_t)w->x[2] * w->n[1] + w->x[1]) * w->n[0] + w->x[0];
   for (int d = 0; d < 3; d++) {
-    int v = w->c0[d] + w->k[d], n = w->n[d];
-    v %= n; if (v < 0) v += n;
-    x[d] = v;
-  }
-  *cell = ((int64_t)x[2] * w->n[1] + x[1]) * w->n[0] + x[0];
-  for (int d = 0; d < 3; d++) {
-    if (++w->k[d] < w->cnt[d]) return 1;
+    if (++w->k[d] < w->cnt[d]) {
+      if (++w->x[d] == w->n[d]) w->x[d] = 0;
+      return 1;
+    }
     w->k[d] = 0;
+    w->x[d] = w->x0[d];
   }
   w->done = 1;
   return 1;
