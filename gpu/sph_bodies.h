@@ -226,42 +226,53 @@ SPHDEM_HD void ksum_body(const sphdem_dev *D, int64_t i) {
   D->ksum[i] = s;
 }
 
-/* Adami generalized wall condition at wall particle w (eqs 13-15). */
-SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
-  const double *xw = D->wx + 3 * w;
-  double sw = 0.0, spw = 0.0, srr[3] = {0, 0, 0}, sv[3] = {0, 0, 0}, r[3], se = 0.0;
-  int32_t cells[27];
-  int nn = neighbor_cells(D, D->wcell[w], cells);
-  for (int k = 0; k < nn; k++) {
-    int32_t c = cells[k];
-    for (int32_t f = D->cstart[c]; f < D->cend[c]; f++) {
-      double r2 = separation(D, xw, D->x + 3 * f, r); /* r_wf = r_w - r_f */
-      if (r2 >= D->support2) continue;
-      double W = wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
-      sw += W;
-      spw += D->p[f] * W;
-      /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
-      double rf = eos_density(D, f, D->rho[f]);
-      for (int d = 0; d < 3; d++) { srr[d] += rf * r[d] * W; sv[d] += D->v[3 * f + d] * W; }
-      if (D->weps) se += fluid_eps(D, f) * W;
-    }
-  }
+/* Adami generalized wall condition at wall particle w (eqs 13-15): sums over the fluid particles f within
+ * the support (wall_state_add, one per f), then the wall's extrapolated state (wall_state_finish).
+ * wall_state_body walks the 3^dim SPH cells around w; the CPU backend feeds the same sums from a
+ * wall -> fluid list (backend_cpu.c), in the same order where no cell wraps periodically. */
+typedef struct { double sw, spw, srr[3], sv[3], se; } wall_state_acc;
+
+SPHDEM_HD void wall_state_add(const sphdem_dev *D, const double *xw, int32_t f, wall_state_acc *A) {
+  double r[3];
+  double r2 = separation(D, xw, D->x + 3 * f, r); /* r_wf = r_w - r_f */
+  if (r2 >= D->support2) return;
+  double W = wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
+  A->sw += W;
+  A->spw += D->p[f] * W;
+  /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
+  double rf = eos_density(D, f, D->rho[f]);
+  for (int d = 0; d < 3; d++) { A->srr[d] += rf * r[d] * W; A->sv[d] += D->v[3 * f + d] * W; }
+  if (D->weps) A->se += fluid_eps(D, f) * W;
+}
+
+SPHDEM_HD void wall_state_finish(const sphdem_dev *D, int64_t w, const wall_state_acc *A) {
+  double sw = A->sw;
   /* coupled, superficial density: the wall particle carries the porosity of the fluid beside it (extrapolated
    * like eqs 13-14), so that fluid-wall pairs see the same mixture as fluid-fluid pairs */
-  if (D->weps) D->weps[w] = sw > 0.0 ? se / sw : 1.0;
+  if (D->weps) D->weps[w] = sw > 0.0 ? A->se / sw : 1.0;
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
   double pw = 0.0;
   if (sw > 0.0) {
     double ga = 0.0;
-    for (int d = 0; d < D->P.dim; d++) ga += (D->P.gravity[d] - aw[d]) * srr[d];
-    pw = (spw + ga) / sw;                                            /* eq 14 */
+    for (int d = 0; d < D->P.dim; d++) ga += (D->P.gravity[d] - aw[d]) * A->srr[d];
+    pw = (A->spw + ga) / sw;                                         /* eq 14 */
     if (D->P.wall_clamp && pw < 0.0) pw = 0.0;
-    for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = 2.0 * vw[d] - sv[d] / sw; /* eq 13 */
+    for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = 2.0 * vw[d] - A->sv[d] / sw; /* eq 13 */
   } else {
     for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = vw[d];
   }
   D->wp[w] = pw;
   D->wrho[w] = tait_density(D, pw);                                  /* eq 15 */
+}
+
+SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
+  const double *xw = D->wx + 3 * w;
+  wall_state_acc A = {0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
+  int32_t cells[27];
+  int nn = neighbor_cells(D, D->wcell[w], cells);
+  for (int k = 0; k < nn; k++)
+    for (int32_t f = D->cstart[cells[k]]; f < D->cend[cells[k]]; f++) wall_state_add(D, xw, f, &A);
+  wall_state_finish(D, w, &A);
 }
 
 /* Pairwise momentum terms shared by fluid-fluid and fluid-wall pairs: pressure (eq 9) with the

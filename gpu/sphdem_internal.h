@@ -43,6 +43,8 @@ typedef struct {
   /* optional CSR neighbour lists (CPU backend): fluid-fluid and fluid-wall */
   int64_t *nl_start, *wl_start;
   int32_t *nl, *wl;
+  int64_t *wfl_start;  /* wall -> fluid: the fluid-wall list transposed (CPU wall-state pass) */
+  int32_t *wfl;
   /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
   int couple;          /* coupling passes run in compute_rates */
   int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
@@ -158,7 +160,7 @@ struct sphdem_ctx_s {
   int cpu_sym;                  /* CPU: fluid pairs once from half lists (1) or gathered like the GPU (0) */
   double *symbuf;               /* CPU symmetric pass: per-thread rate accumulators */
   int64_t symbuf_cap;
-  int64_t nl_cap, wl_cap, nls_cap, wls_cap;
+  int64_t nl_cap, wl_cap, nls_cap, wls_cap, wfl_cap, wfls_cap;
   double timers[SPHDEM_NTIMERS];
   /* scratch device buffers used by sorts/gathers (capacity max(cap_f, cap_w)) */
   int64_t cap_scratch;
