@@ -16,6 +16,7 @@ def main():
     ap.add_argument("dumps", nargs="+")
     ap.add_argument("-o", "--output", default="snapshots.png")
     ap.add_argument("--dt", type=float, default=4.10165e-06)
+    ap.add_argument("--zmax", type=float, default=110.0, help="top of the plotted height range in mm (default 110)")
     args = ap.parse_args()
     import matplotlib
     matplotlib.use("Agg")
@@ -34,7 +35,7 @@ def main():
         t = step * args.dt
         ax.plot([51, 51], [680 * t, 680 * t + 150], color="k", lw=2)
         ax.set_xlim(-2, 202)
-        ax.set_ylim(-2, 110)
+        ax.set_ylim(-2, args.zmax)
         ax.set_aspect("equal")
         ax.set_ylabel("z (mm)")
         ax.set_title("t = %.3f s: water (blue), beads (orange), gate (black); side view, all y" % t, fontsize=9)
