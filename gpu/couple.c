@@ -63,6 +63,7 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
   CCHECK(cp->superficial == 0 || cp->superficial == 1, "superficial must be 0 or 1 (got %d)", cp->superficial);
   CCHECK(cp->wall_eps == 0 || cp->wall_eps == 1, "wall_eps (wall porosity) must be 0 or 1 (got %d)", cp->wall_eps);
   CCHECK(cp->immersion >= 0 && cp->immersion <= 1, "immersion must be in [0, 1], 0 = off (got %g)", cp->immersion);
+  CCHECK(cp->eps_walls == 0 || cp->eps_walls == 1, "eps_walls must be 0 or 1 (got %d)", cp->eps_walls);
   CCHECK(cp->dmax >= 0 && isfinite(cp->dmax), "dmax (largest grain diameter) must be >= 0 (got %g)", cp->dmax);
   double hc = cp->hc > 0 ? cp->hc : P->h;
   for (int d = 0; d < P->dim; d++)
@@ -202,6 +203,7 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   D->couple = 1;
   D->couple_eos = cp->superficial;
   D->cimm = cp->immersion;
+  D->ceps_walls = cp->eps_walls;
   D->drag = cp->drag;
   D->torque = cp->torque;
   D->cmu = cp->mu;

@@ -123,7 +123,9 @@ SPHDEM_HD double drag_coefficient(int law, double mu, double eps, double rhof, d
 
 /* ---- passes ------------------------------------------------------------------------------------- */
 
-/* Porosity at fluid particle a (eq 26): eps_a = 1 - sum_j W_aj(hc) V_j. */
+/* Porosity at fluid particle a (eq 26): eps_a = 1 - sum_j W_aj(hc) V_j.
+ * eps_walls: the sum is divided by the share of the kernel inside the domain, 1 - sigma_w (sigma_w the wall
+ * volume sum, V_w = m_w / rho0), floored at 0.1 (a corner of three walls leaves 1/8). */
 SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
   const double *xa = D->x + 3 * a;
   double s = 0.0, r[3];
@@ -136,6 +138,13 @@ SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
       if (r2 >= D->support2c) continue;
       s += grain_volume(D->P.dim, D->grad[j]) * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
     }
+  if (D->ceps_walls && D->nw > 0 && s > 0.0) {
+    double sw = 0.0;
+    walk_fluid_around(D, xa, &w);
+    while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xa, cc, D->alphaC, D->inv_hc, D->support2c, &sw);
+    double room = 1.0 - sw;
+    s /= room > 0.1 ? room : 0.1;
+  }
   D->eps[a] = 1.0 - s;
 }
 

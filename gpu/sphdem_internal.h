@@ -49,6 +49,7 @@ typedef struct {
   int couple;          /* coupling passes run in compute_rates */
   int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
   double cimm;         /* keyword immersion S of the coupling (0 = off) */
+  int ceps_walls;      /* eq 26 normalised by the kernel share inside the walls (keyword eps_walls) */
   int drag, torque;    /* sphdem_drag, rotational drag on/off */
   double cmu;          /* fluid viscosity in the drag laws */
   double eps_floor;    /* eps_min */

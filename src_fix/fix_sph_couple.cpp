@@ -22,8 +22,8 @@ using namespace FixConst;
 namespace {
 const char *const SYNTAX =
     "fix ID group sph/couple FLUID-FIX-ID [drag ergun-wenyu|difelice|schiller-naumann|none] [mu V] [hc V] "
-    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid] [immersion S]";
-const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity, immersion";
+    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid] [immersion S] [eps_walls yes|no]";
+const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity, immersion, eps_walls";
 const char *const DRAGS = "ergun-wenyu, difelice, schiller-naumann or none";
 
 const char *drag_name(int d) {
@@ -102,7 +102,7 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
     const std::string kw = arg[iarg];
     if (iarg + 1 >= narg) {
       if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
-      if (kw == "superficial" || kw == "torque") fail(kw + " must be yes or no");
+      if (kw == "superficial" || kw == "torque" || kw == "eps_walls") fail(kw + " must be yes or no");
       if (kw == "wall_porosity") fail("wall_porosity must be none or fluid");
       if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax" || kw == "immersion")
         fail("missing value for " + kw + " (usage: " + kw + " V)");
@@ -121,9 +121,9 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
     } else if (kw == "wall_porosity") {
       if (val != "none" && val != "fluid") fail("wall_porosity must be none or fluid (got '" + val + "')");
       cp_.wall_eps = val == "fluid";
-    } else if (kw == "superficial" || kw == "torque") {
+    } else if (kw == "superficial" || kw == "torque" || kw == "eps_walls") {
       if (val != "yes" && val != "no") fail(kw + " must be yes or no (got '" + val + "')");
-      (kw == "superficial" ? cp_.superficial : cp_.torque) = val == "yes";
+      (kw == "superficial" ? cp_.superficial : kw == "torque" ? cp_.torque : cp_.eps_walls) = val == "yes";
     } else if (kw == "mu") {
       cp_.mu = parse_number("mu", val.c_str(), "mu V");
       if (cp_.mu <= 0) fail("mu must be > 0 (got " + val + ")");
@@ -194,10 +194,10 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
     char line[512];
     snprintf(line, sizeof line,
              "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, "
-             "wall_porosity %s, immersion %g; fluid step every %ld engine steps\n",
+             "wall_porosity %s, immersion %g, eps_walls %s; fluid step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
              cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
-             cp_.wall_eps ? "fluid" : "none", cp_.immersion, fluid_->every());
+             cp_.wall_eps ? "fluid" : "none", cp_.immersion, cp_.eps_walls ? "yes" : "no", fluid_->every());
     sphdem_compat::logmesg(lmp, line);
   }
 }

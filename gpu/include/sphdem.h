@@ -200,6 +200,10 @@ typedef struct {
                            the fluid beside them (superficial wall density eps_w rho_w); 0 (default) = walls are
                            plain fluid (eps_w = 1). See doc/fix_sph_couple.md for what each does. */
   double dmax;          /* largest grain diameter expected (sizes the DEM cells); 0 = from the grains */
+  int eps_walls;        /* 1: eq 26 divided by the share of the coupling kernel inside the domain, 1 - sigma_w
+                           (sigma_w = sum_w V_w W_aw over wall particles): grains lie only inside the walls, so
+                           beside a wall eq 26 counts a truncated kernel and gives too high a porosity (0.80
+                           instead of 0.75 for a uniform bed). 0 (default): eq 26 as the paper */
 } sphdem_couple_params;
 
 void sphdem_couple_params_default(sphdem_couple_params *c);

@@ -591,8 +591,9 @@ def test_couple_badkw(exe, engine):
         ("dmax", "Fix sph/couple: missing value for dmax (usage: dmax V)"),
         ("wall_porosity yes", "Fix sph/couple: wall_porosity must be none or fluid (got 'yes')"),
         ("immersion 2", "Fix sph/couple: immersion must be in [0, 1], 0 = off (got 2)"),
+        ("eps_walls on", "Fix sph/couple: eps_walls must be yes or no (got 'on')"),
         ("bogus 1", "Fix sph/couple: unknown keyword 'bogus'; keywords are drag, mu, hc, eps_min, superficial, "
-                    "torque, dmax, wall_porosity, immersion"),
+                    "torque, dmax, wall_porosity, immersion, eps_walls"),
     ]
     fails = 0
     for i, (extra, want) in enumerate(cases):
