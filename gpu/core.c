@@ -387,7 +387,8 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
-  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); }
+  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf);
+    sphdem_cpu_couple_lists_free(c); }
   free(c);
   *pc = NULL;
   return SPHDEM_OK;

@@ -125,27 +125,40 @@ SPHDEM_HD double drag_coefficient(int law, double mu, double eps, double rhof, d
 
 /* Porosity at fluid particle a (eq 26): eps_a = 1 - sum_j W_aj(hc) V_j.
  * eps_walls: the sum is divided by the share of the kernel inside the domain, 1 - sigma_w (sigma_w the wall
- * volume sum, V_w = m_w / rho0), floored at 0.1 (a corner of three walls leaves 1/8). */
-SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
+ * volume sum, V_w = m_w / rho0), floored at 0.1 (a corner of three walls leaves 1/8).
+ * couple_porosity_add: grain j's term (returns 0 when j is outside the support); couple_porosity_finish:
+ * the normalisation and the store. The CPU backend also records the pairs (couple_cpu.c). */
+SPHDEM_HD int couple_porosity_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
+  double r[3];
+  double r2 = separation(D, xa, D->gx + 3 * j, r);
+  if (r2 >= D->support2c) return 0;
+  *s += grain_volume(D->P.dim, D->grad[j]) * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
+  return 1;
+}
+
+SPHDEM_HD void couple_porosity_finish(const sphdem_dev *D, int64_t a, double s) {
   const double *xa = D->x + 3 * a;
-  double s = 0.0, r[3];
-  cell_walk w;
-  int64_t cc;
-  walk_grains_around(D, xa, &w);
-  while (walk_next(&w, &cc))
-    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) {
-      double r2 = separation(D, xa, D->gx + 3 * j, r);
-      if (r2 >= D->support2c) continue;
-      s += grain_volume(D->P.dim, D->grad[j]) * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
-    }
   if (D->ceps_walls && D->nw > 0 && s > 0.0) {
     double sw = 0.0;
+    cell_walk w;
+    int64_t cc;
     walk_fluid_around(D, xa, &w);
     while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xa, cc, D->alphaC, D->inv_hc, D->support2c, &sw);
     double room = 1.0 - sw;
     s /= room > 0.1 ? room : 0.1;
   }
   D->eps[a] = 1.0 - s;
+}
+
+SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
+  const double *xa = D->x + 3 * a;
+  double s = 0.0;
+  cell_walk w;
+  int64_t cc;
+  walk_grains_around(D, xa, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) couple_porosity_add(D, xa, j, &s);
+  couple_porosity_finish(D, a, s);
 }
 
 /* Fluid force on grain j (eqs 27-32). Shepard-corrected interpolations over the fluid particles b within
@@ -158,43 +171,43 @@ SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
  *   F_d  = K(eps_j, Re) V_j (u_j - v_j) (eq 30 and the drag laws).
  * Torque (optional): Stokes rotational drag T = k mu V_j (1/2 curl u - omega), k = 6 for a sphere
  * (8 pi mu r^3), 4 for a disc per unit depth (4 pi mu r^2); curl u by the SPH gradient. */
-SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
-  const double *xj = D->gx + 3 * j, *vj = D->gv + 3 * j;
-  int dim = D->P.dim;
-  double sig = 0.0, se = 0.0, srf = 0.0, su[3] = {0, 0, 0}, sth[3] = {0, 0, 0};
-  double scr[3] = {0, 0, 0}, sgr[3] = {0, 0, 0}, r[3];
-  cell_walk w;
-  int64_t cc;
-  double sigw = 0.0;
-  walk_fluid_around(D, xj, &w);
-  while (walk_next(&w, &cc)) {
-    if (D->cimm > 0.0) wall_volume_sum_cell(D, xj, cc, D->alphaC, D->inv_hc, D->support2c, &sigw);
-    for (int32_t b = D->cstart[cc]; b < D->cend[cc]; b++) {
-      double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
-      if (r2 >= D->support2c) continue;
-      double q = sqrt(r2) * D->inv_hc, W = wendland_w(D->alphaC, q);
-      double mb = D->mass[b], rhob = D->rhop[b], Vb = mb / rhob, wv = Vb * W, eb = fluid_eps(D, b);
-      const double *vb = D->ve + 3 * b, *ab = D->a + 3 * b;
-      sig += wv;
-      se += wv * eb;
-      srf += wv * (D->couple_eos ? rhob / eb : rhob);
-      for (int d = 0; d < dim; d++) {
-        su[d] += wv * vb[d];
-        sth[d] += mb * W * (ab[d] - D->P.gravity[d]);
-      }
-      if (D->torque) {
-        double k = Vb * wendland_grad_factor(D->alphaC, D->inv_hc, q); /* V_b grad_j W_jb = k r */
-        scr[0] += k * (r[1] * vb[2] - r[2] * vb[1]);
-        scr[1] += k * (r[2] * vb[0] - r[0] * vb[2]);
-        scr[2] += k * (r[0] * vb[1] - r[1] * vb[0]);
-        for (int d = 0; d < 3; d++) sgr[d] += k * r[d];
-      }
-    }
+typedef struct {
+  double sig, se, srf, su[3], sth[3], scr[3], sgr[3], sigw;
+} couple_grain_acc;
+
+/* Fluid particle b's terms of grain j's sums (nothing when b is outside the support). */
+SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b, couple_grain_acc *A) {
+  double r[3];
+  double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
+  if (r2 >= D->support2c) return;
+  double q = sqrt(r2) * D->inv_hc, W = wendland_w(D->alphaC, q);
+  double mb = D->mass[b], rhob = D->rhop[b], Vb = mb / rhob, wv = Vb * W, eb = fluid_eps(D, b);
+  const double *vb = D->ve + 3 * b, *ab = D->a + 3 * b;
+  A->sig += wv;
+  A->se += wv * eb;
+  A->srf += wv * (D->couple_eos ? rhob / eb : rhob);
+  for (int d = 0; d < D->P.dim; d++) {
+    A->su[d] += wv * vb[d];
+    A->sth[d] += mb * W * (ab[d] - D->P.gravity[d]);
   }
+  if (D->torque) {
+    double k = Vb * wendland_grad_factor(D->alphaC, D->inv_hc, q); /* V_b grad_j W_jb = k r */
+    A->scr[0] += k * (r[1] * vb[2] - r[2] * vb[1]);
+    A->scr[1] += k * (r[2] * vb[0] - r[0] * vb[2]);
+    A->scr[2] += k * (r[0] * vb[1] - r[1] * vb[0]);
+    for (int d = 0; d < 3; d++) A->sgr[d] += k * r[d];
+  }
+}
+
+/* Grain j's forces from its sums (A->sigw: the wall volume sum, used with immersion only). */
+SPHDEM_HD void couple_grain_finish(const sphdem_dev *D, int64_t j, const couple_grain_acc *A) {
+  const double *vj = D->gv + 3 * j;
+  int dim = D->P.dim;
+  double sig = A->sig;
   double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0}, imm = 1.0;
   if (D->cimm > 0.0) {
     /* keyword immersion: the share of the grain's kernel support outside the walls that holds fluid */
-    double room = 1.0 - sigw;
+    double room = 1.0 - A->sigw;
     imm = room > 1e-12 ? sig / (room * D->cimm) : 1.0;
     if (imm > 1.0) imm = 1.0;
   }
@@ -202,15 +215,16 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
     double inv = 1.0 / sig, u[3] = {0, 0, 0}, rel[3] = {0, 0, 0}, w2 = 0.0;
     double rj = D->grad[j], V = grain_volume(dim, rj);
     for (int d = 0; d < dim; d++) {
-      u[d] = su[d] * inv;
+      u[d] = A->su[d] * inv;
       rel[d] = u[d] - vj[d];
       w2 += rel[d] * rel[d];
-      fpg[d] = imm * V * sth[d] * inv;                                   /* eqs 27-29 */
+      fpg[d] = imm * V * A->sth[d] * inv;                                /* eqs 27-29 */
     }
-    double K = drag_coefficient(D->drag, D->cmu, se * inv, srf * inv, 2.0 * rj, sqrt(w2));
+    double K = drag_coefficient(D->drag, D->cmu, A->se * inv, A->srf * inv, 2.0 * rj, sqrt(w2));
     for (int d = 0; d < dim; d++) fd[d] = imm * K * V * rel[d];          /* eq 30 */
     if (D->torque) {
       /* curl u = sum_b V_b grad_j W x (u_b - u_j) = scr - sgr x u */
+      const double *scr = A->scr, *sgr = A->sgr;
       double cu[3] = {scr[0] - (sgr[1] * u[2] - sgr[2] * u[1]), scr[1] - (sgr[2] * u[0] - sgr[0] * u[2]),
                       scr[2] - (sgr[0] * u[1] - sgr[1] * u[0])};
       double kt = imm * (dim == 3 ? 6.0 : 4.0) * D->cmu * V;
@@ -228,28 +242,57 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
   }
 }
 
+/* Wall volume sum around grain position xj (keyword immersion), over the SPH cells of the grain's search. */
+SPHDEM_HD double couple_grain_wall_sum(const sphdem_dev *D, const double *xj) {
+  double sigw = 0.0;
+  cell_walk w;
+  int64_t cc;
+  walk_fluid_around(D, xj, &w);
+  while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xj, cc, D->alphaC, D->inv_hc, D->support2c, &sigw);
+  return sigw;
+}
+
+SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
+  const double *xj = D->gx + 3 * j;
+  couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
+  if (D->cimm > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+  cell_walk w;
+  int64_t cc;
+  walk_fluid_around(D, xj, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t b = D->cstart[cc]; b < D->cend[cc]; b++) couple_grain_add(D, xj, b, &A);
+  couple_grain_finish(D, j, &A);
+}
+
 /* Reaction on fluid particle a (eq 33): f_a = m_a S_a = -V_a sum_j F_j W_aj(hc) / sum_b V_b W_jb(hc).
  * Summed over a, the weights V_a W_aj / sum_b V_b W_jb give exactly 1 per grain: sum_a f_a = -sum_j F_j.
  * (The paper's prefactor m_a/rho_a with S_a an acceleration is read as this force, divided by m_a.) */
-SPHDEM_HD void couple_reaction_body(const sphdem_dev *D, int64_t a) {
-  const double *xa = D->x + 3 * a;
-  double s[3] = {0, 0, 0}, r[3];
-  cell_walk w;
-  int64_t cc;
-  walk_grains_around(D, xa, &w);
-  while (walk_next(&w, &cc))
-    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) {
-      double r2 = separation(D, xa, D->gx + 3 * j, r);
-      if (r2 >= D->support2c || !(D->gsig[j] > 0.0)) continue;
-      double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->gsig[j];
-      for (int d = 0; d < D->P.dim; d++) s[d] += k * D->gf[3 * j + d];
-    }
+SPHDEM_HD void couple_reaction_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
+  double r[3];
+  double r2 = separation(D, xa, D->gx + 3 * j, r);
+  if (r2 >= D->support2c || !(D->gsig[j] > 0.0)) return;
+  double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->gsig[j];
+  for (int d = 0; d < D->P.dim; d++) s[d] += k * D->gf[3 * j + d];
+}
+
+SPHDEM_HD void couple_reaction_finish(const sphdem_dev *D, int64_t a, const double *s) {
   double Va = D->mass[a] / D->rhop[a];
   for (int d = 0; d < 3; d++) {
     double f = -Va * s[d];
     D->fr[3 * a + d] = f;
     D->a[3 * a + d] += f / D->mass[a];
   }
+}
+
+SPHDEM_HD void couple_reaction_body(const sphdem_dev *D, int64_t a) {
+  const double *xa = D->x + 3 * a;
+  double s[3] = {0, 0, 0};
+  cell_walk w;
+  int64_t cc;
+  walk_grains_around(D, xa, &w);
+  while (walk_next(&w, &cc))
+    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) couple_reaction_add(D, xa, j, s);
+  couple_reaction_finish(D, a, s);
 }
 
 #endif

@@ -186,6 +186,13 @@ struct sphdem_ctx_s {
   double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
   int64_t cap_hgf;
   int forces_valid;
+  /* CPU: the fluid-grain pairs of the current coupling step (couple_cpu.c): per fluid particle its grains
+   * (cpl_f, CSR cpl_fs), per grain its fluid particles (cpl_g, CSR cpl_gs), per-thread buffers */
+  int64_t *cpl_fs, *cpl_gs, cap_cplfs, cap_cplgs, cap_cplf, cap_cplg;
+  int32_t *cpl_f, *cpl_g;
+  int32_t **cpl_tb;
+  int64_t *cpl_tcap, *cpl_tn;
+  int cpl_nt, cpl_valid, cpl_err;
   /* multiphase (mp.c) */
   int64_t cap_mp;               /* capacity of the multiphase arrays */
   int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
@@ -221,6 +228,7 @@ int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c);
 int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);
 int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c);
 int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c);
+void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c);
 
 extern const sphdem_ops sphdem_cpu_ops;
 #ifdef SPHDEM_WITH_CUDA
