@@ -155,10 +155,11 @@ static int cpu_ensure_lists(struct sphdem_ctx_s *c) {
 }
 
 /* Wall state: from the wall -> fluid lists (the cell walk checked ~6x more candidates in 3D; the wall pass
- * cost as much as the fluid rates in the settling tank); MLS walls and multiphase runs walk the cells. */
+ * cost as much as the fluid rates in the settling tank); MLS walls, multiphase runs and the GPU-like gather
+ * mode (SPHDEM_CPU_GATHER, the twin self-test's second side) walk the cells. */
 static int cpu_wall_state(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!D->wmls && !D->mp) {
+  if (!D->wmls && !D->mp && c->cpu_sym) {
     TRY_CPU(cpu_ensure_lists(c));
 #pragma omp parallel for schedule(static)
     for (int64_t w = 0; w < D->nw; w++) {

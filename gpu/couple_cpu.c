@@ -5,7 +5,9 @@
  * and records each fluid particle's grains within 2 hc (in the walk's order); the list is transposed to each
  * grain's fluid particles (ascending fluid index, the order of the grain pass's cell walk where no cell wraps
  * periodically), and the other two passes read the lists instead of walking cells. The per-pair terms are
- * the shared ones (couple_*_add / _finish), so the sums are those of the cell walks, term for term. */
+ * the shared ones (couple_*_add / _finish), so the sums are those of the cell walks, term for term.
+ * The GPU-like gather mode (SPHDEM_CPU_GATHER) walks the cells like the CUDA kernels: the twin self-test
+ * (twin_cpu_selftest) compares the two. */
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -50,6 +52,11 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
   nt = omp_get_max_threads();
 #endif
   c->cpl_valid = 0;
+  if (!c->cpu_sym) {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t a = 0; a < nf; a++) couple_porosity_body(D, a);
+    return SPHDEM_OK;
+  }
   if (nt > c->cpl_nt) {
     int32_t **tb = (int32_t **)realloc(c->cpl_tb, sizeof(int32_t *) * (size_t)nt);
     if (tb) c->cpl_tb = tb;

@@ -96,9 +96,10 @@ static double rel_diff(const double *a, const double *b, int n, double floor_) {
 }
 
 int main(void) {
-  /* SPHDEM_TWIN_SELFTEST=1 compares the CPU backend with itself, to exercise this test without a GPU;
-   * with SPHDEM_CPU_GATHER=1 in the second run's environment it compares the CPU's symmetric pair pass
-   * with the gather pass that the GPU uses (see run()) */
+  /* SPHDEM_TWIN_SELFTEST=1 compares the CPU backend with itself, to exercise this test without a GPU (ctest
+   * twin_cpu_selftest); with SPHDEM_CPU_GATHER=1 in the second run's environment it compares the CPU's own
+   * paths (half pair lists, wall lists, coupling pair lists) with the gather passes and cell walks that the
+   * GPU uses (see run()) */
   int self = getenv("SPHDEM_TWIN_SELFTEST") != NULL;
   sphdem_device other = self ? SPHDEM_DEVICE_CPU : SPHDEM_DEVICE_GPU;
   if (!self && !sphdem_gpu_available()) {
