@@ -435,6 +435,32 @@ int sphdem_get_porosity(sphdem_ctx c, double *eps) {
   return download_fluid_coupling(c, eps, NULL);
 }
 
+int sphdem_couple_seed_porosity(sphdem_ctx c, int n, const double *eps) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (!D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_seed_porosity: the coupling is off");
+  if ((int64_t)n != D->nf)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_seed_porosity: n = %d, but %lld fluid particles are uploaded", n,
+                       (long long)D->nf);
+  if (n == 0) return SPHDEM_OK;
+  if (!eps) return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_seed_porosity: eps is NULL");
+  for (int i = 0; i < n; i++)
+    if (!(eps[i] > 0.0 && eps[i] <= 1.0))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_seed_porosity: eps[%d] = %g is not in (0, 1]", i, eps[i]);
+  TRYC(ensure_couple_fluid(c, D->nf));
+  int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
+  double *buf = (double *)malloc(8 * (size_t)n);
+  int rc = ui && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
+  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) {
+    for (int s = 0; s < n; s++) buf[s] = eps[ui[s]]; /* device slot s holds upload index ui[s] */
+    rc = c->ops->h2d(c, D->eps, buf, 8 * (size_t)n);
+  }
+  free(ui);
+  free(buf);
+  return rc;
+}
+
 int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
   if (!c || !s) return SPHDEM_ERR_ARG;
   memset(s, 0, sizeof *s);

@@ -439,6 +439,7 @@ void FixSPHFluid::setup(int) {
   const bool valid = upload_fluid();
   /* the rates are computed when the per-atom state or the held grain forces were not valid */
   if (!valid || (coupler_ && !coupler_->couple_forces_valid())) rates();
+  else if (coupler_) seed_porosity();
   if (!valid && coupler_ && coupler_->couple_superficial_floor() > 0) start_superficial();
   host_current_ = false;
   download();              /* host rho, p and state columns now match the device */
@@ -623,6 +624,18 @@ void FixSPHFluid::start_superficial() {
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(), nullptr),
         "set_fluid");
   rates();
+}
+
+/* A continued coupled run whose stored rates and grain forces are valid (a restart file, or the run before)
+ * starts without a rate evaluation; the core then learns the porosity from the per-atom column, so that the
+ * set-up density check and the outputs see the intrinsic density. Skipped when a value is not a porosity. */
+void FixSPHFluid::seed_porosity() {
+  std::vector<double> eps(fidx_.size());
+  for (size_t k = 0; k < fidx_.size(); k++) {
+    eps[k] = sa_[fidx_[k]][C_EPS];
+    if (!(eps[k] > 0.0 && eps[k] <= 1.0)) return;
+  }
+  check(sphdem_couple_seed_porosity(ctx_, (int)eps.size(), eps.data()), "couple_seed_porosity");
 }
 
 /* One rate evaluation; the coupled grains are uploaded before it and their forces fetched after. */

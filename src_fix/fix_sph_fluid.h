@@ -130,6 +130,7 @@ class FixSPHFluid : public Fix {
   double fresh_density(int i, int axis, double down_sign);
   void layered_pressure();
   std::vector<double> hyd_z_, hyd_p_; /* multiphase hydrostatic start: pressure at bin edges */
+  void seed_porosity();
   bool upload_fluid();
   void upload_walls(bool each_step);
   void rates();

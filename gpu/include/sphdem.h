@@ -220,6 +220,11 @@ int sphdem_set_grains(sphdem_ctx ctx, int n, const double *x, const double *v, c
 int sphdem_get_grain_forces(sphdem_ctx ctx, double *f, double *fdrag, double *fpg, double *torque);
 /* Porosity eps at each fluid particle (eq 26, before the floor), in the order of sphdem_set_fluid. */
 int sphdem_get_porosity(sphdem_ctx ctx, double *eps);
+/* Porosity from an earlier run (a restart file), n values in the order of sphdem_set_fluid, each in (0, 1]:
+ * what the density check, the reductions and the outputs read until the next sphdem_compute_rates computes
+ * eq 26. A continued run whose stored rates are valid needs it: without it the intrinsic density of a fluid
+ * in a packed bed (rho_bar / eps) is taken as rho_bar, and the setup check sees a density error of 1 - eps. */
+int sphdem_couple_seed_porosity(sphdem_ctx ctx, int n, const double *eps);
 
 typedef struct {
   double f_grains[3];   /* sum of the fluid forces on the grains */

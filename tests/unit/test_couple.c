@@ -462,6 +462,67 @@ static void porosity_walls(void) {
   scene_free(&s);
 }
 
+/* sphdem_couple_seed_porosity: a continued run (restart) whose rates are valid starts without a rate evaluation.
+ * A fresh context given the superficial densities of a packed bed (rho_bar = eps rho) then reads eps = 1 until
+ * its first compute_rates and its density check sees |eps - 1| = 0.25; seeded with the porosity of the first
+ * context it sees the first context's density error, and the next compute_rates computes eq 26 itself. */
+static void seed_porosity(void) {
+  sphdem_params p;
+  scene s;
+  tank_scene(&p, &s, 3);
+  double *gx, *gv, *gr, *eps = malloc(8 * (size_t)s.nf), *eps2 = malloc(8 * (size_t)s.nf);
+  int ng = bed_grains(p.dx, &gx, &gv, &gr);
+  sphdem_couple_params cp;
+  sphdem_couple_params_default(&cp);
+  cp.enabled = 1; cp.mu = 1e-3; cp.eps_walls = 1;
+  sphdem_ctx c = make_ctx(&p);
+  SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
+  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  SPHDEM_CHECK_RC(c, sphdem_get_porosity(c, eps));
+  for (int i = 0; i < s.nf; i++) s.rho[i] *= fmax(eps[i], cp.eps_min); /* superficial densities, as stored */
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_stats st0, st1, st2;
+  SPHDEM_CHECK_RC(c, sphdem_stats_get(c, 0.0, &st0));
+  sphdem_destroy(&c);
+
+  sphdem_ctx d = make_ctx(&p);
+  SPHDEM_CHECK_RC(d, sphdem_couple_set(d, &cp));
+  SPHDEM_CHECK_RC(d, sphdem_set_walls(d, s.nw, s.wx, s.wv, NULL, s.wmass));
+  SPHDEM_CHECK_RC(d, sphdem_set_fluid(d, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(d, sphdem_set_grains(d, ng, gx, gv, gr, NULL));
+  sphdem_stats_get(d, 0.0, &st1); /* may report the density error: that is the point */
+  double bad = eps[0];
+  eps[0] = 1.5;
+  TEST_ASSERT(sphdem_couple_seed_porosity(d, s.nf, eps) == SPHDEM_ERR_ARG && strstr(sphdem_last_error(d), "eps[0]"),
+              "seed_porosity: a value outside (0, 1] is refused, naming it");
+  eps[0] = bad;
+  TEST_ASSERT(sphdem_couple_seed_porosity(d, s.nf - 1, eps) == SPHDEM_ERR_ARG, "seed_porosity: a wrong count is refused");
+  SPHDEM_CHECK_RC(d, sphdem_couple_seed_porosity(d, s.nf, eps));
+  SPHDEM_CHECK_RC(d, sphdem_stats_get(d, 0.0, &st2));
+  printf("  seed_porosity: packed bed, density error of the first context %.4f; fresh context %.4f unseeded, %.4f "
+         "seeded\n", st0.rho_err, st1.rho_err, st2.rho_err);
+  TEST_ASSERT(st1.rho_err > 0.2, "unseeded, the fresh context takes eps = 1 (density error %.3f)", st1.rho_err);
+  TEST_ASSERT(fabs(st2.rho_err - st0.rho_err) < 1e-12, "seeded, it sees the first context's density error (%.3g vs %.3g)",
+              st2.rho_err, st0.rho_err);
+  for (int i = 0; i < s.nf; i++) eps2[i] = 0.5; /* a wrong seed is replaced by the next rate evaluation */
+  SPHDEM_CHECK_RC(d, sphdem_couple_seed_porosity(d, s.nf, eps2));
+  SPHDEM_CHECK_RC(d, sphdem_compute_rates(d));
+  SPHDEM_CHECK_RC(d, sphdem_get_porosity(d, eps2));
+  double worst = 0;
+  for (int i = 0; i < s.nf; i++) worst = fmax(worst, fabs(eps2[i] - eps[i]));
+  TEST_ASSERT(worst < 1e-14, "seed_porosity: compute_rates computes eq 26 again (max |diff| %.3g)", worst);
+  sphdem_destroy(&d);
+  sphdem_ctx e = make_ctx(&p);
+  TEST_ASSERT(sphdem_couple_seed_porosity(e, 0, NULL) == SPHDEM_ERR_STATE, "seed_porosity: refused without coupling");
+  sphdem_destroy(&e);
+  free(gx); free(gv); free(gr); free(eps); free(eps2);
+  scene_free(&s);
+}
+
 static void bed_at_rest(void) {
   sphdem_params p;
   scene s;
@@ -626,6 +687,7 @@ int main(void) {
   g_wall_eps = 0;
   immersion_forces();
   porosity_walls();
+  seed_porosity();
   for (int dim = 2; dim <= 3; dim++) disabled_identical(dim);
   if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
   argument_errors();
