@@ -362,13 +362,15 @@ static void disabled_identical(int dim) {
  *     and not kept): 5.3e-2, so the reaction's second smoothing is not the cause;
  *   - hc = 0.6 / 0.8 / 1 / 1.5 / 2 h: 7.1e-3 (no growth, but Archimedes 0.92) / 3.3e-2 / 6.4e-2 / 8.0e-2 /
  *     8.8e-2.
- *   Working hypothesis: the scheme has no discrete energy balance once eps depends on position. The EOS
- *   P(rho_bar / eps(x)) makes each particle's internal energy change when it moves through a porosity
- *   gradient, but no force of the momentum equation does the matching work. An energy-consistent
- *   (variational) form would use -sum_b m_b (eps_a P_a / rho_a^2 + eps_b P_b / rho_b^2) grad W plus
- *   (P_a / rho_a) grad eps_a with grad eps_a from eq 26. Its exact pairwise reaction on grain j is
- *   V_j sum_a V_a P_a grad_a W_aj = -V_j grad P, and the wall pressure must enter that sum. Not tried: it
- *   departs from He 2018 eqs 9 and 27-33.
+ *   Hypothesis tested and not confirmed: that the scheme lacks a discrete energy balance once eps depends on
+ *   position (the EOS P(rho_bar / eps(x)) changes a particle's internal energy as it moves through a porosity
+ *   gradient, and no force does the matching work). An energy-consistent (variational) prototype was written
+ *   and tried, then not kept. It used -sum_b m_b (eps_a P_a / rho_a^2 + eps_b P_b / rho_b^2) grad W plus
+ *   V_a P_a grad eps_a (grad eps_a from eq 26) on the fluid, and the exact pairwise opposite
+ *   V_j sum_a V_a P_a grad_a W_aj on the grains. The floating bed (inset 15 mm, lifted 20 mm) still grew:
+ *   vmax 5.7e-2 after 600 steps. The bed on the floor got worse (1.1e-1, and Archimedes wrong: that form
+ *   has no Shepard correction and its grain sum misses the walls).
+ *   Still open: why a fixed bed in still water drives a flow at the paper's hc = h.
  * Grains held fixed on a lattice in the lower half of a 3D tank (solid fraction ~0.26 in the bed). The fluid is
  * uploaded consistently with the superficial formulation: rho = eps rho_hydro, m = rho V_lattice (so m/rho is
  * the mixture volume of the lattice). Then the fluid must stay at rest, the pressure must stay hydrostatic in
