@@ -119,6 +119,37 @@ def picture(d, step, g, sel, w, h, png, title, L):
     print("wrote", png)
 
 
+def series(a, steps, use):
+    """Width and height of the bed at every sample of the run, the averaging window shaded, Table 3 as lines."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    t, W, H = [], [], []
+    for s in steps:
+        res = bed(read_dump(os.path.join(a.dir, "dump.grains.%d" % s)), a.L, a.phi)
+        if res is not None:
+            t.append(s * a.dt); W.append(res[0] * 1e3); H.append(res[1] * 1e3)
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for k, (vals, name, col) in enumerate(((W, "width", 0), (H, "height", 2))):
+        x = ax[k]
+        x.plot(t, vals, "o-", ms=3, lw=1, label="this run (each sample)")
+        x.axvspan(use[0] * a.dt, use[-1] * a.dt, color="0.9", label="averaging window")
+        sel = [v for ti, v in zip(t, vals) if ti >= use[0] * a.dt - 1e-12]
+        if sel:
+            x.axhline(np.mean(sel), color="C0", ls=":", label="this run, mean in window %.1f mm" % np.mean(sel))
+        x.axhline(EXP[col], color="k", label="experiment (Sun 2013) %.2f mm" % EXP[col])
+        x.axhspan(EXP[col] - EXP[col + 1], EXP[col] + EXP[col + 1], color="k", alpha=0.12)
+        x.axhline(HE[col], color="C3", ls="--", label="He et al. 2018 %.2f mm" % HE[col])
+        x.set_xlabel("time since the drum started (s)")
+        x.set_ylabel("bed %s (mm)" % name)
+        x.grid(alpha=0.3)
+        x.legend(fontsize=7, loc="best")
+    fig.suptitle(a.title or "rotating drum: bed width and height over the run")
+    fig.tight_layout()
+    fig.savefig(a.series, dpi=110)
+    print("wrote", a.series)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("dir", nargs="?", default=".")
@@ -128,6 +159,8 @@ def main():
     p.add_argument("--phi", type=float, default=0.25, help="solid fraction threshold of a bed cell")
     p.add_argument("--png", default="", help="write a cross-section picture of the last sample")
     p.add_argument("--title", default="")
+    p.add_argument("--series", default="", help="write width and height of every sample against time (PNG), "
+                   "with Table 3's values and the averaging window")
     a = p.parse_args()
     steps = [s for s in steps_of(a.dir, "grains") if s > 0]
     if not steps:
@@ -153,6 +186,8 @@ def main():
     for name, ref in (("experiment [Sun 2013]", EXP), ("simulation [Sun 2013]", SUN), ("He et al. 2018", HE)):
         print("%-22s %9.2f (%4.2f) %9.2f (%4.2f)   this run vs it: width %+.1f %%, height %+.1f %%"
               % (name, ref[0], ref[1], ref[2], ref[3], 100 * (W.mean() / ref[0] - 1), 100 * (H.mean() / ref[2] - 1)))
+    if a.series:
+        series(a, steps, use)
     if a.png and last:
         s, g, (w, h, sel) = last
         title = a.title or "drum cross-section, t = %.3f s (projection of all grains)" % (s * a.dt)
