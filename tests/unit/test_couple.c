@@ -420,6 +420,22 @@ static int bed_grains(double a, double **gx, double **gv, double **gr) {
   return ng;
 }
 
+/* A coupled context on the tank scene with the grains, after one rate evaluation; eps (nf) gets eq 26. */
+static sphdem_ctx bed_ctx(const sphdem_params *p, scene *s, int eps_walls, int ng, const double *gx, const double *gv,
+                          const double *gr, double *eps) {
+  sphdem_ctx c = make_ctx(p);
+  sphdem_couple_params cp;
+  sphdem_couple_params_default(&cp);
+  cp.enabled = 1; cp.mu = 1e-3; cp.eps_walls = eps_walls;
+  SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
+  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s->nw, s->wx, s->wv, NULL, s->wmass));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s->nf, s->tag, s->x, s->v, s->rho, s->mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  SPHDEM_CHECK_RC(c, sphdem_get_porosity(c, eps));
+  return c;
+}
+
 /* Keyword eps_walls: porosity of a uniform packing against the tank walls. Eq 26 sums the grain volumes in the
  * kernel, which the walls cut: beside a wall it counts fewer grains and gives too high a porosity. Divided by the
  * kernel share inside the walls (1 - wall volume sum), every fluid particle of the bed (those further than 2 h_c
@@ -433,16 +449,7 @@ static void porosity_walls(void) {
   int ng = bed_grains(p.dx, &gx, &gv, &gr);
   double worst[2] = {0, 0}, wall_mean[2] = {0, 0};
   for (int on = 0; on <= 1; on++) {
-    sphdem_ctx c = make_ctx(&p);
-    sphdem_couple_params cp;
-    sphdem_couple_params_default(&cp);
-    cp.enabled = 1; cp.mu = 1e-3; cp.eps_walls = on;
-    SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
-    SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-    SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-    SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-    SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-    SPHDEM_CHECK_RC(c, sphdem_get_porosity(c, eps));
+    sphdem_ctx c = bed_ctx(&p, &s, on, ng, gx, gv, gr, eps);
     int nwall = 0, nbed = 0;
     for (int i = 0; i < s.nf; i++) {
       const double *xi = s.x + 3 * i;
@@ -475,15 +482,8 @@ static void seed_porosity(void) {
   double *gx, *gv, *gr, *eps = malloc(8 * (size_t)s.nf), *eps2 = malloc(8 * (size_t)s.nf);
   int ng = bed_grains(p.dx, &gx, &gv, &gr);
   sphdem_couple_params cp;
-  sphdem_couple_params_default(&cp);
-  cp.enabled = 1; cp.mu = 1e-3; cp.eps_walls = 1;
-  sphdem_ctx c = make_ctx(&p);
-  SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-  SPHDEM_CHECK_RC(c, sphdem_get_porosity(c, eps));
+  sphdem_ctx c = bed_ctx(&p, &s, 1, ng, gx, gv, gr, eps);
+  SPHDEM_CHECK_RC(c, sphdem_couple_get(c, &cp));
   for (int i = 0; i < s.nf; i++) s.rho[i] *= fmax(eps[i], cp.eps_min); /* superficial densities, as stored */
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
