@@ -64,6 +64,8 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
   CCHECK(cp->wall_eps == 0 || cp->wall_eps == 1, "wall_eps (wall porosity) must be 0 or 1 (got %d)", cp->wall_eps);
   CCHECK(cp->immersion >= 0 && cp->immersion <= 1, "immersion must be in [0, 1], 0 = off (got %g)", cp->immersion);
   CCHECK(cp->eps_walls == 0 || cp->eps_walls == 1, "eps_walls must be 0 or 1 (got %d)", cp->eps_walls);
+  CCHECK(cp->pressure_form == 0 || cp->pressure_form == 1, "pressure_form must be 0 (mass) or 1 (volume) (got %d)",
+         cp->pressure_form);
   CCHECK(cp->dmax >= 0 && isfinite(cp->dmax), "dmax (largest grain diameter) must be >= 0 (got %g)", cp->dmax);
   double hc = cp->hc > 0 ? cp->hc : P->h;
   for (int d = 0; d < P->dim; d++)
@@ -176,7 +178,7 @@ void sphdem_couple_release(struct sphdem_ctx_s *c) {
   c->hgf = NULL;
   c->cap_hgf = 0;
   D->ng = 0;
-  D->couple = D->couple_eos = 0;
+  D->couple = D->couple_eos = D->pvol = 0;
   c->nforces = 0;
   c->forces_valid = 0;
   c->grains_dirty = 0;
@@ -202,6 +204,7 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   int was_on = D->couple;
   D->couple = 1;
   D->couple_eos = cp->superficial;
+  D->pvol = cp->pressure_form;
   D->cimm = cp->immersion;
   D->ceps_walls = cp->eps_walls;
   D->drag = cp->drag;

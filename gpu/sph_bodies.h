@@ -357,7 +357,12 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
     P->dda = density_diffusion(D, rhoa, rhob, F, r, r2, ie);
     P->ddb = -P->dda * rhob / rhoa;
   }
-  pair_momentum(D, 1.0, pra, rhoa, D->pr2[b], rhob, W, F, r, r2, ie, vab, P->A);
+  /* pressure_form volume (coupled): force on a from b -V_a V_b (P_a + P_b) grad W, i.e. P/rho^2 of each side
+   * times rho_a/rho_b resp. rho_b/rho_a; continuity rho_a sum_b V_b v_ab.grad W (the extra part rides on dda/ddb).
+   * Both stay symmetric in a and b, so one record still serves both sides. */
+  double ka = D->pvol ? rhoa / rhob : 1.0, kb = D->pvol ? rhob / rhoa : 1.0;
+  if (D->pvol) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
+  pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
   double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0; /* eq 12 */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
   return 1;
@@ -394,8 +399,11 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
     vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
   }
-  R->drho += mb * vdotr * F;
-  pair_momentum(D, mb, R->pra, R->rhoa, D->wp[w] / (rw * rw), rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv, R->acc);
+  /* pressure_form volume: -V_a V_w (P_a + P_w) grad W and rho_a V_w v_aw.grad W (V_w = mb / rw) */
+  double ka = D->pvol ? R->rhoa / rw : 1.0;
+  R->drho += mb * ka * vdotr * F;
+  pair_momentum(D, mb, R->pra * ka, R->rhoa, D->wp[w] / (rw * (D->pvol ? R->rhoa : rw)), rw, W, F, r, r2,
+                1.0 / (r2 + D->eta2), vv, R->acc);
   wall_repulsion(D, rr, r2, r, R->acc);
 }
 

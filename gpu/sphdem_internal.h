@@ -48,6 +48,7 @@ typedef struct {
   /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
   int couple;          /* coupling passes run in compute_rates */
   int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
+  int pvol;            /* coupled, pressure_form volume: volume form of the pressure and continuity pair terms */
   double cimm;         /* keyword immersion S of the coupling (0 = off) */
   int ceps_walls;      /* eq 26 normalised by the kernel share inside the walls (keyword eps_walls) */
   int drag, torque;    /* sphdem_drag, rotational drag on/off */

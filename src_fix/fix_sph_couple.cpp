@@ -22,8 +22,9 @@ using namespace FixConst;
 namespace {
 const char *const SYNTAX =
     "fix ID group sph/couple FLUID-FIX-ID [drag ergun-wenyu|difelice|schiller-naumann|none] [mu V] [hc V] "
-    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid] [immersion S] [eps_walls yes|no]";
-const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity, immersion, eps_walls";
+    "[eps_min V] [superficial yes|no] [torque yes|no] [dmax V] [wall_porosity none|fluid] [immersion S] [eps_walls yes|no] "
+    "[pressure_form mass|volume]";
+const char *const KEYWORDS = "drag, mu, hc, eps_min, superficial, torque, dmax, wall_porosity, immersion, eps_walls, pressure_form";
 const char *const DRAGS = "ergun-wenyu, difelice, schiller-naumann or none";
 
 const char *drag_name(int d) {
@@ -104,6 +105,7 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
       if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
       if (kw == "superficial" || kw == "torque" || kw == "eps_walls") fail(kw + " must be yes or no");
       if (kw == "wall_porosity") fail("wall_porosity must be none or fluid");
+      if (kw == "pressure_form") fail("pressure_form must be mass or volume");
       if (kw == "mu" || kw == "hc" || kw == "eps_min" || kw == "dmax" || kw == "immersion")
         fail("missing value for " + kw + " (usage: " + kw + " V)");
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
@@ -121,6 +123,9 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
     } else if (kw == "wall_porosity") {
       if (val != "none" && val != "fluid") fail("wall_porosity must be none or fluid (got '" + val + "')");
       cp_.wall_eps = val == "fluid";
+    } else if (kw == "pressure_form") {
+      if (val != "mass" && val != "volume") fail("pressure_form must be mass or volume (got '" + val + "')");
+      cp_.pressure_form = val == "volume";
     } else if (kw == "superficial" || kw == "torque" || kw == "eps_walls") {
       if (val != "yes" && val != "no") fail(kw + " must be yes or no (got '" + val + "')");
       (kw == "superficial" ? cp_.superficial : kw == "torque" ? cp_.torque : cp_.eps_walls) = val == "yes";
@@ -194,10 +199,11 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
     char line[512];
     snprintf(line, sizeof line,
              "Fix sph/couple: drag %s, mu %g, hc %g, eps_min %g, superficial %s, torque %s, dmax %g%s, "
-             "wall_porosity %s, immersion %g, eps_walls %s; fluid step every %ld engine steps\n",
+             "wall_porosity %s, immersion %g, eps_walls %s, pressure_form %s; fluid step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
              cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
-             cp_.wall_eps ? "fluid" : "none", cp_.immersion, cp_.eps_walls ? "yes" : "no", fluid_->every());
+             cp_.wall_eps ? "fluid" : "none", cp_.immersion, cp_.eps_walls ? "yes" : "no",
+             cp_.pressure_form ? "volume" : "mass", fluid_->every());
     sphdem_compat::logmesg(lmp, line);
   }
 }

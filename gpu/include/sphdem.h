@@ -204,6 +204,13 @@ typedef struct {
                            (sigma_w = sum_w V_w W_aw over wall particles): grains lie only inside the walls, so
                            beside a wall eq 26 counts a truncated kernel and gives too high a porosity (0.80
                            instead of 0.75 for a uniform bed). 0 (default): eq 26 as the paper */
+  int pressure_form;    /* pair terms of the fluid while coupled. 0 (default): eq 9 as printed, m_b (P_a/rho_a^2 +
+                           P_b/rho_b^2) grad W, continuity sum_b m_b v_ab.grad W (eq 6); 1: volume form, force on a
+                           from b -V_a V_b (P_a + P_b) grad W and continuity rho_a sum_b V_b v_ab.grad W (V = m/rho,
+                           the same pair with each side's volume). With superficial density the masses carry the
+                           porosity (m = eps m_0); the mass form then weights the pressure gradient with the
+                           neighbours' porosity, and a packed bed at rest drives a flow at its edges (see
+                           doc/fix_sph_couple.md, "Packed beds"); the volume form does not. Fluid and wall pairs. */
 } sphdem_couple_params;
 
 void sphdem_couple_params_default(sphdem_couple_params *c);

@@ -340,7 +340,8 @@ static void disabled_identical(int dim) {
 }
 
 /* ---- packed bed at rest: how eps enters eqs 6-7 (exploration, not in the default run) -----------------------
- * KNOWN FAILURE, run with SPHDEM_COUPLE_BED=1 (knobs BED_STEPS, BED_DELTA, BED_DRAG, BED_SUPERFICIAL,
+ * KNOWN FAILURE with the defaults (pressure_form mass; see bed_floating for pressure_form volume), run with
+ * SPHDEM_COUPLE_BED=1 or BED_ONLY=1 (the bed alone) (knobs BED_PFORM, BED_STEPS, BED_DELTA, BED_DRAG, BED_SUPERFICIAL,
  * BED_NOGRAINS, BED_WALLEPS, BED_EPSWALLS, BED_TRACE): over 1000 steps the fluid at the bed's corners with the
  * walls accelerates into the walls (vmax ~0.1 m/s vs 6e-3 without grains), with or without superficial density
  * and drag; see the report of the coupling commit. Session 6: with BED_EPSWALLS=1 (eps_walls) the bed's porosity
@@ -388,7 +389,15 @@ static void disabled_identical(int dim) {
  *   - The test puts the grains on the fluid particles (both lattices at (i + 1/2) dx). Shifting them by
  *     dx/4 or dx/2, or jittering them by up to 0.3 dx, makes it worse: vmax 0.17 / 0.26 / 0.13 m/s at 1000
  *     steps, against 0.10.
- *   Still open: which term gives the negative stiffness at the bed's edges at the paper's hc = h.
+ *   Session 8: found. The mass form of eq 9 (m_b P_b / rho_b^2 with m_b = eps_b m_0) weights the pressure gradient
+ *   with the neighbours' porosity (-<1/eps> grad P / rho instead of -grad P / (eps_a rho)), so the columns at the
+ *   bed's edges do not balance (water weight + reaction). BED_PFORM=1 (keyword pressure_form volume,
+ *   -V_a V_b (P_a + P_b) grad W) removes it wherever the bed's edges are in the water: BED_INSET=0.015 with or
+ *   without BED_LIFT=0.02 gives vmax 5.5e-3 / ke 9e-8 J at 600 steps, the same as BED_NOGRAINS=1 (the default-run
+ *   test bed_floating asserts it). Against the side walls (no inset) it stays 5.4e-2: there eq 26 (cut kernel) and
+ *   eq 33 (shared among fewer particles) disagree. A porosity from eq 33's weights (V_j / sigma_j in eq 26; a
+ *   prototype, not kept) made the side columns quiet (ke 1e-6 J) but the bottom-corner particles (three walls)
+ *   ran into the corner and left the tank at ~1000 steps (2 m/s), also with sigma_j floored at 0.3 or 0.5.
  * Grains held fixed on a lattice in the lower half of a 3D tank (solid fraction ~0.26 in the bed). The fluid is
  * uploaded consistently with the superficial formulation: rho = eps rho_hydro, m = rho V_lattice (so m/rho is
  * the mixture volume of the lattice). Then the fluid must stay at rest, the pressure must stay hydrostatic in
@@ -543,6 +552,10 @@ static void seed_porosity(void) {
   scene_free(&s);
 }
 
+/* The packed bed's scene: 0 = the env knobs (exploration); > 0 = the default-run case of bed_floating (below). */
+static int g_bed_case = 0, g_bed_pform = 0;
+static double g_bed_vmax, g_bed_perr, g_bed_buo;
+
 static void bed_at_rest(void) {
   sphdem_params p;
   scene s;
@@ -557,6 +570,7 @@ static void bed_at_rest(void) {
   cp.wall_eps = getenv("BED_WALLEPS") ? atoi(getenv("BED_WALLEPS")) : 1; /* as recorded in the note above */
   if (getenv("BED_EPSWALLS")) cp.eps_walls = atoi(getenv("BED_EPSWALLS"));
   if (getenv("BED_HCF")) cp.hc = atof(getenv("BED_HCF")) * p.h;
+  cp.pressure_form = g_bed_case ? g_bed_pform : getenv("BED_PFORM") ? atoi(getenv("BED_PFORM")) : 0;
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   /* grains: lattice spacing dx, radius 0.39 dx, in 0 < z < 0.05 (fluid depth 0.1) */
   double *gx, *gv, *gr, r = 0.39 * p.dx;
@@ -568,8 +582,9 @@ static void bed_at_rest(void) {
     srand(7);
     for (int j = 0; j < 3 * ng; j++) gx[j] += atof(getenv("BED_JITTER")) * p.dx * (2.0 * rand() / RAND_MAX - 1.0);
   }
-  if (getenv("BED_INSET") || getenv("BED_LIFT")) { /* exploration: keep the grains away from the side walls / floor */
+  if (g_bed_case || getenv("BED_INSET") || getenv("BED_LIFT")) { /* keep the grains away from the side walls / floor */
     double in = getenv("BED_INSET") ? atof(getenv("BED_INSET")) : 0, lift = getenv("BED_LIFT") ? atof(getenv("BED_LIFT")) : 0;
+    if (g_bed_case) { in = 0.015; lift = 0.02; }
     int k = 0;
     for (int j = 0; j < ng; j++) {
       double *q = gx + 3 * j;
@@ -622,7 +637,7 @@ static void bed_at_rest(void) {
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
   SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
   double dt = (getenv("BED_DTF") ? atof(getenv("BED_DTF")) : 0.2) * p.h / (1.2 * p.c0), vscale = sqrt(9.81 * 0.1);
-  int nsteps = getenv("BED_STEPS") ? atoi(getenv("BED_STEPS")) : 300;
+  int nsteps = g_bed_case ? 400 : getenv("BED_STEPS") ? atoi(getenv("BED_STEPS")) : 300;
   if (getenv("BED_DAMP")) { /* exploration: with the bed, velocities zeroed every 20 steps: is there a rest state? */
     int nd = atoi(getenv("BED_DAMP"));
     double *x0 = malloc(24 * (size_t)s.nf);
@@ -685,12 +700,38 @@ static void bed_at_rest(void) {
   printf("  3D packed bed at rest (min eps %.3f): after %d steps vmax %.2e m/s (%.2f%% of sqrt(gH)), max |P - rho0 g "
          "(H - z)| %.2f%% of rho0 g H, interior grains feel %.4f rho_f V g (mean of %d)\n", emin, nsteps, st.vmax,
          100 * st.vmax / vscale, 100 * perr, buo, nin);
-  TEST_ASSERT(st.vmax < 0.01 * vscale, "packed bed: the fluid stays at rest (vmax %.2e)", st.vmax);
-  TEST_ASSERT(perr < 0.05, "packed bed: pressure hydrostatic within 5%% of rho0 g H (%.2f%%)", 100 * perr);
-  TEST_ASSERT(fabs(buo - 1) < 0.02, "packed bed: grains feel Archimedes' force within 2%% (%.4f)", buo);
+  g_bed_vmax = st.vmax; g_bed_perr = perr; g_bed_buo = buo;
+  if (!g_bed_case) {
+    TEST_ASSERT(st.vmax < 0.01 * vscale, "packed bed: the fluid stays at rest (vmax %.2e)", st.vmax);
+    TEST_ASSERT(perr < 0.05, "packed bed: pressure hydrostatic within 5%% of rho0 g H (%.2f%%)", 100 * perr);
+    TEST_ASSERT(fabs(buo - 1) < 0.02, "packed bed: grains feel Archimedes' force within 2%% (%.4f)", buo);
+  }
   free(gx); free(gv); free(gr); free(eps); free(pr); free(x); free(f);
   scene_free(&s);
   sphdem_destroy(&c);
+}
+
+/* Keyword pressure_form volume: a packed bed at rest stays at rest. The bed of bed_at_rest kept 15 mm from the side
+ * walls and lifted 20 mm off the floor (its edges are all inside the water), 400 steps (0.043 s). With the mass
+ * form of eq 9 the masses m = eps m_0 weight the pressure gradient with the neighbours' porosity, the columns at
+ * the bed's vertical edges are out of balance, and the flow grows (measured 2.4e-2 m/s at 400 steps, printed, not
+ * asserted: it is the failure the keyword removes). With the volume form the bed is as quiet as the water without
+ * grains (5.3e-3 m/s at 400 steps, the fastest particles at the free surface in both). Bound: 1 % of sqrt(g H). */
+static void bed_floating(void) {
+  double v[2], pe[2], bu[2], vscale = sqrt(9.81 * 0.1);
+  g_bed_case = 1;
+  for (int f = 0; f <= 1; f++) {
+    g_bed_pform = f;
+    bed_at_rest();
+    v[f] = g_bed_vmax; pe[f] = g_bed_perr; bu[f] = g_bed_buo;
+  }
+  g_bed_case = 0;
+  printf("  floating packed bed, 400 steps: pressure_form mass vmax %.2e m/s, volume vmax %.2e m/s (bound %.2e); "
+         "volume: pressure error %.2f%% of rho0 g H, Archimedes %.4f\n", v[0], v[1], 0.01 * vscale, 100 * pe[1], bu[1]);
+  TEST_ASSERT(v[1] < 0.01 * vscale, "pressure_form volume: the floating packed bed stays at rest (vmax %.2e)", v[1]);
+  TEST_ASSERT(pe[1] < 0.05, "pressure_form volume: pressure hydrostatic within 5%% of rho0 g H (%.2f%%)", 100 * pe[1]);
+  TEST_ASSERT(fabs(bu[1] - 1) < 0.03, "pressure_form volume: interior grains feel Archimedes' force within 3%% (%.4f)",
+              bu[1]);
 }
 
 /* ---- argument errors ---------------------------------------------------------------------------------------- */
@@ -721,6 +762,7 @@ static void argument_errors(void) {
   b = cp; b.superficial = 2; TEST_ASSERT(bad(c, b, "superficial"), "superficial checked");
   b = cp; b.torque = -1; TEST_ASSERT(bad(c, b, "torque"), "torque checked");
   b = cp; b.dmax = -1; TEST_ASSERT(bad(c, b, "dmax"), "dmax checked");
+  b = cp; b.pressure_form = 2; TEST_ASSERT(bad(c, b, "pressure_form"), "pressure_form checked");
   b = cp; b.enabled = 3; TEST_ASSERT(bad(c, b, "enabled"), "enabled checked");
   sphdem_couple_params got;
   SPHDEM_CHECK_RC(c, sphdem_couple_get(c, &got));
@@ -737,6 +779,7 @@ static void argument_errors(void) {
 }
 
 int main(void) {
+  if (getenv("BED_ONLY")) { bed_at_rest(); return test_summary("couple"); } /* exploration: the packed bed alone */
   double ratios[] = {0.2, 0.5, 1.0, 2.0, 3.0};
   for (int dim = 2; dim <= 3; dim++)
     for (int per = 0; per <= 1; per++)
@@ -761,6 +804,7 @@ int main(void) {
   porosity_walls();
   seed_porosity();
   for (int dim = 2; dim <= 3; dim++) disabled_identical(dim);
+  bed_floating();
   if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
   argument_errors();
   return test_summary("couple");
