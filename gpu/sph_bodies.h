@@ -305,6 +305,14 @@ SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double 
   for (int d = 0; d < 3; d++) acc[d] += s * r[d];
 }
 
+/* Keyword pressure_form of the coupling: the pair (a, b) in volume form, force on a from b -V_a V_b (P_a + P_b) grad W
+ * and continuity rho_a sum_b V_b v_ab.grad W (V = m / rho), is the mass form's pair with P_a/rho_a^2 scaled by
+ * *ka = rho_a/rho_b, P_b/rho_b^2 by *kb = rho_b/rho_a and a's continuity term by ka. Both 1 in the mass form (eq 9). */
+SPHDEM_HD void pair_form_factors(const sphdem_dev *D, double rhoa, double rhob, double *ka, double *kb) {
+  *ka = D->pvol ? rhoa / rhob : 1.0;
+  *kb = D->pvol ? rhob / rhoa : 1.0;
+}
+
 /* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
  * delta h c0 sum_b psi_ab . grad_a W V_b, psi_ab = 2 (rho_b - rho_a - rho^H_ab) r_ba / (r^2 + 0.01 h^2);
  * returned per unit mass of b (V_b = m_b / rho_b: the caller multiplies by m_b).
@@ -357,10 +365,9 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
     P->dda = density_diffusion(D, rhoa, rhob, F, r, r2, ie);
     P->ddb = -P->dda * rhob / rhoa;
   }
-  /* pressure_form volume (coupled): force on a from b -V_a V_b (P_a + P_b) grad W, i.e. P/rho^2 of each side
-   * times rho_a/rho_b resp. rho_b/rho_a; continuity rho_a sum_b V_b v_ab.grad W (the extra part rides on dda/ddb).
-   * Both stay symmetric in a and b, so one record still serves both sides. */
-  double ka = D->pvol ? rhoa / rhob : 1.0, kb = D->pvol ? rhob / rhoa : 1.0;
+  /* pressure_form volume: the extra continuity part rides on dda/ddb, so one record still serves both sides */
+  double ka, kb;
+  pair_form_factors(D, rhoa, rhob, &ka, &kb);
   if (D->pvol) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
   pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
   double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0; /* eq 12 */
@@ -399,11 +406,11 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
     vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
   }
-  /* pressure_form volume: -V_a V_w (P_a + P_w) grad W and rho_a V_w v_aw.grad W (V_w = mb / rw) */
-  double ka = D->pvol ? R->rhoa / rw : 1.0;
+  double ka, kb; /* pressure_form (V_w = mb / rw) */
+  pair_form_factors(D, R->rhoa, rw, &ka, &kb);
   R->drho += mb * ka * vdotr * F;
-  pair_momentum(D, mb, R->pra * ka, R->rhoa, D->wp[w] / (rw * (D->pvol ? R->rhoa : rw)), rw, W, F, r, r2,
-                1.0 / (r2 + D->eta2), vv, R->acc);
+  pair_momentum(D, mb, R->pra * ka, R->rhoa, D->wp[w] / (rw * rw) * kb, rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv,
+                R->acc);
   wall_repulsion(D, rr, r2, r, R->acc);
 }
 
