@@ -393,7 +393,7 @@ static void disabled_identical(int dim) {
  *   with the neighbours' porosity (-<1/eps> grad P / rho instead of -grad P / (eps_a rho)), so the columns at the
  *   bed's edges do not balance (water weight + reaction). BED_PFORM=1 (keyword pressure_form volume,
  *   -V_a V_b (P_a + P_b) grad W) removes it wherever the bed's edges are in the water: BED_INSET=0.015 with or
- *   without BED_LIFT=0.02 gives vmax 5.5e-3 / ke 9e-8 J at 600 steps, the same as BED_NOGRAINS=1 (the default-run
+ *   without BED_LIFT=0.02 gives vmax 5.5e-3 / ke 1.7e-7 J at 600 steps, BED_NOGRAINS=1 5.5e-3 / 9e-8 J (the default-run
  *   test bed_floating asserts it). Against the side walls (no inset) it stays 5.4e-2: there eq 26 (cut kernel) and
  *   eq 33 (shared among fewer particles) disagree. A porosity from eq 33's weights (V_j / sigma_j in eq 26; a
  *   prototype, not kept) made the side columns quiet (ke 1e-6 J) but the bottom-corner particles (three walls)
