@@ -6,11 +6,11 @@ Cases (each runs the committed example input; only the resolution variable chang
   settling     examples/settling/in.settling, dx = 3, 2, 1.5 mm (h = 1.3 dx; 1 mm glass sphere, Re 169),
                t = 0.25 s. Error: mean |v - v_ODE| / v_ODE over the acceleration (0.01-0.07 s) and over the
                terminal phase (0.125-0.25 s), v_ODE the Schiller-Naumann single-sphere ODE of
-               ../shared/reference/README.md (examples/settling/plot.py). The terminal phase carries the
+               data/reference/closed_forms.md (examples/settling/plot.py). The terminal phase carries the
                tank's spurious water motion (examples/settling/README.md).
   dambreak2d   examples/dambreak2d/in.dambreak2d, a/dx = 20, 40, 80 (water only, He 2018 2.1). Error: mean
                |Z - Z_exp| / Z_exp over the Martin & Moyce (1952) points with T <= 3 of both series
-               (../shared/reference/README.md).
+               (data/reference/martin_moyce_1952.dat).
   particles    examples/dambreak_particles/in.dambreak_particles (water + 200 g of beads, He 2018 3.2.1),
                dx = 6, 5, 3.75 mm (every = 32, 27, 20: the DEM step stays near 4.1e-6 s), t = 0.15 s (the
                water front reaches x = 160 mm of the 200 mm tank). No experimental front data are in this
@@ -40,7 +40,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 EX = os.path.join(ROOT, "examples")
-REF_README = os.path.normpath(os.path.join(ROOT, "..", "shared", "reference", "README.md"))
+REF_MM = os.path.join(ROOT, "data", "reference", "martin_moyce_1952.dat")
 
 
 def load(path, name):
@@ -99,8 +99,8 @@ def settling(args):
 
 def dambreak2d(args):
     Tr, Zr = [], []
-    for heading in ("a = 2.25 in:", "a = 1.125 in:"):
-        T, Z = dambreak2d_plot.read_table(args.reference, heading)
+    for width_in in (2.25, 1.125):
+        T, Z = dambreak2d_plot.read_table(args.reference, width_in)
         Tr += list(T[T <= 3.0])
         Zr += list(Z[T <= 3.0])
     Tr, Zr = np.array(Tr), np.array(Zr)
@@ -154,7 +154,7 @@ def main():
     ap.add_argument("--work", default="/tmp/sphdem_acc")
     ap.add_argument("--ref", help="an existing dx = 3 mm run of in.dambreak_particles (front.csv, log.lammps)")
     ap.add_argument("--reuse", action="store_true")
-    ap.add_argument("--reference", default=REF_README)
+    ap.add_argument("--reference", default=REF_MM)
     ap.add_argument("--out", default=os.path.join(HERE, "results_accuracy"))
     args = ap.parse_args()
     args.exe = os.path.abspath(args.exe)

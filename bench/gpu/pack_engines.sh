@@ -21,7 +21,7 @@ cp -a /usr/share/openmpi $E/stage/root/usr/share/ && cp -a /etc/openmpi $E/stage
 (cd $E/stage && tar cJf ../englibs.tar.xz lib root) && rm -rf $E/stage
 cp $B/lmp_sphdem $B/liggghts_sphdem $B/libsphdem_lammps.so $B/libsphdem_liggghts.so $E/
 cp bench/gpu/engine_run.sh $E/run.sh
-mkdir -p .gpubin/reference && cp ../shared/reference/README.md .gpubin/reference/
+mkdir -p .gpubin/reference && cp data/reference/* .gpubin/reference/
 cp build/tests/unit_* build/tests/verify_* build/tests/twin_* build/bench/bench_dambreak .gpubin/
 for b in bench_dem cfd_bench; do [ -x build/bench/$b ] && cp build/bench/$b .gpubin/; done
 du -sh $E .gpubin

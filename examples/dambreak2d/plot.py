@@ -2,13 +2,13 @@
 """plot.py - surge front of the 2D dam break (in.dambreak2d) vs Martin & Moyce (1952).
 
 Reads the run's front.dat (columns: step, t, T = t sqrt(2g/a), Z = front/a; written by
-'fix print' in in.dambreak2d) and the a = 2.25 in and a = 1.125 in tables of
-../shared/reference/README.md beside the checkout, writes front.png and prints the
-deviation from both series at their tabulated times T <= 3.
+'fix print' in in.dambreak2d) and the a = 2.25 in and a = 1.125 in series of
+data/reference/martin_moyce_1952.dat, writes front.png and prints the deviation from both
+series at their tabulated times T <= 3.
 
   python3 plot.py                        # front.dat in the current directory
   python3 plot.py run_lmp/front.dat run_lig/front.dat --labels LAMMPS LIGGGHTS
-  python3 plot.py --reference /path/to/reference/README.md -o front.png
+  python3 plot.py --reference /path/to/martin_moyce_1952.dat -o front.png
 
 Needs python3, numpy and matplotlib (Debian: python3-numpy, python3-matplotlib).
 """
@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-DEFAULT_REF = os.path.normpath(os.path.join(HERE, "..", "..", "..", "shared", "reference", "README.md"))
+DEFAULT_REF = os.path.normpath(os.path.join(HERE, "..", "..", "data", "reference", "martin_moyce_1952.dat"))
 
 
 def read_front(path):
@@ -31,30 +31,13 @@ def read_front(path):
     return data[order, 2], data[order, 3]
 
 
-def read_table(path, heading):
-    """The markdown table that follows the line 'heading' (e.g. 'a = 2.25 in:') -> T, Z arrays."""
-    with open(path) as f:
-        lines = f.read().splitlines()
-    try:
-        start = next(i for i, l in enumerate(lines) if l.strip() == heading)
-    except StopIteration:
-        sys.exit("%s: no table headed '%s'" % (path, heading))
-    T, Z = [], []
-    for l in lines[start + 1:]:
-        l = l.strip()
-        if not l:
-            if T:
-                break
-            continue
-        if not l.startswith("|"):
-            break
-        cells = [c.strip() for c in l.strip("|").split("|")]
-        try:
-            T.append(float(cells[0]))
-            Z.append(float(cells[1]))
-        except (ValueError, IndexError):
-            continue  # header or separator row
-    return np.array(T), np.array(Z)
+def read_table(path, width_in):
+    """The series of martin_moyce_1952.dat (columns a_in T Z) with column width a = width_in inches -> T, Z."""
+    data = np.loadtxt(path, comments="#", ndmin=2)
+    rows = data[np.isclose(data[:, 0], width_in)]
+    if len(rows) == 0:
+        sys.exit("%s: no rows with a = %g in" % (path, width_in))
+    return rows[:, 1], rows[:, 2]
 
 
 def main():
@@ -62,18 +45,18 @@ def main():
     ap.add_argument("fronts", nargs="*", default=["front.dat"], help="front.dat file(s) of runs (default front.dat)")
     ap.add_argument("--labels", nargs="*", help="legend label per front file")
     ap.add_argument("--reference", default=DEFAULT_REF,
-                    help="reference README.md with the Martin & Moyce tables, or its folder (default %(default)s)")
+                    help="martin_moyce_1952.dat, or its folder (default %(default)s)")
     ap.add_argument("-o", "--output", default="front.png")
     ap.add_argument("--tmax", type=float, default=3.0, help="compare at tabulated T <= TMAX (default 3)")
     args = ap.parse_args()
 
     ref = args.reference
     if os.path.isdir(ref):
-        ref = os.path.join(ref, "README.md")
+        ref = os.path.join(ref, "martin_moyce_1952.dat")
     if not os.path.exists(ref):
         sys.exit("reference data not found at %s; pass --reference PATH" % ref)
-    series = [("Martin & Moyce 1952, a = 2.25 in", "a = 2.25 in:", "s"),
-              ("Martin & Moyce 1952, a = 1.125 in", "a = 1.125 in:", "^")]
+    series = [("Martin & Moyce 1952, a = 2.25 in", 2.25, "s"),
+              ("Martin & Moyce 1952, a = 1.125 in", 1.125, "^")]
     tables = [(name, marker) + read_table(ref, head) for name, head, marker in series]
 
     labels = args.labels or []

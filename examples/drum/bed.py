@@ -23,9 +23,25 @@ import sys
 
 import numpy as np
 
-EXP = (73.41, 1.25, 62.18, 1.71)    # Sun et al. 2013 experiment: width (sd), height (sd), mm
-SUN = (71.45, 0.79, 59.80, 0.61)    # Sun et al. 2013 simulation
-HE = (73.78, 0.708, 56.93, 0.86)    # He et al. 2018
+TABLE3 = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "data", "reference",
+                      "he2018_table3_drum.dat")
+
+
+def read_table3(path=TABLE3):
+    """He 2018 Table 3: source -> (width, width sd, height, height sd) in mm."""
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if line.strip() and not line.startswith("#"):
+                name, *vals = line.split()
+                out[name] = tuple(float(v) for v in vals)
+    return out
+
+
+_T3 = read_table3()
+EXP = _T3["sun2013_experiment"]    # Sun et al. 2013 experiment: width (sd), height (sd), mm
+SUN = _T3["sun2013_simulation"]    # Sun et al. 2013 simulation
+HE = _T3["he2018_simulation"]      # He et al. 2018
 
 
 def read_dump(path):

@@ -3,7 +3,7 @@
 
 Reads settling.dat (written by 'fix print' in in.settling: step t z vz Fz_fluid Fz_drag Fz_pressure
 eps_min Fz_grains Fz_net) of one or more runs, integrates the single-sphere ODE of
-../shared/reference/README.md,
+data/reference/closed_forms.md ("Single sphere settling"),
     dv/dt = g (rho_p - rho_f)/rho_p - 3/4 rho_f |v| v C_D / (d rho_p),  C_D = 24/Re (1 + 0.15 Re^0.687),
 with RK4 (dt 1e-6 s), writes settling.png (v(t) and the force split) and prints the terminal velocity,
 the velocity error at a few times and the largest |Fz_net| / |Fz_grains| (momentum balance).

@@ -639,7 +639,7 @@ def test_couple_badkw(exe, engine):
 
 
 def settling_ode(t_end, d=0.001, rhop=2500.0, rhof=1000.0, mu=8.9e-4, g=9.81, dt=1e-6):
-    """Schiller-Naumann single-sphere ODE (shared/reference/README.md), RK4; downward speed at t_end"""
+    """Schiller-Naumann single-sphere ODE (data/reference/closed_forms.md), RK4; downward speed at t_end"""
     def acc(v):
         re = rhof * d * abs(v) / mu
         cdw = 24.0 * mu / (rhof * d) * (1.0 + 0.15 * re ** 0.687) if re > 0 else 24.0 * mu / (rhof * d)

@@ -152,7 +152,7 @@ def test_same(lmp, lig):
 
 
 def steady_two_newtonian(y, mu_a=1.0, mu_b=0.25, G=2.0, H=2.0, a=1.0):
-    """two-layer plane Poiseuille, ../shared/reference closed form (layer 1 mu_a on 0 <= y <= a)"""
+    """two-layer plane Poiseuille, data/reference/closed_forms.md closed form (layer 1 mu_a on 0 <= y <= a)"""
     tau0 = G * (a * a / mu_a + (H * H - a * a) / mu_b) / (2 * (a / mu_a + (H - a) / mu_b))
     if y <= a:
         return (tau0 * y - G * y * y / 2) / mu_a

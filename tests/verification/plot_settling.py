@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """plot_settling.py - settling velocity of one sphere: SPH-DEM (verify_settling) vs the Schiller-Naumann ODE
-(closed form of ../shared/reference/README.md, "Single sphere settling").
+(closed form of data/reference/closed_forms.md, "Single sphere settling").
 Usage: /usr/bin/python3 tests/verification/plot_settling.py [build-dir/tests/settling_v.csv] [out.png]"""
 import csv
 import sys

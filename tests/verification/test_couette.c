@@ -1,5 +1,5 @@
 /* test_couette.c - Couette start-up: the top wall moves at V0 (moving dummy walls, uploaded each
- * step with their velocity, He 2018 eqs 13-15) against the series solution of ../shared/reference. */
+ * step with their velocity, He 2018 eqs 13-15) against the series solution of data/reference/closed_forms.md. */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"

@@ -1,5 +1,5 @@
 /* test_dambreak2d.c - 2D collapse of a water column (height 2a) vs Martin & Moyce (1952), as digitised
- * in ../shared/reference (a = 2.25 in series): surge-front position Z = z/a against T = t sqrt(2g/a).
+ * in data/reference/martin_moyce_1952.dat (a = 2.25 in series): surge-front position Z = z/a against T = t sqrt(2g/a).
  * Model: He 2018 §2.1 with Monaghan artificial viscosity (alpha 0.02), Adami walls, no shifting. */
 #include <math.h>
 #include "reference.h"
@@ -44,7 +44,7 @@ int main(int argc, char **argv) {
   }
   fclose(out);
   double Tr[64], Zr[64], worst = 0, worstT = 0;
-  int nr = reference_table("a = 2.25 in:", Tr, Zr, 64);
+  int nr = reference_series("martin_moyce_1952.dat", 2.25, Tr, Zr, 64);
   TEST_ASSERT(nr >= 10, "reference table read (%d rows)", nr);
   printf("  N fluid %d, dx %.4g m, %d steps; T, Z_sim, Z_Martin&Moyce, error:\n", s.nf, p.dx, nsteps);
   for (int k = 0; k < nr; k++) {

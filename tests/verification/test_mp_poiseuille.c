@@ -3,7 +3,7 @@
  * a body force of 2 m/s^2. Phase A (y < 1 m) Newtonian mu_A = 1 Pa s; phase B Newtonian with
  * mu_A/mu_B = 1..10, or phase A Bingham / power-law against Newtonian phase B (mu_B = 1).
  * The steady profile is the solution of tau(y) = tau0 - G y with du/dy from each layer's rheology and
- * u = 0 on both walls (../shared/reference "Two-layer plane Poiseuille"; for the non-Newtonian layer
+ * u = 0 on both walls (data/reference/closed_forms.md "Two-layer plane Poiseuille"; for the non-Newtonian layer
  * the semi-analytical construction of Xenakis et al. 2015 that the paper cites), computed here by
  * bisection on tau0: once with the exact Herschel-Bulkley law, once with the law the solver uses
  * (viscosity held at its cut-off value below the cut-off shear rate, eq 23).

@@ -1,5 +1,5 @@
 /* test_poiseuille.c - plane Poiseuille start-up (Morris, Fox & Zhu 1997): Morris viscosity (He 2018
- * eq 10) with no-slip Adami walls (eq 13) against the series solution of ../shared/reference.
+ * eq 10) with no-slip Adami walls (eq 13) against the series solution of data/reference/closed_forms.md.
  * Usage: verify_poiseuille [RES]; HDX = h/dx (default 1.5; 1.3 gives ~3 % at steady state). */
 #include <math.h>
 #include "scene.h"

@@ -1,7 +1,7 @@
 /* test_settling.c - one sphere settling in still water in a 3D tank (unresolved SPH-DEM, He 2018 §2.3).
  * The fluid is the core's; the grain is integrated here (velocity Verlet with the fluid force of
  * sphdem_get_grain_forces + gravity). Terminal velocity vs the Schiller-Naumann/Archimedes closed form of
- * ../shared/reference/README.md ("Single sphere settling": dv/dt = g (rho_p - rho_f)/rho_p
+ * data/reference/closed_forms.md ("Single sphere settling": dv/dt = g (rho_p - rho_f)/rho_p
  * - 3/4 rho_f |v| v C_D / (d rho_p), C_D = 24/Re (1 + 0.15 Re^0.687)), for two diameters and two density
  * ratios, asserted within 3 %. Water (rho 1000, mu 1e-3), h = 2 mm, grains 0.2 and 0.3 mm (d/h 0.1-0.15),
  * Re 1.8-12: the regime where the unresolved model holds (grain much smaller than the kernel).
