@@ -1,4 +1,4 @@
-/* cfd_bench.c - CFD-DEM throughput benchmark (issue 6): a gas-fluidized bed on the coarse gas grid
+/* cfd_bench.c - CFD-DEM throughput benchmark: a gas-fluidized bed on the coarse gas grid
  * (sphdem_cfd_*) with the sphdem DEM contacts (sphdem_dem_*), integrated here (velocity Verlet).
  *
  * Scene: Yu 2024 §5.2 scaled. At 1e6 grains the column is 0.5 x 0.5 x 1.2 m (Yu: 1e6 grains, 3e5 cells,

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""dem_bench.py - GPU DEM pair styles vs the stock granular pair styles, side by side (issue 5).
+"""dem_bench.py - GPU DEM pair styles vs the stock granular pair styles, side by side.
 
 Scene (the same geometry for every code): a dense column of grains settling under gravity: d = 5 mm,
 2500 kg/m^3, simple cubic lattice of spacing 4.999 mm (every grain touches its 6 lattice neighbours

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""mp_accuracy.py - accuracy against cost of the multiphase fluid (issue 4): velocity Verlet against
+"""mp_accuracy.py - accuracy against cost of the multiphase fluid: velocity Verlet against
 fourth-order Runge-Kutta, with and without the delta-plus terms (renormalised density diffusion and
 particle shifting), at 20, 40 and 80 particles across the two-phase Poiseuille channel of Shi & Huang
 §5.2 (mu_A/mu_B = 4, to the steady state at t = 5 s). Error: L2 against the steady two-layer solution

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""mp_stability.py - where the multiphase methods fail: the stability matrix of issue 4.
+"""mp_stability.py - where the multiphase methods fail: the stability matrix of the multiphase fluid.
 
 Runs the two-layer static tank and a multiphase dam break (tests/verification/test_static_tank.c,
 `verify_static_tank`, 2D, dx = 0.04 m, to t = 0.5 s) over

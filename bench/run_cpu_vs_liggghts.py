@@ -306,7 +306,7 @@ def main():
         "Millions of fluid-particle-steps per second (fluid particles x timed steps / wall time of the timed",
         f"loop, after {args.warmup} untimed warm-up steps; setup, file reading and the first neighbor build",
         "are excluded on both sides). Ratio = sphdem / LIGGGHTS on equal cores (1 OpenMP thread vs 1 MPI",
-        "rank, 2 threads vs 2 ranks), i.e. the per-core ratio. Goal of the issue: >= 5.",
+        "rank, 2 threads vs 2 ranks), i.e. the per-core ratio. Target: >= 5.",
         "",
         table,
         "",

@@ -7,8 +7,8 @@
 # step (OUT_DIR/logs.tgz). Each step has its own time limit; a failing step does not stop the others.
 # Environment:
 #   GPU_CHECK_PARTS     which parts, in this order (default: "twins tests bench cfd dem drum"); the twins come
-#                       first because they are what a short GPU session must not miss
-#   GPU_CHECK_DEADLINE  seconds after the start past which no new step starts (default 540: the device tool
+#                       first because they are what a short GPU run must not miss
+#   GPU_CHECK_DEADLINE  seconds after the start past which no new step starts (default 540, for a machine that
 #                       stops a command at 600 s); the steps left out are listed as "skipped (deadline)"
 #   GPU_CHECK_ENGINES   the packed engines (default: .englibs next to BIN_DIR) for the drum part
 set -u
@@ -50,25 +50,25 @@ for part in $PARTS; do
     for n in $SIZES; do
       step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
       grep BENCH "$OUT/bench3d_gpu_$n.log"
-      # multiphase (issue 4): two phases without (mp 1) and with (mp 2) the delta-plus terms
+      # multiphase: two phases without (mp 1) and with (mp 2) the delta-plus terms
       for mp in 1 2; do
         step "bench3d_gpu_mp${mp}_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 100 --warmup 10 --mp $mp
         grep BENCH "$OUT/bench3d_gpu_mp${mp}_$n.log"
       done
     done ;;
-  cfd) # CFD-DEM gas grid + DEM (issue 6), GPU and CPU side by side
+  cfd) # CFD-DEM gas grid + DEM, GPU and CPU side by side
     [ -x "$BIN/cfd_bench" ] && for n in 100000 1000000; do
       step "cfd_gpu_$n" 300 "$BIN/cfd_bench" --n "$n" --device gpu --steps 50 --warmup 10
       step "cfd_cpu_$n" 300 "$BIN/cfd_bench" --n "$n" --device cpu --steps 10 --warmup 5 --threads 16
     done ;;
-  dem) # the DEM contacts alone (issue 5)
+  dem) # the DEM contacts alone
     [ -x "$BIN/bench_dem" ] && for n in 10000 100000 1000000; do
       for algo in pair particle; do
         step "dem_gpu_${algo}_$n" 300 "$BIN/bench_dem" --n "$n" --device gpu --algo "$algo" --steps 200 --warmup 20
       done
       step "dem_cpu_$n" 300 "$BIN/bench_dem" --n "$n" --device cpu --threads 1 --steps 20 --warmup 5
     done ;;
-  drum) # coupled drum at 100-400 mm (issue 3): fluid and coupling on the GPU, the DEM pair style on the GPU too
+  drum) # coupled drum at 100-400 mm: fluid and coupling on the GPU, the DEM pair style on the GPU too
     if [ -x "$ENG/run.sh" ] && command -v python3 >/dev/null; then
       printf '#!/bin/sh\nexec "%s" lmp_sphdem "$@"\n' "$ENG/run.sh" > "$OUT/lmp_gpu.sh"; chmod +x "$OUT/lmp_gpu.sh"
       step drum_gpu 400 python3 "$ROOT/bench/drum_bench.py" --exe "$OUT/lmp_gpu.sh" --steps 200 \
