@@ -306,7 +306,7 @@ def errors_liggghts(lig):
     return ok and good
 
 
-PILE = """# ~1000 grains settling on a floor in a periodic box (issue 5: packing fraction vs the stock style)
+PILE = """# ~1000 grains settling on a floor in a periodic box (packing fraction vs the stock style)
 units           si
 atom_style      sphere
 boundary        p p f

@@ -344,11 +344,11 @@ static void disabled_identical(int dim) {
  * SPHDEM_COUPLE_BED=1 or BED_ONLY=1 (the bed alone) (knobs BED_PFORM, BED_STEPS, BED_DELTA, BED_DRAG, BED_SUPERFICIAL,
  * BED_NOGRAINS, BED_WALLEPS, BED_EPSWALLS, BED_TRACE): over 1000 steps the fluid at the bed's corners with the
  * walls accelerates into the walls (vmax ~0.1 m/s vs 6e-3 without grains), with or without superficial density
- * and drag; see the report of the coupling commit. Session 6: with BED_EPSWALLS=1 (eps_walls) the bed's porosity
+ * and drag (commit 1df9a2f). With BED_EPSWALLS=1 (eps_walls, commit f552615) the bed's porosity
  * is uniform up to the walls (0.748 beside them, 0.749 inside), Archimedes 0.993, pressure error 5.9 %, but vmax
  * still grows about twofold per 100 steps (5.1e-3 at 100, 6.4e-2 at 600), also with BED_SUPERFICIAL=0 and
  * BED_DELTA=0.
- * Session 7 (knobs BED_DTF: time step in h / (1.2 c0), default 0.2; BED_MU: fluid viscosity; BED_HCF: hc / h;
+ * Measured 2026-11-24, commit beec234 (knobs BED_DTF: time step in h / (1.2 c0), default 0.2; BED_MU: fluid viscosity; BED_HCF: hc / h;
  * BED_INSET / BED_LIFT: grains kept that far from the side walls / lifted off the floor), all with
  * BED_EPSWALLS=1, vmax after 600 steps (0.065 s):
  *   - half the time step, 1200 steps: vmax and ke the same to 4 digits at the same time: the growth is a
@@ -389,7 +389,7 @@ static void disabled_identical(int dim) {
  *   - The test puts the grains on the fluid particles (both lattices at (i + 1/2) dx). Shifting them by
  *     dx/4 or dx/2, or jittering them by up to 0.3 dx, makes it worse: vmax 0.17 / 0.26 / 0.13 m/s at 1000
  *     steps, against 0.10.
- *   Session 8: found. The mass form of eq 9 (m_b P_b / rho_b^2 with m_b = eps_b m_0) weights the pressure gradient
+ *   Cause (2026-12-01, commit 5c63aae): the mass form of eq 9 (m_b P_b / rho_b^2 with m_b = eps_b m_0) weights the pressure gradient
  *   with the neighbours' porosity (-<1/eps> grad P / rho instead of -grad P / (eps_a rho)), so the columns at the
  *   bed's edges do not balance (water weight + reaction). BED_PFORM=1 (keyword pressure_form volume,
  *   -V_a V_b (P_a + P_b) grad W) removes it wherever the bed's edges are in the water: BED_INSET=0.015 with or

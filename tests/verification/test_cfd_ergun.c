@@ -1,4 +1,4 @@
-/* test_cfd_ergun.c - packed and fluidized beds on the coarse gas grid (sphdem_cfd_*, issue 6).
+/* test_cfd_ergun.c - packed and fluidized beds on the coarse gas grid (sphdem_cfd_*).
  * (a) Fixed bed: grains of d = 1 mm held at rest on a simple cubic lattice of spacing s chosen so that the
  *     bed voidage is 0.40 (s = d (pi / (6 (1 - eps)))^(1/3) = 0.956 mm; the grains overlap a little, which a
  *     fixed bed does not mind), 4 x 4 lattice points per cell across, cells h = 4 s (3.8 mm, ~4 d), so every bed

@@ -8,7 +8,7 @@
  * drag law sees eps = 1 to 1e-6 and the grain's reaction barely disturbs the gas; cells of 3-5 d would make the
  * grain itself the voidage (not the test's subject). The grain rises ~ 0.02 m in 0.5 s inside a 6 x 6 x 12 cm
  * column (it starts at z = 3 cm).
- * Bound (issue 6): |v - v_ode| / |v_ode| < 1.25 % for t > 0.05 s, for Gidaspow with centroid voidage,
+ * Bound: |v - v_ode| / |v_ode| < 1.25 % for t > 0.05 s, for Gidaspow with centroid voidage,
  * Gidaspow with smooth voidage, and Wen-Yu. Terminal rise velocity ~ 0.04 m/s: the slip is 0.46 m/s, so a
  * relative error of v is ~12x the relative error of the slip.
  * Measured (CPU): 0.33 % for all three, a steady offset: the grain's own drag reaction slows the gas in its
