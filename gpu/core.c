@@ -944,3 +944,100 @@ int64_t sphdem_debug_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs) {
   free(H.x); free(H.cell); free(H.cstart); free(H.cend); free(ui);
   return rc ? -rc : np;
 }
+
+/* ---- set-up check: particles on top of each other ---------------------------------------------------- */
+
+/* Fluid pairs and fluid-wall pairs closer than rmin, by the same cell walk as the passes (host copies of
+ * the sorted positions; set-up only). out: [0] fluid pairs, [1] fluid-wall pairs, then the closest pair of
+ * each kind: [2], [3] the fluid tags (lower first) and [4] their distance; [5] the fluid tag, [6] the wall's
+ * caller index and [7] their distance (-1 where there is none). */
+int sphdem_check_spacing(sphdem_ctx c, double rmin, double out[8]) {
+  if (!c || !out) return SPHDEM_ERR_ARG;
+  for (int k = 0; k < 8; k++) out[k] = k < 2 ? 0.0 : -1.0;
+  sphdem_dev *D = &c->D;
+  const int64_t n = D->nf, nw = D->nw;
+  if (n == 0 || !(rmin > 0)) return SPHDEM_OK;
+  if (c->need_sort) TRY(sort_all(c));
+  else if (c->need_wall_sort && nw > 0) {
+    TRY(sort_set(c, SPHDEM_SET_WALL));
+    TRY(c->ops->sync(c));
+    c->need_wall_sort = 0;
+  }
+  sphdem_dev H = *D;
+  const size_t nc = (size_t)D->ncells;
+  H.x = (double *)malloc(24 * (size_t)n);
+  H.cell = (int32_t *)malloc(4 * (size_t)n);
+  H.tag = (int64_t *)malloc(8 * (size_t)n);
+  H.cstart = (int32_t *)malloc(4 * nc);
+  H.cend = (int32_t *)malloc(4 * nc);
+  H.wx = nw ? (double *)malloc(24 * (size_t)nw) : NULL;
+  H.wtag = nw ? (int64_t *)malloc(8 * (size_t)nw) : NULL;
+  H.wcstart = nw ? (int32_t *)malloc(4 * nc) : NULL;
+  H.wcend = nw ? (int32_t *)malloc(4 * nc) : NULL;
+  int rc = (H.x && H.cell && H.tag && H.cstart && H.cend && (!nw || (H.wx && H.wtag && H.wcstart && H.wcend)))
+               ? SPHDEM_OK
+               : sphdem_fail(c, SPHDEM_ERR_ALLOC, "check_spacing: cannot allocate host copies of %lld particles",
+                             (long long)(n + nw));
+  if (!rc) rc = down(c, H.x, D->x, 24 * (size_t)n);
+  if (!rc) rc = down(c, H.cell, D->cell, 4 * (size_t)n);
+  if (!rc) rc = down(c, H.tag, D->tag, 8 * (size_t)n);
+  if (!rc) rc = down(c, H.cstart, D->cstart, 4 * nc);
+  if (!rc) rc = down(c, H.cend, D->cend, 4 * nc);
+  if (!rc && nw) rc = down(c, H.wx, D->wx, 24 * (size_t)nw);
+  if (!rc && nw) rc = down(c, H.wtag, D->wtag, 8 * (size_t)nw);
+  if (!rc && nw) rc = down(c, H.wcstart, D->wcstart, 4 * nc);
+  if (!rc && nw) rc = down(c, H.wcend, D->wcend, 4 * nc);
+  const double r2min = rmin * rmin;
+  double best_f = INFINITY, best_w = INFINITY;
+  for (int64_t a = 0; !rc && a < n; a++) {
+    int32_t cells[27];
+    double r[3];
+    if (H.cell[a] < 0 || H.cell[a] >= D->ncells) continue; /* outside the grid: not a spacing question */
+    int nn = neighbor_cells(&H, H.cell[a], cells);
+    for (int k = 0; k < nn; k++) {
+      for (int32_t b = H.cstart[cells[k]]; b < H.cend[cells[k]]; b++) {
+        if (H.tag[b] <= H.tag[a]) continue;
+        double d2 = separation(&H, H.x + 3 * a, H.x + 3 * b, r);
+        if (!(d2 < r2min)) continue;
+        out[0] += 1.0;
+        if (d2 < best_f) { best_f = d2; out[2] = (double)H.tag[a]; out[3] = (double)H.tag[b]; out[4] = sqrt(d2); }
+      }
+      if (!nw) continue;
+      for (int32_t w = H.wcstart[cells[k]]; w < H.wcend[cells[k]]; w++) {
+        double d2 = separation(&H, H.x + 3 * a, H.wx + 3 * w, r);
+        if (!(d2 < r2min)) continue;
+        out[1] += 1.0;
+        if (d2 < best_w) { best_w = d2; out[5] = (double)H.tag[a]; out[6] = (double)(H.wtag[w] - 1); out[7] = sqrt(d2); }
+      }
+    }
+  }
+  free(H.x); free(H.cell); free(H.tag); free(H.cstart); free(H.cend);
+  free(H.wx); free(H.wtag); free(H.wcstart); free(H.wcend);
+  return rc;
+}
+
+/* Wall pressure and density of the last rate evaluation in the order of the last sphdem_set_walls (for the
+ * failure dump; either pointer may be NULL). */
+int sphdem_get_wall_state(sphdem_ctx c, double *p, double *rho) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  const int64_t n = D->nw;
+  if (n == 0 || (!p && !rho)) return SPHDEM_OK;
+  if (!D->wp || !D->wrho) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_wall_state: no wall state yet");
+  double *h = (double *)malloc(8 * (size_t)n);
+  int64_t *t = (int64_t *)malloc(8 * (size_t)n);
+  int rc = h && t ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_wall_state: cannot allocate %lld values",
+                                            (long long)n);
+  if (!rc) rc = c->ops->sync(c);
+  if (!rc) rc = down(c, t, D->wtag, 8 * (size_t)n);
+  for (int k = 0; !rc && k < 2; k++) {
+    double *dst = k == 0 ? p : rho;
+    if (!dst) continue;
+    rc = down(c, h, k == 0 ? D->wp : D->wrho, 8 * (size_t)n);
+    for (int64_t s = 0; !rc && s < n; s++)
+      if (t[s] >= 1 && t[s] <= n) dst[t[s] - 1] = h[s];
+  }
+  free(h);
+  free(t);
+  return rc;
+}

@@ -2,10 +2,12 @@
  * from the fluid fix's device state (no host sync). Global array: one row per point. */
 #include "compute_sph_probe.h"
 
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
+#include "domain.h"
 #include "fix_sph_fluid.h"
 #include "memory.h"
 #include "modify.h"
@@ -62,6 +64,16 @@ void ComputeSPHProbe::parse(int first, int narg, char **arg) {
     if (v.size() % 3) fail("point coordinates must come in x y z triples");
   }
   if (v.empty()) fail("no probe points given");
+  /* a point outside the box holds no fluid: a typo or the wrong units */
+  for (size_t k = 0; k < v.size() / 3; k++)
+    for (int d = 0; d < 3; d++) {
+      const double x = v[3 * k + d], lo = domain->boxlo[d], hi = domain->boxhi[d];
+      if (x >= lo && x <= hi) continue;
+      char m[256];
+      snprintf(m, sizeof m, "point %zu (%g, %g, %g) lies outside the simulation box along %c (%g to %g)", k + 1,
+               v[3 * k], v[3 * k + 1], v[3 * k + 2], "xyz"[d], lo, hi);
+      fail(m);
+    }
   pts_ = v;
   npts_ = (int)(v.size() / 3);
   out_.resize((size_t)SPHDEM_NPROBE * npts_);

@@ -133,7 +133,11 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
   }
   prm_.npatch = 0;
   if (domain->triclinic) fail("triclinic boxes are not supported");
+  if (domain->dimension != 3)
+    fail("the gas grid is 3D: fix cfd/grid needs a 3D run (dimension 3; this run has dimension " +
+         std::to_string(domain->dimension) + ")");
   bool have_grid = false, have_rho = false, have_mu = false;
+  std::vector<std::string> seen; /* keywords given so far (bc per side, patch may repeat) */
 
   int iarg = 3;
   auto need = [&](int n, const char *usage) {
@@ -154,6 +158,10 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
 
   while (iarg < narg) {
     const std::string kw = arg[iarg];
+    std::string key = kw;
+    if (kw == "bc" && iarg + 1 < narg) key = "bc " + std::string(arg[iarg + 1]);
+    const bool dup = kw != "patch" && std::find(seen.begin(), seen.end(), key) != seen.end(); /* after its values */
+    seen.push_back(key);
     if (kw == "grid") {
       const char *usage = "grid NX NY NZ, integers >= 1";
       need(3, usage);
@@ -297,6 +305,9 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
     }
+    if (dup)
+      fail("keyword " + key + " is given twice (give each keyword once" +
+           std::string(kw == "bc" ? ", each side once)" : ")"));
   }
 
   if (!have_grid || !have_rho || !have_mu) {
@@ -320,6 +331,18 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
       prm_.boxlo[d] = domain->boxlo[d];
       prm_.boxhi[d] = domain->boxhi[d];
     }
+  /* grains move in the simulation box: a gas box reaching outside it (along an axis that is not shrink-wrapped)
+   * has gas cells no grain can reach and walls where there are none */
+  for (int d = 0; d < 3 && have_box_; d++) {
+    if (domain->boundary[d][0] >= 2 || domain->boundary[d][1] >= 2) continue; /* shrink-wrapped */
+    const double tol = 1e-9 * (domain->boxhi[d] - domain->boxlo[d]);
+    if (prm_.boxlo[d] < domain->boxlo[d] - tol || prm_.boxhi[d] > domain->boxhi[d] + tol) {
+      char m[384];
+      snprintf(m, sizeof m, "box: the gas box %g %g along %c reaches outside the simulation box %g %g; the gas box "
+               "must lie inside it", prm_.boxlo[d], prm_.boxhi[d], "xyz"[d], domain->boxlo[d], domain->boxhi[d]);
+      fail(m);
+    }
+  }
   char msg[512] = "";
   if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
 }
@@ -328,6 +351,27 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
 
 void FixCFDGrid::init() {
   if (comm->nprocs > 1) fail("running on more than one MPI rank is not supported yet (use mpirun -np 1)");
+  if (!restart_error_.empty()) fail(restart_error_);
+  /* the gas has walls, inlets and outlets on all six sides, no periodic boundary */
+  for (int d = 0; d < 3; d++)
+    if (domain->periodicity[d])
+      fail(std::string("the simulation box is periodic along ") + "xyz"[d] + " but the gas grid is not (its sides " +
+           SIDE_NAME[2 * d] + " and " + SIDE_NAME[2 * d + 1] + " are " + BC_NAME[prm_.bc[2 * d]] + " and " +
+           BC_NAME[prm_.bc[2 * d + 1]] + "): grains crossing it would leave the gas; use boundary f along " +
+           "xyz"[d]);
+  /* two gas fixes on the same grains add the gas force twice */
+  for (int k = 0; k < modify->nfix; k++) {
+    Fix *f = modify->fix[k];
+    if (f == this || std::strcmp(f->style, "cfd/grid") != 0) continue;
+    int hit = 0, any = 0;
+    for (int i = 0; i < atom->nlocal; i++)
+      if ((atom->mask[i] & groupbit) && (atom->mask[i] & f->groupbit)) hit = 1;
+    MPI_Allreduce(&hit, &any, 1, MPI_INT, MPI_MAX, world);
+    if (any)
+      fail(std::string("fix ") + f->id + " (style cfd/grid) acts on the same grains as fix " + id + " (groups " +
+           group->names[f->igroup] + " and " + group->names[igroup] + "): the gas force would be added twice; one "
+           "gas fix per grain");
+  }
   if (!atom->radius_flag) fail("the atom style must define a per-atom radius (atom_style sphere or granular)");
   if (update->dt <= 0) fail("the timestep must be > 0");
   for (int s = 0; s < 6; s++) {
@@ -339,6 +383,37 @@ void FixCFDGrid::init() {
     if (iv < 0) fail(what + ": variable " + inlet_var_[s] + " does not exist");
     if (!input->variable->equalstyle(iv)) fail(what + ": variable " + inlet_var_[s] + " is not equal-style");
     inlet_ivar_[s] = iv;
+  }
+  if (group->count(igroup) == 0) {
+    if (comm->me == 0)
+      sphdem_compat::warning(error, FLERR, std::string("Fix cfd/grid: the grain group ") + group->names[igroup] +
+                                               " has no atoms: the gas flows alone until grains are inserted");
+    return;
+  }
+  /* the drag is explicit and held over a gas step: the Stokes relaxation time rho_p d^2 / (18 mu) of a grain must
+   * exceed half the gas step (the dense-bed laws are stiffer still); a gas denser than 1000 grain densities is not
+   * a gas-solid bed (its drag overflows the grain velocities) */
+  if (prm_.drag != SPHDEM_CFD_DRAG_NONE && atom->rmass) {
+    const double pi = 3.14159265358979323846, dtg = (double)every_ * update->dt;
+    double tmin = INFINITY, rhomax = 0.0;
+    for (int i = 0; i < atom->nlocal; i++) {
+      if (!(atom->mask[i] & groupbit) || !(atom->radius[i] > 0)) continue;
+      const double r = atom->radius[i];
+      const double rhop = atom->rmass[i] / (4.0 / 3.0 * pi * r * r * r);
+      tmin = std::min(tmin, rhop * 4.0 * r * r / (18.0 * prm_.mu_g));
+      rhomax = std::max(rhomax, rhop);
+    }
+    char m[512];
+    if (rhomax > 0 && prm_.rho_g > 1000.0 * rhomax) {
+      snprintf(m, sizeof m, "rho %g: the gas density is over 1000 times the grain density (largest %g); rho is the "
+               "gas density", prm_.rho_g, rhomax);
+      fail(m);
+    }
+    if (tmin < 0.5 * dtg) {
+      snprintf(m, sizeof m, "mu %g: the Stokes relaxation time rho_p d^2 / (18 mu) of the grains is %g s, below half "
+               "the gas step %g s: the explicit drag is unstable. Lower mu, the timestep or every", prm_.mu_g, tmin, dtg);
+      fail(m);
+    }
   }
 }
 
@@ -644,6 +719,15 @@ void FixCFDGrid::restart(char *buf) {
   double head[5];
   std::memcpy(head, buf, sizeof head);
   if (head[0] != RESTART_TAG) fail("the restart data of this fix are not from fix cfd/grid of this version");
+  /* the state size of this grid: the face velocities, then pressure and voidage per cell */
+  const double nx = prm_.nc[0], ny = prm_.nc[1], nz = prm_.nc[2];
+  const double want = (nx + 1) * ny * nz + nx * (ny + 1) * nz + nx * ny * (nz + 1) + 2 * nx * ny * nz;
+  if (head[2] != want) {
+    char m[384];
+    snprintf(m, sizeof m, "the gas state in the restart file has %.17g values, this grid needs %.0f (re-issue the "
+             "fix with the grid of the run that wrote it; or the restart file is corrupted)", head[2], want);
+    fail(m);
+  }
   ngas_steps_ = (int64_t)head[1];
   const size_t ns = (size_t)head[2];
   time_ = head[3];
@@ -674,7 +758,11 @@ int FixCFDGrid::pack_exchange(int i, double *buf) { return sphdem_peratom::pack(
 int FixCFDGrid::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(fa_, nlocal, buf, NCOL); }
 int FixCFDGrid::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(fa_, i, buf, NCOL); }
 void FixCFDGrid::unpack_restart(int nlocal, int nth) {
-  sphdem_peratom::unpack_restart(fa_, atom->extra, nlocal, nth, NCOL);
+  if (!sphdem_peratom::unpack_restart(fa_, atom->extra, nlocal, nth, NCOL) && restart_error_.empty())
+    restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " +
+                     sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL) + " (fix cfd/grid writes " +
+                     std::to_string(NCOL + 1) + " values per atom; a corrupted restart file, or one written by "
+                     "another version)";
 }
 int FixCFDGrid::size_restart(int) { return NCOL + 1; }
 int FixCFDGrid::maxsize_restart() { return NCOL + 1; }

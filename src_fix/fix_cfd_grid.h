@@ -77,6 +77,7 @@ class FixCFDGrid : public Fix {
   sphdem_cfd_stats stats_;
   bool keep_stats_;            /* stats_ came from a restart file: keep them at the next setup */
   double host_time_;           /* fix-side time of the gas steps (gather, scatter, VTK) this run */
+  std::string restart_error_;  /* a corrupted restart record, reported by init() */
 
   [[noreturn]] void fail(const std::string &msg);
   void check(int rc, const char *what);

@@ -3,11 +3,13 @@
  * them between fluid steps and adds them to atom->f every step. No physics here (gpu/couple.c). */
 #include "fix_sph_couple.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "group.h"
 #include "memory.h"
@@ -99,8 +101,11 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
   fluid_id_ = arg[3];
 
   int iarg = 4;
+  std::vector<std::string> seen;
   while (iarg < narg) {
     const std::string kw = arg[iarg];
+    const bool dup = std::find(seen.begin(), seen.end(), kw) != seen.end(); /* refused after its value's check */
+    seen.push_back(kw);
     if (iarg + 1 >= narg) {
       if (kw == "drag") fail(std::string("drag must be ") + DRAGS);
       if (kw == "superficial" || kw == "torque" || kw == "eps_walls") fail(kw + " must be yes or no");
@@ -146,13 +151,26 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
     }
+    if (dup) fail("keyword " + kw + " is given twice (give each keyword once)");
     iarg += 2;
+  }
+  /* a coupling kernel wider than the box */
+  double lmax = 0.0;
+  for (int d = 0; d < domain->dimension; d++) lmax = std::max(lmax, domain->boxhi[d] - domain->boxlo[d]);
+  if (have_hc_ && 2.0 * cp_.hc > lmax) {
+    char m[256];
+    snprintf(m, sizeof m, "hc %g: the coupling kernel support 2 hc exceeds the box (largest extent %g); hc is the "
+             "coupling smoothing length, about h to 3 h of the fluid", cp_.hc, lmax);
+    fail(m);
   }
 }
 
 /* ---- run set-up ---------------------------------------------------------------------------------- */
 
 void FixSPHCouple::init() {
+  int bad_restart = !restart_error_.empty(), any_bad = 0;
+  MPI_Allreduce(&bad_restart, &any_bad, 1, MPI_INT, MPI_MAX, world);
+  if (any_bad) fail(bad_restart ? restart_error_ : std::string("a restart record on another rank is corrupted"));
   const int ifluid = modify->find_fix(fluid_id_.c_str());
   if (ifluid < 0) fail("fix ID '" + fluid_id_ + "' does not exist (syntax: " + SYNTAX + ")");
   fluid_ = dynamic_cast<FixSPHFluid *>(modify->fix[ifluid]);
@@ -189,6 +207,36 @@ void FixSPHCouple::init() {
     else if (cp_.drag != SPHDEM_DRAG_NONE || cp_.torque)
       fail(std::string(cp_.drag != SPHDEM_DRAG_NONE ? "drag " : "torque yes with drag ") + drag_name(cp_.drag) +
            " needs the fluid viscosity: give mu V, or use visc morris MU in fix sph/fluid " + fluid_id_);
+  }
+
+  if (group->count(igroup) == 0) {
+    if (comm->me == 0)
+      sphdem_compat::warning(error, FLERR, std::string("Fix sph/couple: the grain group ") + group->names[igroup] +
+                                               " has no atoms: the coupling acts once grains are inserted");
+    return;
+  }
+  /* the drag is explicit and held over a fluid step: a grain whose Stokes relaxation time rho_p d^2 / (18 mu)
+   * is below half the fluid step is unstable with any drag law (the dense-bed laws are stiffer still) */
+  if (cp_.drag != SPHDEM_DRAG_NONE && atom->rmass && cp_.mu > 0) {
+    const double pi = 3.14159265358979323846, dtf = (double)fluid_->every() * update->dt;
+    double tmin = INFINITY;
+    long long tag = 0;
+    for (int i = 0; i < atom->nlocal; i++) {
+      if (!(atom->mask[i] & groupbit) || !(atom->radius[i] > 0)) continue;
+      const double r = atom->radius[i], d = 2.0 * r;
+      const double vol = domain->dimension == 2 ? pi * r * r : 4.0 / 3.0 * pi * r * r * r;
+      const double tau = atom->rmass[i] / vol * d * d / (18.0 * cp_.mu);
+      if (tau < tmin) tmin = tau, tag = (long long)atom->tag[i];
+    }
+    double all;
+    MPI_Allreduce(&tmin, &all, 1, MPI_DOUBLE, MPI_MIN, world);
+    if (all < 0.5 * dtf) {
+      char m[512];
+      snprintf(m, sizeof m, "mu %g%s: the Stokes relaxation time rho_p d^2 / (18 mu) of the grains is %g s (grain "
+               "%lld), below half the fluid step %g s: the explicit drag is unstable. Lower mu, the timestep or "
+               "every", cp_.mu, have_mu_ ? "" : " (from visc morris)", all, all == tmin ? tag : -1LL, dtf);
+      fail(m);
+    }
   }
 }
 
@@ -360,7 +408,11 @@ int FixSPHCouple::pack_exchange(int i, double *buf) { return sphdem_peratom::pac
 int FixSPHCouple::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(ca_, nlocal, buf, NCOL); }
 int FixSPHCouple::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(ca_, i, buf, NCOL); }
 void FixSPHCouple::unpack_restart(int nlocal, int nth) {
-  sphdem_peratom::unpack_restart(ca_, atom->extra, nlocal, nth, NCOL);
+  if (!sphdem_peratom::unpack_restart(ca_, atom->extra, nlocal, nth, NCOL) && restart_error_.empty())
+    restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " +
+                     sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL) + " (fix sph/couple writes " +
+                     std::to_string(NCOL + 1) + " values per atom; a corrupted restart file, or one written by "
+                     "another version)";
 }
 int FixSPHCouple::size_restart(int) { return NCOL + 1; }
 int FixSPHCouple::maxsize_restart() { return NCOL + 1; }

@@ -70,6 +70,7 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   sphdem_couple_stats cstats_;
   bool stats_dirty_;          /* cstats_ predates the last rate evaluation (fetched on demand: O(fluid)) */
   double pgrain_[3];          /* time integral of the held forces on the grains */
+  std::string restart_error_; /* a corrupted per-atom restart record, reported by init() */
 
   [[noreturn]] void fail(const std::string &msg);
   void check(sphdem_ctx ctx, int rc, const char *what);

@@ -16,6 +16,7 @@
 #include "modify.h"
 #include "output.h"
 #include "sphdem_compat.h"
+#include "sphdem_peratom.h"
 #include "update.h"
 
 using namespace LAMMPS_NS;
@@ -30,10 +31,11 @@ const char *const SYNTAX =
     "[sync N] [check N] "
     "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
     "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
-    "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]]";
+    "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]] [failure_dump yes|no|FILE]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, isolated, skin, cfl, "
-    "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost";
+    "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost, "
+    "failure_dump";
 
 /* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
 int gravity_axis(const sphdem_params &p, double *down_sign) {
@@ -42,6 +44,15 @@ int gravity_axis(const sphdem_params &p, double *down_sign) {
     if (std::fabs(p.gravity[d]) > std::fabs(p.gravity[axis])) axis = d;
   *down_sign = p.gravity[axis] < 0 ? 1.0 : -1.0;
   return axis;
+}
+
+/* x rounded down to 3 significant digits: a suggested time step that is below x as printed */
+double round_down3(double x) {
+  if (!(x > 0) || !std::isfinite(x)) return x;
+  const double scale = std::pow(10.0, std::floor(std::log10(x)) - 2.0);
+  double r = std::floor(x / scale) * scale;
+  while (r > x) r -= scale;
+  return r;
 }
 
 double wall_seconds() {
@@ -56,7 +67,8 @@ FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
       wall_groupbit_(0), sync_every_(0), check_every_(10), hydrostatic_(false), mass_scaled_(false), zsurf_(0.0),
       walls_move_(false), host_current_(true), mapping_dirty_(true), announced_(false), every_(1), rk4_(false), ghost_(false),
       last_fluid_step_(0), fluid_step_(false), dt_fluid_(0.0), nfluid_steps_(0), coupler_(nullptr),
-      couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0) {
+      couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0), failure_dump_(true),
+      have_dx_(false), scene_checked_(false) {
   std::memset(&stats_, 0, sizeof stats_);
   parse_args(narg, arg);
 
@@ -123,6 +135,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
   bool have_r0 = false;
 
   int iarg = 3;
+  std::vector<std::string> seen; /* keywords given so far (phase may repeat) */
   /* a keyword needs n values after it */
   auto need = [&](int n, const char *usage) {
     if (iarg + n >= narg) fail(std::string("missing value(s) for ") + arg[iarg] + " (usage: " + usage + ")");
@@ -134,6 +147,9 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
 
   while (iarg < narg) {
     const std::string kw = arg[iarg];
+    /* a repeated keyword is refused after its values were checked */
+    const bool dup = kw != "phase" && std::find(seen.begin(), seen.end(), kw) != seen.end();
+    seen.push_back(kw);
     if (kw == "rho0" || kw == "h" || kw == "c0" || kw == "dx" || kw == "gamma" || kw == "skin" ||
         kw == "cfl" || kw == "rho_err_max" || kw == "xsph" || kw == "hydrostatic" || kw == "isolated") {
       const std::string usage = kw + (kw == "hydrostatic" ? " ZSURF" : kw == "xsph" ? " EPS" : " V");
@@ -276,6 +292,17 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       if (v != "verlet" && v != "rk4") fail("integrator must be verlet or rk4 (got '" + v + "')");
       rk4_ = v == "rk4";
       iarg += 2;
+    } else if (kw == "failure_dump") {
+      if (iarg + 1 >= narg) fail("failure_dump must be yes, no or a file name");
+      const std::string v = arg[iarg + 1];
+      if (v == "no") failure_dump_ = false;
+      else if (v == "yes") failure_dump_ = true, failure_file_.clear();
+      else if (v.find('.') != std::string::npos || v.find('/') != std::string::npos)
+        failure_dump_ = true, failure_file_ = v;
+      else
+        fail("failure_dump must be yes, no or a file name (got '" + v + "'; a file name holds a '.' or a '/', "
+             "e.g. failure.dump)");
+      iarg += 2;
     } else if (kw == "shifting") {
       if (iarg + 1 >= narg) fail("shifting must be yes or no");
       const std::string v = arg[iarg + 1];
@@ -287,6 +314,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
     } else {
       fail("unknown keyword '" + kw + "'; keywords are " + KEYWORDS);
     }
+    if (dup) fail("keyword " + kw + " is given twice (give each keyword once)");
   }
   if (mp_.nphase > 0) {
     mp_.enabled = 1;
@@ -304,6 +332,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
     if (!have_c0) missing += " c0";
     fail("missing required keyword(s):" + missing + " (syntax: " + SYNTAX + ")");
   }
+  have_dx_ = have_dx;
   if (!have_dx) prm_.dx = prm_.h / 1.3;
   if (!have_skin) prm_.skin = 0.3 * prm_.dx;
   if (prm_.rep_D > 0 && !have_r0) prm_.rep_r0 = prm_.dx;
@@ -311,9 +340,31 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
     fail("hydrostatic ZSURF needs a non-zero gravity (gravity gx gy gz)");
   if (wall_igroup_ == igroup) fail("the wall group must differ from the fluid group");
 
+  if (prm_.dim == 2 && prm_.gravity[2] != 0.0) {
+    char m[256];
+    snprintf(m, sizeof m, "gravity along z (gz = %g) in a 2D run (dimension 2): the fluid moves in the x-y plane; "
+             "give gravity gx gy 0", prm_.gravity[2]);
+    fail(m);
+  }
+
   box_to_params();
   char msg[512];
   if (sphdem_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
+  /* a kernel wider than the box: the smoothing length is about 1.3 particle spacings */
+  double lmax = 0.0;
+  int dmax = 0;
+  for (int d = 0; d < prm_.dim; d++)
+    if (prm_.boxhi[d] - prm_.boxlo[d] > lmax) lmax = prm_.boxhi[d] - prm_.boxlo[d], dmax = d;
+  if (2.0 * prm_.h > lmax) {
+    snprintf(msg, sizeof msg, "h %g: the kernel support 2h exceeds the box (largest extent %g along %c); h is the "
+             "smoothing length, about 1.3 particle spacings dx", prm_.h, lmax, "xyz"[dmax]);
+    fail(msg);
+  }
+  if (have_dx && (prm_.h < 0.5 * prm_.dx || prm_.h > 8.0 * prm_.dx)) {
+    snprintf(msg, sizeof msg, "h %g and dx %g: h/dx = %g must be in [0.5, 8] (usual: 1.2 to 2)", prm_.h, prm_.dx,
+             prm_.h / prm_.dx);
+    fail(msg);
+  }
   if (sphdem_mp_params_check(&mp_, &prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
 }
 
@@ -372,6 +423,12 @@ void FixSPHFluid::init() {
     fail("the atom style must define a per-atom mass (rmass) or per-type masses");
   if (update->dt <= 0) fail("the timestep must be > 0");
   coupler_ = nullptr; /* a fix sph/couple defined after this one attaches itself in its init() */
+  int bad_restart = !restart_error_.empty(), any_bad = 0;
+  MPI_Allreduce(&bad_restart, &any_bad, 1, MPI_INT, MPI_MAX, world);
+  if (any_bad) fail(bad_restart ? restart_error_ : std::string("a restart record on another rank is corrupted"));
+  if (group->count(igroup) == 0)
+    fail(std::string("the fluid group ") + group->names[igroup] + " has no atoms (the group of fix " + id +
+         " holds the fluid particles)");
 
   const int nlocal = atom->nlocal;
   const int *mask = atom->mask;
@@ -443,11 +500,13 @@ void FixSPHFluid::setup(int) {
   if (!valid && coupler_ && coupler_->couple_superficial_floor() > 0) start_superficial();
   host_current_ = false;
   download();              /* host rho, p and state columns now match the device */
+  if (!scene_checked_) check_scene();
 
   sphdem_stats s;
   const double dt_nominal = (double)every_ * update->dt; /* the fluid step of the stability check */
   int rc = sphdem_stats_get(ctx_, dt_nominal, &s);
-  if (rc != SPHDEM_OK) fail(stats_message(rc, s));
+  if (rc == SPHDEM_ERR_UNSTABLE) fail(stats_message(rc, s)); /* the time step, nothing blew up yet */
+  if (rc != SPHDEM_OK) blowup(stats_message(rc, s));
   stats_ = s;
   stats_step_ = update->ntimestep;
 
@@ -547,6 +606,19 @@ bool FixSPHFluid::upload_fluid() {
     }
   }
   if (scaled_any) mass_scaled_ = true;
+  /* a state that went bad between two checks (the last download): the regular blow-up message */
+  for (size_t k = 0; k < n; k++) {
+    if (frho_[k] > 0 && std::isfinite(frho_[k])) continue;
+    sphdem_stats s;
+    const int rc = sphdem_stats_get(ctx_, 0.0, &s);
+    if (rc != SPHDEM_OK) blowup(stats_message(rc, s));
+    char m[512];
+    snprintf(m, sizeof m, "fluid atom %lld has density %g at step " BIGINT_FORMAT " (must be > 0): the fluid blew "
+             "up after the last check (check %ld; check 1 stops at the first bad step). Likely causes: a time step "
+             "above the stable one, c0 too low for the flow, or particles entering the walls",
+             (long long)ftag_[k], frho_[k], update->ntimestep, check_every_);
+    blowup(m);
+  }
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
@@ -641,7 +713,10 @@ void FixSPHFluid::seed_porosity() {
 /* One rate evaluation; the coupled grains are uploaded before it and their forces fetched after. */
 void FixSPHFluid::rates() {
   if (coupler_) coupler_->couple_before_rates(ctx_);
-  check(sphdem_compute_rates(ctx_), "compute_rates");
+  const int rc = sphdem_compute_rates(ctx_);
+  if (rc != SPHDEM_OK && nfluid_steps_ > 0) /* during a run: the fluid went wrong */
+    blowup(std::string("compute_rates: ") + sphdem_last_error(ctx_) + " (" + sphdem_strerror(rc) + ")");
+  check(rc, "compute_rates");
   if (coupler_) coupler_->couple_after_rates(ctx_);
   host_current_ = false;
 }
@@ -775,8 +850,7 @@ void FixSPHFluid::final_integrate() {
     stats_step_ = step;
     if (rc != SPHDEM_OK) {
       const std::string msg = stats_message(rc, stats_);
-      download(); /* keep the user's data on the host before stopping */
-      fail(msg);
+      blowup(msg);
     }
   }
 }
@@ -788,10 +862,126 @@ std::string FixSPHFluid::stats_message(int rc, const sphdem_stats &s) const {
     char note[256];
     snprintf(note, sizeof note,
              " With every %ld the fluid step is %ld x timestep: set the timestep to %g or less, or lower every.",
-             every_, every_, s.dt_stable / (double)every_);
+             every_, every_, round_down3(s.dt_stable / (double)every_));
     msg += note;
   }
   return msg;
+}
+
+/* ---- blow-up evidence ------------------------------------------------------------------------------ */
+
+void FixSPHFluid::blowup(const std::string &msg) {
+  std::string m = msg;
+  if (failure_dump_) {
+    const std::string file = write_failure_dump();
+    if (!file.empty())
+      m += " The state of step " + std::to_string((long long)update->ntimestep) + " (fluid, walls, grains) is in " +
+           file + " (tools/dump2vtk.py converts it for ParaView; failure_dump no turns this off).";
+    else
+      m += " (the failure dump could not be written)";
+  }
+  fail(m);
+}
+
+/* The failure step as a 'dump custom' text file: every local atom with id type x y z vx vy vz density
+ * pressure porosity. Fluid: the device state (as it is, non-finite values included); walls: the wall
+ * state of the last rate evaluation (porosity 1); other atoms (grains): the material density m/V,
+ * pressure 0, porosity 0. Returns the file name, empty when it could not be written. */
+std::string FixSPHFluid::write_failure_dump() {
+  const int nlocal = atom->nlocal;
+  std::vector<double> rho(nlocal, 0.0), p(nlocal, 0.0), eps(nlocal, 0.0);
+  std::vector<char> done(nlocal, 0);
+  double **x = atom->x, **v = atom->v;
+  std::vector<double> xx(3 * (size_t)nlocal), vv(3 * (size_t)nlocal);
+  for (int i = 0; i < nlocal; i++)
+    for (int d = 0; d < 3; d++) xx[3 * i + d] = x[i][d], vv[3 * i + d] = v[i][d];
+  const size_t n = fidx_.size(), nw = widx_.size();
+  if (ctx_ && n > 0) {
+    std::vector<double> fx(3 * n), fv(3 * n), frho(n), fp(n), fe(n, 1.0);
+    if (sphdem_get_fluid(ctx_, fx.data(), fv.data(), frho.data(), fp.data(), nullptr) == SPHDEM_OK) {
+      if (couple_on_ && sphdem_get_porosity(ctx_, fe.data()) != SPHDEM_OK) fe.assign(n, 1.0);
+      for (size_t k = 0; k < n; k++) {
+        const int i = fidx_[k];
+        if (i >= nlocal) continue;
+        for (int d = 0; d < 3; d++) xx[3 * i + d] = fx[3 * k + d], vv[3 * i + d] = fv[3 * k + d];
+        rho[i] = frho[k], p[i] = fp[k], eps[i] = fe[k], done[i] = 1;
+      }
+    }
+  }
+  if (ctx_ && nw > 0) {
+    std::vector<double> wp(nw, 0.0), wr(nw, 0.0);
+    if (sphdem_get_wall_state(ctx_, wp.data(), wr.data()) != SPHDEM_OK) wp.assign(nw, 0.0), wr.assign(nw, 0.0);
+    for (size_t k = 0; k < nw; k++) {
+      const int i = widx_[k];
+      if (i >= nlocal) continue;
+      rho[i] = wr[k], p[i] = wp[k], eps[i] = 1.0, done[i] = 1;
+    }
+  }
+  const double pi = 3.14159265358979323846;
+  for (int i = 0; i < nlocal; i++) {
+    if (done[i] || !atom->radius_flag || !atom->rmass || !(atom->radius[i] > 0)) continue;
+    const double r = atom->radius[i];
+    const double vol = domain->dimension == 2 ? pi * r * r : 4.0 / 3.0 * pi * r * r * r;
+    rho[i] = atom->rmass[i] / vol;
+  }
+  std::string file = failure_file_;
+  if (file.empty()) file = "sphdem_failure." + std::to_string((long long)update->ntimestep) + ".dump";
+  FILE *fp = fopen(file.c_str(), "w");
+  if (!fp) return "";
+  fprintf(fp, "ITEM: TIMESTEP\n" BIGINT_FORMAT "\nITEM: NUMBER OF ATOMS\n%d\nITEM: BOX BOUNDS %s %s %s\n",
+          update->ntimestep, nlocal, domain->periodicity[0] ? "pp" : "ff", domain->periodicity[1] ? "pp" : "ff",
+          domain->periodicity[2] ? "pp" : "ff");
+  for (int d = 0; d < 3; d++) fprintf(fp, "%.17g %.17g\n", domain->boxlo[d], domain->boxhi[d]);
+  fprintf(fp, "ITEM: ATOMS id type x y z vx vy vz density pressure porosity\n");
+  for (int i = 0; i < nlocal; i++)
+    fprintf(fp, "%lld %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", (long long)atom->tag[i],
+            atom->type[i], xx[3 * i], xx[3 * i + 1], xx[3 * i + 2], vv[3 * i], vv[3 * i + 1], vv[3 * i + 2], rho[i],
+            p[i], eps[i]);
+  const bool ok = fclose(fp) == 0;
+  return ok ? file : "";
+}
+
+/* Set-up checks of the uploaded scene (once per fix): the particle masses against rho0 dx^dim (a wrong rho0,
+ * h or dx gives forces scaled by orders of magnitude: the fluid free-falls or explodes), then particles on
+ * top of each other or of wall particles (the core's cell search, closer than 0.5 dx). */
+void FixSPHFluid::check_scene() {
+  scene_checked_ = true;
+  const size_t n = fidx_.size();
+  if (n == 0) return;
+  double sum = 0.0;
+  for (int i : fidx_) {
+    const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
+    sum += atom_mass(atom, i) / rho0;
+  }
+  const double vol = std::pow(prm_.dx, prm_.dim);
+  const double ratio = sum / (double)n / vol;
+  char msg[768];
+  if (!(ratio >= 0.02 && ratio <= 50.0)) {
+    snprintf(msg, sizeof msg,
+             "the fluid particle masses do not match rho0 dx^%d: mean particle mass / rho0 = %g, dx^%d = %g (dx %g%s), "
+             "a ratio of %g (expected near 1). Check rho0, h, dx and the atoms' mass (in 2D the mass is per unit "
+             "depth, rho0 dx^2)",
+             prm_.dim, sum / (double)n, prm_.dim, vol, prm_.dx, have_dx_ ? "" : " = h/1.3, give dx", ratio);
+    fail(msg);
+  }
+  double r[8];
+  check(sphdem_check_spacing(ctx_, 0.5 * prm_.dx, r), "check_spacing");
+  if (r[0] > 0) {
+    snprintf(msg, sizeof msg,
+             "%.0f pairs of fluid particles closer than 0.5 dx (%g), e.g. atoms %.0f and %.0f at distance %g: atoms "
+             "created twice or on top of each other (check the regions of create_atoms)",
+             r[0], 0.5 * prm_.dx, r[2], r[3], r[4]);
+    fail(msg);
+  }
+  if (r[1] > 0) {
+    const int w = (int)r[6];
+    const long long wt = w >= 0 && w < (int)widx_.size() ? (long long)atom->tag[widx_[w]] : -1;
+    snprintf(msg, sizeof msg,
+             "%.0f fluid-wall pairs closer than 0.5 dx (%g), e.g. fluid atom %.0f and wall atom %lld at distance %g: "
+             "fluid created inside the walls (check the regions of create_atoms)",
+             r[1], 0.5 * prm_.dx, r[5], wt, r[7]);
+    fail(msg);
+  }
 }
 
 bool FixSPHFluid::output_step() const {
@@ -896,6 +1086,14 @@ int FixSPHFluid::pack_restart(int i, double *buf) {
 }
 
 void FixSPHFluid::unpack_restart(int nlocal, int nth) {
+  const char *bad = sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL);
+  if (bad) { /* reported by init() on every rank; the row stays zero (not valid) */
+    if (restart_error_.empty())
+      restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " + bad +
+                       " (fix sph/fluid writes " + std::to_string(NCOL + 1) + " values per atom; a corrupted restart "
+                       "file, or one written by another version)";
+    return;
+  }
   double **extra = atom->extra;
   int m = 0;
   for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);

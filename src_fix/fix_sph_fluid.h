@@ -20,7 +20,6 @@ namespace LAMMPS_NS {
  * whatever the order of the fixes' post_force hooks (doc/fix_sph_couple.md, "Order of operations"). */
 class SPHCoupler {
  public:
-  virtual ~SPHCoupler() = default;
   virtual void couple_setup(sphdem_ctx ctx) = 0;        /* sphdem_couple_set, at each run set-up */
   virtual bool couple_forces_valid() = 0;               /* held forces exist for every grain */
   virtual void couple_before_rates(sphdem_ctx ctx) = 0; /* upload the grains */
@@ -28,6 +27,12 @@ class SPHCoupler {
   /* > 0: the porosity enters the fluid density (superficial); fresh fluid particles then start at
    * rho = eps rho_start and m = eps m (eps floored at this value) so their intrinsic density is rho_start */
   virtual double couple_superficial_floor() const = 0;
+
+ protected:
+  /* Never deleted through this base: a protected non-virtual destructor leaves the exception
+   * specification of the coupling fix's destructor to Fix alone (current LAMMPS declares
+   * ~Pointers() noexcept(false), older LAMMPS and LIGGGHTS a non-throwing one). */
+  ~SPHCoupler() = default;
 };
 
 class FixSPHFluid : public Fix {
@@ -121,6 +126,15 @@ class FixSPHFluid : public Fix {
   double run_t0_;
 
   [[noreturn]] void fail(const std::string &msg);
+  /* a blow-up: the failure dump (keyword failure_dump), then the message naming it */
+  [[noreturn]] void blowup(const std::string &msg);
+  std::string write_failure_dump();
+  void check_scene(); /* set-up checks of the uploaded fluid: masses against rho0 dx^dim, particle spacing */
+  bool failure_dump_;         /* failure_dump yes (default) | FILE; no = off */
+  std::string failure_file_;  /* FILE, empty = sphdem_failure.<step>.dump */
+  bool have_dx_;
+  bool scene_checked_;
+  std::string restart_error_; /* a corrupted per-atom restart record, reported by init() */
   void check(int rc, const char *what);
   double parse_number(const char *kw, const char *s, const char *usage);
   void parse_args(int, char **);

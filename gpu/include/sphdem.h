@@ -169,6 +169,15 @@ double sphdem_hydrostatic_rho(const sphdem_params *p, double depth);
  * written to pairs (2*maxpairs); returns the pair count or a negative error code. */
 int64_t sphdem_debug_pairs(sphdem_ctx ctx, int64_t *pairs, int64_t maxpairs);
 
+/* Set-up check (one cell search, not per step): fluid pairs and fluid-wall pairs closer than rmin.
+ * out[0] fluid pairs, out[1] fluid-wall pairs; the closest of each: out[2], out[3] the two fluid tags,
+ * out[4] their distance; out[5] the fluid tag, out[6] the wall's index in the last sphdem_set_walls
+ * upload, out[7] their distance (-1 where there is none). */
+int sphdem_check_spacing(sphdem_ctx ctx, double rmin, double out[8]);
+/* Wall pressure and density of the last rate evaluation, in the order of the last sphdem_set_walls
+ * (either may be NULL). */
+int sphdem_get_wall_state(sphdem_ctx ctx, double *p, double *rho);
+
 /* ---- SPH-DEM coupling (He 2018 §2.3, unresolved, two-way) -------------------------------------
  * The engine keeps the DEM (contacts, integration); each fluid step it uploads the grains, the
  * core computes the porosity at fluid particles (eq 26), uses it as superficial density in
