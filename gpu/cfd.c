@@ -57,7 +57,7 @@ static const char *const SIDE[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
 
 int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen) {
   if (!p) BAD("params: NULL");
-  int64_t nc = 1;
+  double nc = 1.0; /* in double: three axes of up to 2^31 cells overflow int64 */
   for (int d = 0; d < 3; d++) {
     if (p->nc[d] < 1) BAD("nc[%d]: cells per axis must be >= 1 (got %d)", d, p->nc[d]);
     nc *= p->nc[d];
@@ -65,7 +65,9 @@ int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen
       BAD("box: axis %d needs finite hi > lo (got %g, %g)", d, p->boxlo[d], p->boxhi[d]);
     if (!isfinite(p->gravity[d])) BAD("gravity: component %d is not finite", d);
   }
-  if (nc > SPHDEM_CFD_MAX_CELLS) BAD("nc: %lld cells exceed the limit %lld", (long long)nc, SPHDEM_CFD_MAX_CELLS);
+  if (nc > (double)SPHDEM_CFD_MAX_CELLS)
+    BAD("nc: %d x %d x %d = %.0f cells exceed the limit of %lld cells", p->nc[0], p->nc[1], p->nc[2], nc,
+        SPHDEM_CFD_MAX_CELLS);
   if (!(p->rho_g > 0.0) || !isfinite(p->rho_g)) BAD("rho: gas density must be > 0 (got %g)", p->rho_g);
   if (!(p->mu_g > 0.0) || !isfinite(p->mu_g)) BAD("mu: gas viscosity must be > 0 (got %g)", p->mu_g);
   int nout = 0;
@@ -127,9 +129,9 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
     cfd_level *F = &D->L[D->nlev - 1];
     F->ncell = (int64_t)F->nc[0] * F->nc[1] * F->nc[2];
     F->foff[0] = 0;
-    F->foff[1] = (int64_t)(F->nc[0] + 1) * F->nc[1] * F->nc[2];
-    F->foff[2] = F->foff[1] + (int64_t)F->nc[0] * (F->nc[1] + 1) * F->nc[2];
-    F->foff[3] = F->foff[2] + (int64_t)F->nc[0] * F->nc[1] * (F->nc[2] + 1);
+    F->foff[1] = ((int64_t)F->nc[0] + 1) * F->nc[1] * F->nc[2];
+    F->foff[2] = F->foff[1] + (int64_t)F->nc[0] * ((int64_t)F->nc[1] + 1) * F->nc[2];
+    F->foff[3] = F->foff[2] + (int64_t)F->nc[0] * F->nc[1] * ((int64_t)F->nc[2] + 1);
     if (D->nlev == 1) { /* the grid itself: its cells and faces */
       D->ncell = F->ncell;
       D->nface = F->foff[3];

@@ -97,10 +97,9 @@ SPHDEM_HD double cfd_inlet_u(const cfd_dev *D, int s, const int *ix) {
 
 /* Cell of a position along axis d (clamped into the grid) and the weight of the upper face. */
 SPHDEM_HD int cfd_locate(const cfd_dev *D, int d, double x, double *whi) {
-  double s = (x - D->lo[d]) * D->inv_h[d];
-  int c = (int)floor(s);
-  if (c < 0) c = 0;
-  if (c > D->nc[d] - 1) c = D->nc[d] - 1;
+  double s = (x - D->lo[d]) * D->inv_h[d], fs = floor(s);
+  /* clamped in double before the cast (a position far outside has no int cell) */
+  int c = !(fs > 0.0) ? 0 : fs > (double)(D->nc[d] - 1) ? D->nc[d] - 1 : (int)fs;
   double w = s - c;
   *whi = w < 0.0 ? 0.0 : (w > 1.0 ? 1.0 : w);
   return c;
@@ -119,11 +118,13 @@ SPHDEM_HD int64_t cfd_cell_at(const cfd_dev *D, const double *x) {
  * the total and an interpolation takes the boundary value. */
 SPHDEM_HD void cfd_cic(const cfd_dev *D, const double *x, int *i0, double *f) {
   for (int d = 0; d < 3; d++) {
-    double s = (x[d] - D->lo[d]) * D->inv_h[d] - 0.5;
-    int c = (int)floor(s);
-    double t = s - c;
-    if (c < -1) { c = -1; t = 1.0; }
-    if (c > D->nc[d] - 1) { c = D->nc[d] - 1; t = 0.0; }
+    double s = (x[d] - D->lo[d]) * D->inv_h[d] - 0.5, fs = floor(s);
+    int c;
+    double t;
+    /* clamped in double before the cast (a position far outside has no int cell) */
+    if (!(fs >= -1.0)) { c = -1; t = 1.0; }
+    else if (fs > (double)(D->nc[d] - 1)) { c = D->nc[d] - 1; t = 0.0; }
+    else { c = (int)fs; t = s - c; }
     i0[d] = c;
     f[d] = t;
   }

@@ -81,6 +81,10 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   CHECK(p->dim == 2 || p->dim == 3, "dim must be 2 or 3 (got %d)", p->dim);
   CHECK(p->h > 0 && isfinite(p->h), "h (smoothing length) must be > 0 (got %g)", p->h);
   CHECK(p->dx > 0 && isfinite(p->dx), "dx (initial particle spacing) must be > 0 (got %g)", p->dx);
+  /* the kernel constant 21 / (16 pi h^3) must neither divide by an underflowed h^3 nor vanish */
+  CHECK(p->h >= 1e-60 && p->h <= 1e60, "h (smoothing length) %g is outside [1e-60, 1e60]", p->h);
+  CHECK(p->tensile_eps == 0 || p->dx < 2.0 * p->h,
+        "tensile correction needs dx < 2h (W(dx) = 0 otherwise; got dx %g, h %g)", p->dx, p->h);
   CHECK(p->rho0 > 0, "rho0 (reference density) must be > 0 (got %g)", p->rho0);
   CHECK(p->c0 > 0, "c0 (sound speed) must be > 0 (got %g)", p->c0);
   CHECK(p->gamma >= 1, "gamma (Tait exponent) must be >= 1 (got %g)", p->gamma);
@@ -130,7 +134,8 @@ static void derive(sphdem_dev *D) {
   D->support2 = 4.0 * p->h * p->h;
   D->eta2 = 0.01 * p->h * p->h;
   D->alphaD = wendland_alpha(p->dim, p->h);
-  D->w_dx_inv = 1.0 / wendland_w(D->alphaD, p->dx / p->h);
+  const double w_dx = wendland_w(D->alphaD, p->dx / p->h);
+  D->w_dx_inv = w_dx > 0.0 ? 1.0 / w_dx : 0.0; /* 0 (dx >= 2h) only without the tensile correction (checked) */
   D->gamma_is_7 = p->gamma == 7.0;
   D->tensile_n_is_4 = p->tensile_n == 4.0;
   for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
@@ -415,7 +420,7 @@ static int build_grid(sphdem_ctx c) {
   double cmin = 2.0 * D->P.h + D->P.skin;
   double scale = 1.0;
   for (int iter = 0; iter < 64; iter++) {
-    int64_t total = 1;
+    double total = 1.0; /* in double: three axes of up to 2^30 cells overflow int64 */
     for (int d = 0; d < 3; d++) {
       if (d >= D->P.dim) { D->nc[d] = 1; D->glo[d] = 0.0; D->cs[d] = 1.0; D->cs_inv[d] = 1.0; continue; }
       double lo, hi;
@@ -431,7 +436,7 @@ static int build_grid(sphdem_ctx c) {
         }
       }
       double len = hi - lo, cs = cmin * scale;
-      int n = (int)floor(len / cs);
+      int n = (int)fmin(floor(len / cs), 1073741824.0); /* clamped before the cast (huge boxes) */
       if (n < 1) n = 1;
       if (D->P.periodic[d]) {
         if (n < 3) return sphdem_fail(c, SPHDEM_ERR_ARG, "periodic axis %c holds fewer than 3 cells of 2h + skin", "xyz"[d]);
@@ -442,11 +447,15 @@ static int build_grid(sphdem_ctx c) {
       D->nc[d] = n; D->glo[d] = lo; D->cs[d] = cs; D->cs_inv[d] = 1.0 / cs;
       total *= n;
     }
-    D->ncells = total;
-    if (total <= SPHDEM_MAX_CELLS) return ensure_cells(c, total);
+    if (total <= SPHDEM_MAX_CELLS) {
+      D->ncells = (int64_t)total;
+      return ensure_cells(c, D->ncells);
+    }
     scale *= 1.26;
   }
-  return sphdem_fail(c, SPHDEM_ERR_ARG, "search grid too large");
+  return sphdem_fail(c, SPHDEM_ERR_ARG, "search grid too large: the particles span %g x %g x %g with cells of "
+                     "2h + skin = %g (more than %d cells)", rf.hi[0] - rf.lo[0], rf.hi[1] - rf.lo[1],
+                     D->P.dim == 3 ? rf.hi[2] - rf.lo[2] : 0.0, cmin, SPHDEM_MAX_CELLS);
 }
 
 /* Sort one set by (cell, tag) and permute every array that carries state across steps. */
@@ -557,6 +566,15 @@ static int32_t *match_resident(sphdem_ctx c, int64_t n, const int64_t *tag) {
   return c->huidx;
 }
 
+/* Positions are checked for finite values before they are binned; the index (and tag) of the first bad one. */
+static int check_positions(sphdem_ctx c, const char *what, int64_t n, const int64_t *tag, const double *x) {
+  for (int64_t i = 0; i < n; i++)
+    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "%s: particle %lld (tag %lld) has a non-finite position (%g, %g, %g)",
+                         what, (long long)i, (long long)(tag ? tag[i] : i + 1), x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+  return SPHDEM_OK;
+}
+
 int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, const double *v,
                      const double *rho, const double *mass, const double *state) {
   if (!c) return SPHDEM_ERR_ARG;
@@ -569,6 +587,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
       return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: particle %lld (tag %lld) has mass %g and density %g; "
                          "both must be > 0", (long long)i, (long long)(tag ? tag[i] : i + 1), mass[i], rho[i]);
   }
+  TRY(check_positions(c, "set_fluid", n, tag, x));
   double t0 = now();
   sphdem_dev *D = &c->D;
   TRY(ensure_host(c, n));
@@ -615,6 +634,7 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   for (int64_t i = 0; i < n; i++)
     if (!(mass[i] > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_walls: wall particle %lld has mass %g; must be > 0",
                                            (long long)i, mass[i]);
+  TRY(check_positions(c, "set_walls", n, NULL, x));
   double t0 = now();
   sphdem_dev *D = &c->D;
   TRY(ensure_walls(c, n));
@@ -892,6 +912,10 @@ int sphdem_probe(sphdem_ctx c, int npts, const double *pts, double *out) {
   if (!c) return SPHDEM_ERR_ARG;
   if (npts < 0 || (npts > 0 && (!pts || !out))) return sphdem_fail(c, SPHDEM_ERR_ARG, "probe: bad point list");
   if (npts == 0) return SPHDEM_OK;
+  for (int i = 0; i < npts; i++)
+    if (!isfinite(pts[3 * i]) || !isfinite(pts[3 * i + 1]) || !isfinite(pts[3 * i + 2]))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "probe: point %d (%g, %g, %g) is not finite", i, pts[3 * i],
+                         pts[3 * i + 1], pts[3 * i + 2]);
   sphdem_dev *D = &c->D;
   if (D->nf == 0) { memset(out, 0, sizeof(double) * SPHDEM_NPROBE * (size_t)npts); return SPHDEM_OK; }
   if (c->need_sort) TRY(sort_all(c));

@@ -68,6 +68,8 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
          cp->pressure_form);
   CCHECK(cp->dmax >= 0 && isfinite(cp->dmax), "dmax (largest grain diameter) must be >= 0 (got %g)", cp->dmax);
   double hc = cp->hc > 0 ? cp->hc : P->h;
+  /* the kernel constant 21 / (16 pi hc^3) must neither divide by an underflowed hc^3 nor vanish */
+  CCHECK(hc >= 1e-60 && hc <= 1e60, "hc (coupling smoothing length) %g is outside [1e-60, 1e60]", hc);
   for (int d = 0; d < P->dim; d++)
     if (P->periodic[d]) {
       double L = P->boxhi[d] - P->boxlo[d];
@@ -286,7 +288,7 @@ static int build_grain_grid(struct sphdem_ctx_s *c) {
    * changes. */
   if (c->cp.dmax <= 0 && c->backend == SPHDEM_DEVICE_CPU) cmin = fmax(cmin, D->hc);
   for (int iter = 0; iter < 64; iter++) {
-    int64_t total = 1;
+    double total = 1.0; /* in double: three axes of up to 1e9 cells overflow int64 */
     for (int d = 0; d < 3; d++) {
       if (d >= D->P.dim) { D->gnc[d] = 1; D->gglo[d] = 0.0; D->gcs[d] = 1.0; D->gcs_inv[d] = 1.0; continue; }
       double lo, len, cs = cmin * scale;
@@ -299,8 +301,10 @@ static int build_grain_grid(struct sphdem_ctx_s *c) {
       D->gnc[d] = n; D->gglo[d] = lo; D->gcs[d] = cs; D->gcs_inv[d] = 1.0 / cs;
       total *= n;
     }
-    D->gncells = total;
-    if (total <= SPHDEM_MAX_CELLS) return ensure_grain_cells(c, total);
+    if (total <= SPHDEM_MAX_CELLS) {
+      D->gncells = (int64_t)total;
+      return ensure_grain_cells(c, D->gncells);
+    }
     scale *= 1.26;
   }
   return sphdem_fail(c, SPHDEM_ERR_ARG, "couple: grain search grid too large");
@@ -328,10 +332,10 @@ static int sort_grains(struct sphdem_ctx_s *c) {
 static void set_layers(sphdem_dev *D) {
   for (int d = 0; d < 3; d++) {
     if (d >= D->P.dim) { D->glay[d] = D->flay[d] = 0; continue; }
-    D->glay[d] = (int)ceil(2.0 * D->hc * D->gcs_inv[d]);
-    D->flay[d] = (int)ceil((2.0 * D->hc + 0.5 * D->P.skin) * D->cs_inv[d]);
-    if (D->glay[d] < 1) D->glay[d] = 1;
-    if (D->flay[d] < 1) D->flay[d] = 1;
+    /* clamped in double before the cast: more layers than cells visit the same cells (walk_init) */
+    double gl = ceil(2.0 * D->hc * D->gcs_inv[d]), fl = ceil((2.0 * D->hc + 0.5 * D->P.skin) * D->cs_inv[d]);
+    D->glay[d] = gl >= 1.0 ? (gl < (double)D->gnc[d] ? (int)gl : D->gnc[d]) : 1;
+    D->flay[d] = fl >= 1.0 ? (fl < (double)D->nc[d] ? (int)fl : D->nc[d]) : 1;
   }
 }
 

@@ -103,8 +103,9 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
-  D->Yeff = 1. / ((1. - pow(v, 2.)) / Y + (1. - pow(v, 2.)) / Y);
-  D->Geff = 1. / (2. * (2. - v) * (1. + v) / Y + 2. * (2. - v) * (1. + v) / Y);
+  /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
+  D->Yeff = Y > 0.0 ? 1. / ((1. - pow(v, 2.)) / Y + (1. - pow(v, 2.)) / Y) : 0.0;
+  D->Geff = Y > 0.0 ? 1. / (2. * (2. - v) * (1. + v) / Y + 2. * (2. - v) * (1. + v) / Y) : 0.0;
   const double lg = p->en > 0.0 ? log(p->en) : 0.0;
   D->betaeff = lg / sqrt(pow(lg, 2.) + pow(M_PI, 2.));
   D->lnen = lg;
@@ -147,7 +148,8 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   }
   derive(&m->D, p);
   m->need_build = 1;
-  rc = m->ops->alloc(m, (void **)&m->D.vir, 8 * sizeof(double)); /* virial + a device counter */
+  /* virial, a device counter, the coincident-pair slot */
+  rc = m->ops->alloc(m, (void **)&m->D.vir, SPHDEM_DEM_VIR_DOUBLES * sizeof(double));
   if (rc) {
     if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
     free(m);
@@ -263,18 +265,22 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
       if (v > hi[d]) hi[d] = v;
     }
   }
-  for (;;) {
-    int64_t tot = 1;
+  for (int iter = 0;; iter++) {
+    double tot = 1.0; /* in double: three axes of up to 2^30 cells overflow int64 */
     for (int d = 0; d < 3; d++) {
       double len = hi[d] - lo[d];
-      int nc = (int)floor(len / cut);
+      int nc = (int)fmin(floor(len / cut), 1073741824.0);
       if (nc < 1) nc = 1;
       D->nc[d] = nc;
       D->glo[d] = lo[d];
       D->cs_inv[d] = D->P.periodic[d] ? nc / len : 1.0 / cut;
       tot *= nc;
     }
-    if (tot <= SPHDEM_DEM_MAX_CELLS) { D->ncells = tot; break; }
+    if (tot <= SPHDEM_DEM_MAX_CELLS) { D->ncells = (int64_t)tot; break; }
+    if (iter == 400)
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the grains span %g x %g x %g: no cell grid of at most %d cells "
+                             "covers them (a grain far away from the others?)", hi[0] - lo[0], hi[1] - lo[1],
+                             hi[2] - lo[2], SPHDEM_DEM_MAX_CELLS);
     cut *= 1.26;
   }
   if (D->ncells > m->cap_cells) {
@@ -346,6 +352,13 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
     if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
     if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
+    if (!isfinite(radius[i]) || !isfinite(mass[i]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
+                             radius[i], mass[i]);
+    /* checked before binning: a non-finite position has no cell */
+    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
+                             x[3 * i], x[3 * i + 1], x[3 * i + 2]);
     if (radius[i] > rmax) rmax = radius[i];
   }
   TRY(ensure_grains(m, n));
@@ -397,7 +410,21 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   D->want_virial = virial != NULL;
   if (virial) TRY(m->ops->memset0(m, D->vir, 6 * sizeof(double)));
   int64_t ntouch = 0;
-  if (n) TRY(m->ops->forces(m, &ntouch));
+  if (n) {
+    uint64_t *slot = (uint64_t *)(D->vir + SPHDEM_DEM_VIR_COINCIDENT);
+    TRY(m->ops->memset0(m, slot, sizeof(uint64_t)));
+    TRY(m->ops->forces(m, &ntouch));
+    uint64_t code = 0;
+    TRY(m->ops->d2h(m, &code, slot, sizeof code));
+    if (code) { /* a pair whose centres coincide has no contact normal (the force would be 0/0) */
+      int64_t a = (int64_t)(code >> 32) - 1, b = (int64_t)(code & 0xffffffffu);
+      if (a >= 0 && a < n && b >= 0 && b < n)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grains %lld and %lld are at the same position (%g, %g, %g): "
+                               "remove one of them (created twice?)", (long long)tag[a], (long long)tag[b],
+                               x[3 * a], x[3 * a + 1], x[3 * a + 2]);
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "two grains are at the same position");
+    }
+  }
   m->ncontacts = ntouch;
   /* the new history becomes the current one */
   double *t = D->hin;

@@ -45,10 +45,9 @@ SPHDEM_HD int dem_grid_coord(const dem_dev *D, int d, double x) {
   int c;
   if (D->P.periodic[d]) {
     s -= n * floor(s / n);           /* wrap into [0, n) */
-    c = (int)s;
-    if (c >= n) c = n - 1;
+    c = s > 0.0 ? (s < (double)n ? (int)s : n - 1) : 0; /* (rounding far out of the box, or not finite) */
   } else {
-    if (s < 0.0) s = 0.0;            /* clamping keeps neighbours within one cell of each other */
+    if (!(s > 0.0)) s = 0.0;         /* clamping keeps neighbours within one cell of each other */
     c = s >= (double)n ? n - 1 : (int)s;
   }
   return c;
@@ -312,6 +311,18 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
  * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
  * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
  * tangent plane, Yu eq 13) are common; the three laws differ in the normal and tangential forces. */
+/* Grains a and b with coincident centres: no contact normal exists. The first such pair found is kept in
+ * the slot after the contact counter (dem.c reports it by tag); the pair then counts as not touching. */
+SPHDEM_HD void dem_flag_coincident(const dem_dev *D, int32_t a, int32_t b) {
+  unsigned long long code = ((unsigned long long)(uint32_t)(a + 1) << 32) | (uint32_t)b;
+  unsigned long long *slot = (unsigned long long *)(D->vir + SPHDEM_DEM_VIR_COINCIDENT);
+#ifdef __CUDA_ARCH__
+  atomicCAS(slot, 0ull, code);
+#else
+  __atomic_store_n(slot, code, __ATOMIC_RELAXED); /* any one of the pairs will do */
+#endif
+}
+
 /* Geometry of pair p: del = x_a - x_b (minimum image; for a wall the distance along its normal),
  * |del|^2, the partner's radius (0 for a wall) and r_a + r_b. Returns 1 if the grains overlap. */
 DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, double *rsq_, double *rb_,
@@ -324,6 +335,10 @@ DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, dou
     rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
     rb = D->rad[b];
     radsum = ra + rb;
+    if (rsq <= 1e-24 * radsum * radsum) { /* centres within 1e-12 of the contact distance: r = 0 */
+      dem_flag_coincident(D, a, b);
+      return 0;
+    }
   } else {
     const int w = -1 - b;
     const double dist = dem_wall_dist(D, w, xa);

@@ -8,6 +8,10 @@
 #define SPHDEM_DEM_MAX_CELLS (1 << 24)
 #define SPHDEM_DEM_MAX_WALLS 16 /* the walls travel in the kernel parameters: keep dem_dev small */
 #define SPHDEM_DEM_MAX_TAG 2147483647LL
+/* D->vir: 6 virial doubles, the contact counter (dem.cu), then the first pair found with coincident
+ * centres as ((a + 1) << 32) | b (uint64, 0 = none) */
+#define SPHDEM_DEM_VIR_COINCIDENT 7
+#define SPHDEM_DEM_VIR_DOUBLES 8
 
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the
  * caller's order; the cell grid sorts only an index array (sidx). */
@@ -48,7 +52,7 @@ typedef struct {
   double *hist_old;
   /* particle-parallel CSR: pairs where the grain is a: [fstart, fend); where it is b: rlist[rstart..rend) */
   int32_t *fstart, *fend, *rstart, *rend, *rlist, *rkey;
-  double *vir;        /* 6 virial components, then 8 bytes of device counter */
+  double *vir;        /* 6 virial components, 8 bytes of device counter, the coincident-pair slot (below) */
 } dem_dev;
 
 struct sphdem_dem_s;

@@ -87,7 +87,11 @@ SPHDEM_HD double fluid_rho0(const sphdem_dev *D, int64_t i) {
 /* Cell coordinate on one axis of a grid (origin lo, 1/cell inv, n cells): wrapped on periodic axes,
  * clamped otherwise. */
 SPHDEM_HD int axis_coord(double x, double lo, double inv, int n, int periodic) {
-  int c = (int)floor((x - lo) * inv);
+  /* clamped in double before the cast: a position far outside (or not finite) has no int cell */
+  double s = floor((x - lo) * inv);
+  if (!(s > -1e9)) s = -1e9;
+  if (s > 1e9) s = 1e9;
+  int c = (int)s;
   if (periodic) { c %= n; if (c < 0) c += n; }
   else { if (c < 0) c = 0; if (c >= n) c = n - 1; }
   return c;

@@ -177,8 +177,8 @@ void PairGranGPU::read_restart(FILE *fp, const int, const int) {
   if (!allocated) allocate();
   int iv[6];
   if (!sphdem_restart::read_items(fp, iv, sizeof(int), 6) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
-      !pending_history_.read(fp))
-    fail("restart file ends inside the pair style's data");
+      !pending_history_.read(fp, (int64_t)atom->natoms))
+    fail(pending_history_.error_or("restart file ends inside the pair style's data"));
   rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5];
 }
 

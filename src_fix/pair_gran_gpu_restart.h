@@ -6,11 +6,15 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "sphdem.h"
 
 namespace sphdem_restart {
+
+/* wall contacts a grain can have in the history: one per core wall (sphdem_dem_set_walls allows 16) */
+constexpr int SPHDEM_DEM_MAX_WALL_CONTACTS = 16;
 
 /* fread of n items; false when the file ends early */
 inline bool read_items(FILE *fp, void *p, size_t size, size_t n) { return !n || fread(p, size, n, fp) == n; }
@@ -23,8 +27,17 @@ inline void write_setflag(FILE *fp, int **setflag, int ntypes) {
 inline bool read_setflag(FILE *fp, int **setflag, int ntypes) {
   for (int i = 1; i <= ntypes; i++)
     for (int j = i; j <= ntypes; j++)
-      if (!read_items(fp, &setflag[i][j], sizeof(int), 1)) return false;
+      if (!read_items(fp, &setflag[i][j], sizeof(int), 1) || (setflag[i][j] != 0 && setflag[i][j] != 1)) return false;
   return true;
+}
+
+/* Bytes from the current position to the end of the file (-1 if the stream cannot seek). */
+inline long long bytes_left(FILE *fp) {
+  long here = ftell(fp);
+  if (here < 0 || fseek(fp, 0, SEEK_END) != 0) return -1;
+  long end = ftell(fp);
+  if (fseek(fp, here, SEEK_SET) != 0 || end < here) return -1;
+  return (long long)(end - here);
 }
 
 /* The contact history: count, keys, SPHDEM_DEM_HIST_DOUBLES doubles per pair. */
@@ -46,17 +59,53 @@ struct PendingHistory {
   bool have = false;
   std::vector<uint64_t> keys;
   std::vector<double> hist;
+  std::string error; /* why read() failed */
 
-  bool read(FILE *fp) {
+  /* the message for a failed read: what read() found, else the caller's text */
+  std::string error_or(const std::string &fallback) const { return error.empty() ? fallback : error; }
+
+  /* The pair count is checked before anything is allocated: against the bytes left in the file and
+   * against natoms (at most natoms (natoms - 1) / 2 grain pairs plus the wall contacts; natoms < 0:
+   * not known). Every key is checked for its two tags. */
+  bool read(FILE *fp, int64_t natoms = -1) {
+    error.clear();
     int64_t np = 0;
-    if (!read_items(fp, &np, sizeof(int64_t), 1) || np < 0) return false;
+    if (!read_items(fp, &np, sizeof(int64_t), 1)) return fail("restart file ends before the contact-history count");
+    const long long per_pair = (long long)(sizeof(uint64_t) + SPHDEM_DEM_HIST_DOUBLES * sizeof(double));
+    const long long left = bytes_left(fp);
+    if (np < 0 || (left >= 0 && np > left / per_pair))
+      return fail("restart file: contact-history count " + std::to_string(np) + " does not fit the " +
+                  std::to_string(left) + " bytes left in the file (corrupt or truncated restart file)");
+    if (natoms >= 0) {
+      const double most = 0.5 * (double)natoms * (double)(natoms > 0 ? natoms - 1 : 0) +
+                          (double)natoms * SPHDEM_DEM_MAX_WALL_CONTACTS;
+      if ((double)np > most)
+        return fail("restart file: contact-history count " + std::to_string(np) + " exceeds what " +
+                    std::to_string(natoms) + " atoms can have (corrupt restart file)");
+    }
     keys.resize((size_t)np);
     hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
     if (!read_items(fp, keys.data(), sizeof(uint64_t), keys.size()) ||
         !read_items(fp, hist.data(), sizeof(double), hist.size()))
-      return false;
+      return fail("restart file ends inside the contact history (" + std::to_string(np) + " pairs)");
+    for (size_t k = 0; k < keys.size(); k++) {
+      const uint64_t ta = keys[k] >> 32, tb = keys[k] & 0xffffffffu;
+      const bool wall = tb > 0xffffffffu - SPHDEM_DEM_MAX_WALL_CONTACTS;
+      if (ta < 1 || ta > 2147483647u || (!wall && (tb < 1 || tb <= ta)))
+        return fail("restart file: contact-history pair " + std::to_string(k) + " has atom tags " +
+                    std::to_string(ta) + ", " + std::to_string(tb) + " (corrupt restart file)");
+    }
     have = true;
     return true;
+  }
+  bool fail(const std::string &why) {
+    error = why;
+    have = false;
+    keys.clear();
+    hist.clear();
+    keys.shrink_to_fit();
+    hist.shrink_to_fit();
+    return false;
   }
   /* hand the history to the core (once); SPHDEM_OK when there is nothing to hand over */
   int apply(sphdem_dem dem) {

@@ -166,8 +166,8 @@ void PairGranHookeHistoryGPU::read_restart(FILE *fp) {
   double d[5];
   int iv[4];
   if (!sphdem_restart::read_items(fp, d, sizeof(double), 5) || !sphdem_restart::read_items(fp, iv, sizeof(int), 4) ||
-      !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) || !pending_history.read(fp))
-    fail("restart file ends inside the pair style's data");
+      !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) || !pending_history.read(fp, (int64_t)atom->natoms))
+    fail(pending_history.error_or("restart file ends inside the pair style's data"));
   kn = d[0], kt = d[1], gamman = d[2], gammat = d[3], xmu = d[4];
   dampflag = iv[0], limit_damping = iv[1], device_ = iv[2], algo_ = iv[3];
 }

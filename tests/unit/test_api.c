@@ -91,8 +91,59 @@ static void isolated_particles(sphdem_device dev) {
   free(xr[0]); free(xr[1]);
 }
 
+/* Positions the core cannot bin and parameters that would divide by zero stop with an error that names
+ * them: a NaN fluid position (by tag), an infinite wall position, a NaN probe point, particles spread
+ * beyond any search grid in a huge box, h whose kernel constant underflows, the tensile correction with
+ * W(dx) = 0. */
+static void bad_positions(sphdem_device dev) {
+  sphdem_params p;
+  char msg[512];
+  base_params(&p, 2); p.h = 1e-100; p.dx = 1e-100;
+  TEST_ASSERT(expect_arg_error(&p, "h (smoothing length) 1e-100 is outside"), "h 1e-100 refused");
+  base_params(&p, 2); p.tensile_eps = 0.01; p.dx = 2.0 * p.h;
+  TEST_ASSERT(expect_arg_error(&p, "tensile correction needs dx < 2h"), "tensile with dx = 2h refused");
+  p.tensile_eps = 0.0;
+  TEST_ASSERT(sphdem_params_check(&p, msg, sizeof msg) == SPHDEM_OK, "dx = 2h without tensile: %s", msg);
+  scene s;
+  base_params(&p, 2);
+  periodic_box(&s, &p, 12);
+  sphdem_ctx c;
+  SPHDEM_CHECK_RC(c, sphdem_create(&c, &p, dev, msg, sizeof msg));
+  s.x[3 * 5 + 1] = NAN;
+  int rc = sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_last_error(c), "set_fluid: particle 5 (tag 6) has a non-finite position"),
+              "NaN fluid position: rc %d '%s'", rc, sphdem_last_error(c));
+  s.x[3 * 5 + 1] = 0.5 * p.dx;
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  double wx[6] = {0.01, 0.01, 0, 0.02, INFINITY, 0}, wm[2] = {0.1, 0.1};
+  rc = sphdem_set_walls(c, 2, wx, NULL, NULL, wm);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_last_error(c), "set_walls: particle 1") &&
+              strstr(sphdem_last_error(c), "non-finite position"), "infinite wall position: '%s'", sphdem_last_error(c));
+  double pts[6] = {0.03, 0.03, 0, NAN, 0.03, 0}, out[2 * SPHDEM_NPROBE];
+  rc = sphdem_probe(c, 2, pts, out);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_last_error(c), "probe: point 1"), "NaN probe point: '%s'",
+              sphdem_last_error(c));
+  sphdem_destroy(&c);
+  /* a huge non-periodic box: particles 1e200 apart need more cells than any grid may have */
+  sphdem_params q = p;
+  for (int d = 0; d < 2; d++) { q.periodic[d] = 0; q.boxlo[d] = -1e300; q.boxhi[d] = 1e300; }
+  SPHDEM_CHECK_RC(c, sphdem_create(&c, &q, dev, msg, sizeof msg));
+  s.x[0] = 1e200; s.x[1] = -1e200;
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  rc = sphdem_compute_rates(c);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_last_error(c), "search grid too large"),
+              "particles 1e200 apart: rc %d '%s'", rc, sphdem_last_error(c));
+  /* one particle 1e3 box lengths away still gets a grid (and the others their neighbours) */
+  s.x[0] = 100.0; s.x[1] = 0.5 * p.dx;
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
+  sphdem_destroy(&c);
+  scene_free(&s);
+}
+
 int main(void) {
   sphdem_device dev = test_device();
+  bad_positions(dev);
   sphdem_params p;
   char msg[512];
 

@@ -48,6 +48,18 @@ static void test_params(void) {
   p.eps_min = 1.5;
   rc = sphdem_cfd_params_check(&p, msg, sizeof msg);
   TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(msg, "eps_min"), "eps_min named (%s)", msg);
+  /* cell counts whose product overflows int64 (2^21 cubed is 2^63) are refused, not wrapped past the limit */
+  const int huge[4][3] = {{2097152, 2097152, 2097152}, {2147483647, 2147483647, 2}, {8193, 8192, 1}, {2147483647, 1, 1}};
+  for (int k = 0; k < 4; k++) {
+    column(&p, 2, huge[k][0], huge[k][1], huge[k][2], 1e-9, 1.0);
+    rc = sphdem_cfd_params_check(&p, msg, sizeof msg);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(msg, "cells exceed the limit"), "%d x %d x %d cells refused (%s)",
+                huge[k][0], huge[k][1], huge[k][2], msg);
+    sphdem_cfd c = NULL;
+    rc = sphdem_cfd_create(&c, &p, SPHDEM_DEVICE_CPU, msg, sizeof msg);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && c == NULL && strstr(msg, "cells exceed the limit"),
+                "create with %d x %d x %d cells refused (%s)", huge[k][0], huge[k][1], huge[k][2], msg);
+  }
   if (!sphdem_gpu_available()) {
     column(&p, 2, 2, 2, 4, 0.01, 1.0);
     sphdem_cfd c;
@@ -259,8 +271,30 @@ static void test_poiseuille(void) {
   sphdem_cfd_destroy(&c);
 }
 
+/* grains far outside the gas box (1e300 m) are clamped into the boundary cells, no int overflow */
+static void test_far_grains(void) {
+  sphdem_cfd_params p;
+  column(&p, 2, 3, 3, 6, 0.01, 0.5);
+  sphdem_cfd c;
+  char msg[512];
+  int rc = sphdem_cfd_create(&c, &p, SPHDEM_DEVICE_CPU, msg, sizeof msg);
+  TEST_ASSERT(rc == SPHDEM_OK, "create: %s", msg);
+  if (rc) return;
+  double x[6] = {1e300, 0.015, -1e300, 0.015, 0.015 - 0.1, 0.03 - 0.2}, v[6] = {0}, r[2] = {1e-3, 1e-3};
+  double fd[6], fp[6];
+  rc = sphdem_cfd_step(c, 1e-4, 2, x, v, r, fd, fp);
+  int finite = 1;
+  for (int k = 0; k < 6; k++) finite &= isfinite(fd[k]) && isfinite(fp[k]);
+  sphdem_cfd_stats S;
+  sphdem_cfd_stats_get(c, &S);
+  TEST_ASSERT(rc == SPHDEM_OK && finite && S.eps_min > 0.0 && S.eps_min < 1.0,
+              "grain at 1e300: rc %d (%s), forces finite %d, eps_min %g", rc, sphdem_cfd_last_error(c), finite, S.eps_min);
+  sphdem_cfd_destroy(&c);
+}
+
 int main(void) {
   test_params();
+  test_far_grains();
   test_drag();
   for (int a = 0; a < 3; a++) test_empty(a);
   test_grains(SPHDEM_CFD_VOID_CENTROID, SPHDEM_CFD_DRAG_GIDASPOW);

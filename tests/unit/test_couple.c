@@ -764,6 +764,7 @@ static void argument_errors(void) {
   b = cp; b.dmax = -1; TEST_ASSERT(bad(c, b, "dmax"), "dmax checked");
   b = cp; b.pressure_form = 2; TEST_ASSERT(bad(c, b, "pressure_form"), "pressure_form checked");
   b = cp; b.enabled = 3; TEST_ASSERT(bad(c, b, "enabled"), "enabled checked");
+  b = cp; b.hc = 1e-100; TEST_ASSERT(bad(c, b, "hc (coupling smoothing length) 1e-100 is outside"), "tiny hc checked");
   sphdem_couple_params got;
   SPHDEM_CHECK_RC(c, sphdem_couple_get(c, &got));
   TEST_ASSERT(got.enabled == 1 && got.drag == cp.drag && got.mu == cp.mu, "a rejected set keeps the previous parameters");
@@ -775,6 +776,52 @@ static void argument_errors(void) {
   TEST_ASSERT(sphdem_set_grains(c, -1, x, v, &r1, NULL) == SPHDEM_ERR_ARG, "set_grains: count checked");
   TEST_ASSERT(sphdem_get_grain_forces(c, NULL, NULL, NULL, NULL) == SPHDEM_ERR_STATE, "no forces before compute_rates");
   printf("  bad coupling parameters give SPHDEM_ERR_ARG with a message naming the field\n");
+  sphdem_destroy(&c);
+}
+
+/* hc far above the cell sizes (1e8 m: more search layers than an int holds before clamping to the
+ * grid) runs with the layers clamped to the grid: porosity 1 - V W(r, hc), finite grain forces */
+static void huge_hc(void) {
+  sphdem_params p;
+  base_params(&p, 3);
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = 0; p.boxhi[d] = 0.1; }
+  scene s;
+  memset(&s, 0, sizeof s);
+  srand(5);
+  for (int i = 0; i < 200; i++) {
+    double x[3] = {0.1 * urand(), 0.1 * urand(), 0.1 * urand()};
+    scene_push_fluid(&s, x, 1000, 1000 * pow(p.dx, 3));
+  }
+  sphdem_ctx c = make_ctx(&p);
+  sphdem_couple_params cp;
+  sphdem_couple_params_default(&cp);
+  cp.enabled = 1; cp.hc = 1e8; cp.drag = SPHDEM_DRAG_ERGUN_WENYU; cp.mu = 1e-3;
+  SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
+  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
+  double g[6] = {0.03, 0.05, 0.05, 0.07, 0.05, 0.05}, gv[6] = {0.01, 0, 0, 0, 0, 0}, r[2] = {0.002, 0.002};
+  SPHDEM_CHECK_RC(c, sphdem_set_grains(c, 2, g, gv, r, NULL));
+  int rc = sphdem_compute_rates(c);
+  double *eps = malloc(8 * (size_t)s.nf), f[6] = {0};
+  if (!rc) rc = sphdem_get_porosity(c, eps);
+  if (!rc) rc = sphdem_get_grain_forces(c, f, NULL, NULL, NULL);
+  double hc = cp.hc, V = 4.0 / 3 * M_PI * r[0] * r[0] * r[0], worst = 0;
+  double aD = 21 / (16 * M_PI * hc * hc * hc);
+  for (int i = 0; !rc && i < s.nf; i++) {
+    double W = 0;
+    for (int k = 0; k < 2; k++) {
+      double r2 = 0;
+      for (int d = 0; d < 3; d++) r2 += (s.x[3 * i + d] - g[3 * k + d]) * (s.x[3 * i + d] - g[3 * k + d]);
+      double q = sqrt(r2) / hc;
+      W += aD * pow(1 - q / 2, 4) * (1 + 2 * q);
+    }
+    worst = fmax(worst, fabs(eps[i] - (1 - V * W)));
+  }
+  int finite = 1;
+  for (int k = 0; k < 6; k++) finite &= isfinite(f[k]);
+  TEST_ASSERT(rc == SPHDEM_OK && worst < 1e-14 && finite, "hc 1e8: rc %d (%s), porosity error %.2e, forces finite %d",
+              rc, sphdem_last_error(c), worst, finite);
+  free(eps);
+  scene_free(&s);
   sphdem_destroy(&c);
 }
 
@@ -807,5 +854,6 @@ int main(void) {
   bed_floating();
   if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
   argument_errors();
+  huge_hc();
   return test_summary("couple");
 }

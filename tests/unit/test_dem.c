@@ -387,8 +387,76 @@ static void test_first_contact(void) {
   }
 }
 
+/* Grains the core cannot bin or pair stop with an error naming them by tag: coincident centres (both
+ * algorithms, hooke and the LIGGGHTS hertz law), a non-finite position, grains spread too far for any
+ * cell grid; a step with no grain left (NULL arrays) after grains existed; the LAMMPS-syntax models
+ * (E = 0) run with finite forces. */
+static void test_bad_grains(void) {
+  double r0 = 0.001;
+  for (int variant = 0; variant < 3; variant++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    if (variant < 2) { p.kn = 1e5; p.kt = 2e4; p.algo = variant ? SPHDEM_DEM_PARTICLE_PARALLEL : SPHDEM_DEM_PAIR_PARALLEL; }
+    else { p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 1e7; p.nu = 0.3; p.en = 0.5; }
+    p.skin = 0.2 * r0;
+    sphdem_dem d = make(&p);
+    /* five grains in a row, the fourth (tag 12) put on the second (tag 7) */
+    int64_t tag[5] = {3, 7, 9, 12, 20};
+    double x[15], v[15] = {0}, om[15] = {0}, r[5], m[5], f[15], t[15];
+    for (int i = 0; i < 5; i++) {
+      x[3 * i] = 3.0 * r0 * i; x[3 * i + 1] = 0.001; x[3 * i + 2] = -0.002;
+      r[i] = r0; m[i] = 1e-6;
+    }
+    int rc = sphdem_dem_compute(d, 5, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    TEST_ASSERT(rc == SPHDEM_OK, "variant %d: separated grains: %s", variant, sphdem_dem_last_error(d));
+    x[9] = x[3]; x[10] = x[4]; x[11] = x[5];
+    rc = sphdem_dem_compute(d, 5, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    const char *e = sphdem_dem_last_error(d);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(e, "grains 7 and 12 are at the same position"),
+                "variant %d: coincident grains: rc %d '%s'", variant, rc, e);
+    /* the same context runs on once the grain is moved away (the flag does not stick) */
+    x[9] = 9.0 * r0, x[10] = 0.001, x[11] = -0.002;
+    rc = sphdem_dem_compute(d, 5, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    int finite = 1;
+    for (int k = 0; k < 15; k++) finite &= isfinite(f[k]) && isfinite(t[k]);
+    TEST_ASSERT(rc == SPHDEM_OK && finite, "variant %d: after moving the grain away: %s", variant, sphdem_dem_last_error(d));
+    x[7] = NAN;
+    rc = sphdem_dem_compute(d, 5, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    e = sphdem_dem_last_error(d);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(e, "grain 9: position") && strstr(e, "not finite"),
+                "variant %d: NaN position: rc %d '%s'", variant, rc, e);
+    x[7] = 0.001;
+    x[14] = 1e300; /* finite, but no grid of at most 2^24 cells spans it */
+    x[12] = -1e300;
+    rc = sphdem_dem_compute(d, 5, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    e = sphdem_dem_last_error(d);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(e, "no cell grid"), "variant %d: grains 1e300 apart: rc %d '%s'",
+                variant, rc, e);
+    /* every grain lost: no arrays at all */
+    rc = sphdem_dem_compute(d, 0, NULL, NULL, NULL, NULL, NULL, NULL, NULL, 1e-6, 1, NULL, NULL, NULL);
+    TEST_ASSERT(rc == SPHDEM_OK, "variant %d: no grains left: %s", variant, sphdem_dem_last_error(d));
+    sphdem_dem_destroy(&d);
+  }
+  /* LAMMPS syntax (E = 0): two overlapping grains, finite and opposite forces */
+  for (int model = SPHDEM_DEM_HOOKE; model <= SPHDEM_DEM_HERTZ; model++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = model; p.kn = 1e5; p.kt = 2e4; p.gamman = 10; p.gammat = 5;
+    TEST_ASSERT(p.E == 0.0, "default E is %g", p.E);
+    sphdem_dem d = make(&p);
+    int64_t tag[2] = {1, 2};
+    double x[6] = {0, 0, 0, 1.9 * r0, 0, 0}, v[6] = {0.1, 0, 0, 0, 0, 0}, om[6] = {0}, r[2] = {r0, r0};
+    double m[2] = {1e-6, 1e-6}, f[6], t[6];
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, 1e-6, 1, f, t, NULL);
+    TEST_ASSERT(rc == SPHDEM_OK && isfinite(f[0]) && f[0] < 0.0 && f[3] == -f[0],
+                "model %d, E = 0: rc %d f %g %g", model, rc, f[0], f[3]);
+    sphdem_dem_destroy(&d);
+  }
+}
+
 int main(void) {
   test_bad_params();
+  test_bad_grains();
   test_first_contact();
   test_threaded();
   test_detection();
