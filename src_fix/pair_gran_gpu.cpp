@@ -207,12 +207,31 @@ void PairGranGPU::sync_params() {
     p.periodic[d] = box_per_[d] = domain->periodicity[d];
   }
   char msg[512];
-  if (sphdem_dem_params_check(&p, msg, sizeof msg)) fail(std::string("material: ") + msg);
+  if (sphdem_dem_params_check(&p, msg, sizeof msg)) {
+    /* the core names its fields; the script names the values of fix property/global */
+    static const char *const names[][2] = {{"E:", "youngsModulus"}, {"nu:", "poissonsRatio"},
+                                           {"en:", "coefficientRestitution"}, {"mu:", "coefficientFriction"},
+                                           {"mu_r:", "coefficientRollingFriction"}, {"charvel:", "characteristicVelocity"}};
+    std::string m = msg;
+    for (const auto &n : names)
+      if (m.compare(0, std::strlen(n[0]), n[0]) == 0) {
+        m = std::string(n[1]) + " (fix property/global):" + m.substr(std::strlen(n[0]));
+        break;
+      }
+    fail("material: " + m);
+  }
   prm_ = p;
   if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
 }
 
-double PairGranGPU::init_one(int, int) { return 2.0 * maxrad_; }
+/* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
+ * the communication cutoff and the neighbour summary, as with the stock style. */
+double PairGranGPU::init_one(int i, int j) {
+  if ((int)maxrad_dynamic_.size() <= std::max(i, j)) return 0.0;
+  const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
+  const double cut = std::max(d[i] + d[j], std::max(z[i] + d[j], d[i] + z[j]));
+  return cut * neighbor->contactDistanceFactor;
+}
 
 void PairGranGPU::compute(int eflag, int vflag) {
   if (eflag || vflag) ev_setup(eflag, vflag);

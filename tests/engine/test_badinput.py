@@ -384,13 +384,17 @@ GRAN_GPU = [
     V("material missing", R("fix m1 all property/global youngsModulus peratomtype 5e6\n", ""),
       ["youngsModulus"]),
     V("youngsModulus negative", R("youngsModulus peratomtype 5e6", "youngsModulus peratomtype -5e6"),
-      ["youngsModulus"]),
+      ["youngsModulus", "must be > 0"]),
     V("poissonsRatio above 0.5", R("poissonsRatio peratomtype 0.45", "poissonsRatio peratomtype 0.7"),
-      ["poissonsRatio"]),
+      ["poissonsRatio", "outside [0, 0.5]"]),
     V("coefficientRestitution above 1", R("coefficientRestitution peratomtypepair 1 0.7",
                                           "coefficientRestitution peratomtypepair 1 1.5"),
-      ["coefficientRestitution"]),
-    V("atom outside the box", R("timestep 1e-6", "set atom 1 x 0.5\ntimestep 1e-6"), ["Lost atoms"]),
+      ["coefficientRestitution", "outside [0, 1]"]),
+    V("coefficientFriction negative", R("coefficientFriction peratomtypepair 1 0.5",
+                                        "coefficientFriction peratomtypepair 1 -0.5"),
+      ["coefficientFriction", "must be >= 0"]),
+    V("atom outside the box", R("timestep 1e-6", "set atom 1 x 0.5\ntimestep 1e-6"), ["Lost atoms"],
+      skip={"liggghts": LOST}),
 ]
 
 
