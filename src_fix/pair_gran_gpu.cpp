@@ -224,14 +224,7 @@ void PairGranGPU::sync_params() {
   if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
 }
 
-/* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
- * the communication cutoff and the neighbour summary, as with the stock style. */
-double PairGranGPU::init_one(int i, int j) {
-  if ((int)maxrad_dynamic_.size() <= std::max(i, j)) return 0.0;
-  const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
-  const double cut = std::max(d[i] + d[j], std::max(z[i] + d[j], d[i] + z[j]));
-  return cut * neighbor->contactDistanceFactor;
-}
+double PairGranGPU::init_one(int, int) { return 2.0 * maxrad_; }
 
 void PairGranGPU::compute(int eflag, int vflag) {
   if (eflag || vflag) ev_setup(eflag, vflag);
