@@ -81,6 +81,9 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
   if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  if (p->keep_history != 0 && p->keep_history != 1) BAD("keep_history: must be 0 or 1 (got %d)", p->keep_history);
+  if (p->keep_history && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
+    BAD("keep_history: LIGGGHTS' history rule, for the hertz_liggghts and hooke_liggghts models");
   if (p->first_contact != 0 && p->first_contact != 1) BAD("first_contact: must be 0 or 1 (got %d)", p->first_contact);
   if (p->first_contact && p->model != SPHDEM_DEM_HOOKE && p->model != SPHDEM_DEM_HERTZ)
     BAD("first_contact: Yu eq 12 applies to the hooke and hertz models");
@@ -203,6 +206,13 @@ int sphdem_dem_set_walls(sphdem_dem m, int nw, const sphdem_dem_wall *w) {
   }
   m->D.nw = nw;
   m->need_build = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_request_build(sphdem_dem m) {
+  if (!m) return SPHDEM_ERR_ARG;
+  m->need_build = 1;
+  m->build_requested = 1;
   return SPHDEM_OK;
 }
 

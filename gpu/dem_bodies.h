@@ -100,6 +100,20 @@ SPHDEM_HD double dem_sep(const dem_dev *D, const double *xa, const double *xb, d
   return r2;
 }
 
+/* keep_history: which periodic image of b touches a, as the touch flag of the history stores it
+ * (2 + code; 1 = not recorded, 0 = no history). The engine's list holds each image of a grain as its own
+ * pair with its own history; the core keys pairs by tags, so a kept history belongs to the image it was
+ * made with. Positions are continuous between the engine's builds, so the shift is well defined there. */
+SPHDEM_HD double dem_image_flag(const dem_dev *D, const double *xa, const double *xb) {
+  double code = 0.0, w = 1.0;
+  for (int d = 0; d < 3; d++, w *= 64.0) {
+    double n = 0.0, s = xa[d] - xb[d];
+    if (D->P.periodic[d] && !(fabs(s) < 0.5 * D->L[d])) n = rint(s / D->L[d]);
+    code += (n + 32.0) * w;
+  }
+  return 2.0 + code;
+}
+
 /* Signed distance of x from wall w along its normal. */
 SPHDEM_HD double dem_wall_dist(const dem_dev *D, int w, const double *x) {
   const sphdem_dem_wall *W = &D->walls[w];
@@ -149,21 +163,6 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
     k++;
   }
   return k;
-}
-
-/* History carried across a rebuild (and any reordering): look the pair's key up in the previous,
- * key-sorted list; a new pair starts from zero. */
-SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
-  uint64_t k = D->key[p];
-  int64_t lo = 0, hi = D->np_old - 1, found = -1;
-  while (lo <= hi) {
-    int64_t mid = lo + (hi - lo) / 2;
-    uint64_t km = D->key_old[mid];
-    if (km == k) { found = mid; break; }
-    if (km < k) lo = mid + 1; else hi = mid - 1;
-  }
-  for (int q = 0; q < SPHDEM_DEM_NHIST; q++)
-    D->hin[SPHDEM_DEM_NHIST * p + q] = found >= 0 ? D->hist_old[SPHDEM_DEM_NHIST * found + q] : 0.0;
 }
 
 /* ---- contact laws ------------------------------------------------------------------------------------ */
@@ -226,8 +225,13 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   double Fn = -gamman * vn + kn * deltan;
   if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
   for (int d = 0; d < 3; d++) Fa[d] = Fn * en[d];
-  /* tangential history */
-  double shear[3] = {hin[0], hin[1], hin[2]};
+  /* tangential history; with keep_history a history kept from a contact through another periodic image
+   * is not this contact's (the engine's list has the images as separate pairs) */
+  double shear[3] = {hin[0], hin[1], hin[2]}, flag = 1.0;
+  if (D->P.keep_history) {
+    flag = wall ? 2.0 : dem_image_flag(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b);
+    if (hin[3] <= -2.0 && -hin[3] != flag) shear[0] = shear[1] = shear[2] = 0.0;
+  }
   if (D->update) {
     shear[0] += vtr1 * D->dt;
     shear[1] += vtr2 * D->dt;
@@ -303,7 +307,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     hout[0] = shear[0];
     hout[1] = shear[1];
     hout[2] = shear[2];
-    hout[3] = 1.0;
+    hout[3] = flag;
   }
 }
 
@@ -352,6 +356,29 @@ DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, dou
   *rb_ = rb;
   *radsum_ = radsum;
   return rsq < radsum * radsum;
+}
+
+/* History carried across a rebuild (and any reordering): look the pair's key up in the previous,
+ * key-sorted list; a new pair starts from zero. At a build the engine asked for with keep_history
+ * (carry_touching; LIGGGHTS' granular list build copies the history of a partner only if the two
+ * overlap at that moment) a pair that does not touch starts from zero too; the core's own rebuilds
+ * (a grain moved skin/2) carry every history, as the engine's list would have kept it. */
+SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
+  uint64_t k = D->key[p];
+  int64_t lo = 0, hi = D->np_old - 1, found = -1;
+  while (lo <= hi) {
+    int64_t mid = lo + (hi - lo) / 2;
+    uint64_t km = D->key_old[mid];
+    if (km == k) { found = mid; break; }
+    if (km < k) lo = mid + 1; else hi = mid - 1;
+  }
+  if (found >= 0 && D->carry_touching) {
+    double del[3], rsq, rb, radsum;
+    if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) found = -1;
+  }
+  double *h = D->hin + SPHDEM_DEM_NHIST * p;
+  for (int q = 0; q < SPHDEM_DEM_NHIST; q++) h[q] = found >= 0 ? D->hist_old[SPHDEM_DEM_NHIST * found + q] : 0.0;
+  if (found >= 0 && D->carry_touching) h[3] = 1.0; /* the engine wraps positions at its builds: image not recorded */
 }
 
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom. */
@@ -530,15 +557,25 @@ SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *de
   }
 }
 
-/* Contact of pair p: 0 (and a zero history in hout) when the grains do not overlap; else the law of
+/* History of a pair that does not touch: the touch flag cleared, the tangential displacement zeroed
+ * (LAMMPS: "unset non-touching neighbors") or, with keep_history, kept as it was (LIGGGHTS with
+ * contactDistanceFactor 1 resets it only in surfacesClose, r < contactDistanceFactor (r_a + r_b), an
+ * empty band: the history stays until the next list build, dem_carry_body). */
+SPHDEM_HD void dem_separated_history(const dem_dev *D, int64_t p, double *hout) {
+  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const int keep = D->P.keep_history;
+  for (int q = 0; q < 3; q++) hout[q] = keep ? hin[q] : 0.0;
+  hout[3] = keep && hin[3] > 0.0 ? -hin[3] : keep ? hin[3] : 0.0; /* < 0: not touching, image kept */
+}
+
+/* Contact of pair p: 0 (and the history of dem_separated_history in hout) when the grains do not overlap; else the law of
  * D->P.model. The overlap test is inlined into the loops (most candidate pairs of a loose packing do not
  * touch); vir is written only when D->want_virial; Fa, Ta, Tb, vir only when the pair touches. */
 DEM_HD_INLINE int dem_contact(const dem_dev *D, int64_t p, double *Fa, double *Ta, double *Tb, double *hout,
                               double *vir) {
   double del[3], rsq, rb, radsum;
   if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
-    if (hout)
-      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+    if (hout) dem_separated_history(D, p, hout);
     return 0;
   }
   return dem_contact_touching(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir);
@@ -614,7 +651,7 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
     double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
     if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
-      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+      dem_separated_history(D, p, hout);
       continue;
     }
     dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
@@ -643,7 +680,7 @@ SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const doub
   double f[3] = {D->f[3 * i], D->f[3 * i + 1], D->f[3 * i + 2]}, t[3] = {D->tq[3 * i], D->tq[3 * i + 1], D->tq[3 * i + 2]};
   for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
     const int64_t p = D->rlist[k];
-    if (D->hout[SPHDEM_DEM_NHIST * p + 3] == 0.0) continue; /* not touching */
+    if (!(D->hout[SPHDEM_DEM_NHIST * p + 3] > 0.0)) continue; /* not touching */
     const double *o = pfb + 6 * p;
     for (int d = 0; d < 3; d++) { f[d] -= o[d]; t[d] += o[3 + d]; }
   }
@@ -653,8 +690,8 @@ SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const doub
   }
 }
 
-/* Touching pairs are the ones with the touch flag set in the new history. */
-SPHDEM_HD int dem_touching(const dem_dev *D, int64_t p) { return D->hout[SPHDEM_DEM_NHIST * p + 3] != 0.0; }
+/* Touching pairs are the ones with the touch flag > 0 in the new history (< 0: kept, not touching). */
+SPHDEM_HD int dem_touching(const dem_dev *D, int64_t p) { return D->hout[SPHDEM_DEM_NHIST * p + 3] > 0.0; }
 
 /* Cell range tables from the cell of each sorted slot. */
 SPHDEM_HD void dem_cell_range_body(const int32_t *cell, int64_t n, int64_t s, int32_t *cs, int32_t *ce) {

@@ -46,6 +46,8 @@ typedef struct {
   int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
   uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
   double *hin, *hout;
+  int carry_touching; /* this build carries the history of touching pairs only (keep_history, build
+                         requested by the engine) */
   /* previous list for the history carry */
   int64_t np_old;
   uint64_t *key_old;
@@ -84,6 +86,7 @@ struct sphdem_dem_s {
   char err[1024];
   int64_t cap_n, cap_p, cap_pold, cap_cells;
   int need_build;
+  int build_requested;         /* sphdem_dem_request_build since the last build */
   int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
   int tags_valid;              /* device tag array matches htag */
   int zero_copy;               /* CPU backend: x, v, om, rad, mass, f, tq point at the caller's arrays

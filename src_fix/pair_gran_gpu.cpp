@@ -5,6 +5,7 @@
  * coefficientRollingFriction), one material. No physics here. */
 #include "pair_gran_gpu.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "atom.h"
@@ -29,7 +30,7 @@ static const char *const USAGE =
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      hooke_(0), kt_to_kn_(0), maxrad_(0), freeze_group_bit_(0), dem_(nullptr) {
+      hooke_(0), kt_to_kn_(0), freeze_group_bit_(0), dem_(nullptr) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;
   restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
@@ -147,9 +148,25 @@ void PairGranGPU::init_style() {
     if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
     if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
   }
-  double mr = 0.0;
-  for (int i = 0; i < atom->nlocal; i++) mr = atom->radius[i] > mr ? atom->radius[i] : mr;
-  maxrad_ = mr;
+  if (neighbor->contactDistanceFactor != 1.0)
+    fail("contact_distance_factor " + std::to_string(neighbor->contactDistanceFactor) +
+         " (neigh_modify, or a cohesion model) is not supported: only 1");
+  /* the cutoff of the stock style (PairGran::init_style/init_one): per type the largest radius of the
+   * grains, frozen ones apart, and of the particles that fixes will insert (Fix::max_rad) */
+  const int nt = atom->ntypes;
+  std::vector<double> dyn(nt + 1, 0.0), frz(nt + 1, 0.0);
+  for (int i = 0; i < modify->nfix; i++) {
+    if (!modify->fix[i]->use_rad_for_cut_neigh_and_ghost()) continue;
+    for (int t = 1; t <= nt; t++) dyn[t] = std::max(dyn[t], modify->fix[i]->max_rad(t));
+  }
+  for (int i = 0; i < atom->nlocal; i++) {
+    std::vector<double> &r = (atom->mask[i] & freeze_group_bit_) ? frz : dyn;
+    r[atom->type[i]] = std::max(r[atom->type[i]], atom->radius[i]);
+  }
+  maxrad_dynamic_.assign(nt + 1, 0.0);
+  maxrad_frozen_.assign(nt + 1, 0.0);
+  MPI_Allreduce(&dyn[1], &maxrad_dynamic_[1], nt, MPI_DOUBLE, MPI_MAX, world);
+  MPI_Allreduce(&frz[1], &maxrad_frozen_[1], nt, MPI_DOUBLE, MPI_MAX, world);
   sync_params();
   if (!dem_) {
     char msg[512];
@@ -200,6 +217,7 @@ void PairGranGPU::sync_params() {
   p.mu = material("coefficientFriction", "peratomtypepair");
   p.mu_r = rolling_ ? material("coefficientRollingFriction", "peratomtypepair") : 0.0;
   p.limit_damping = limit_force_;
+  p.keep_history = 1; /* as LIGGGHTS: a separated pair keeps its history until the next list build */
   p.skin = neighbor->skin;
   for (int d = 0; d < 3; d++) {
     p.boxlo[d] = box_lo_[d] = domain->boxlo[d];
@@ -224,7 +242,14 @@ void PairGranGPU::sync_params() {
   if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
 }
 
-double PairGranGPU::init_one(int, int) { return 2.0 * maxrad_; }
+/* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
+ * the communication cutoff and the neighbour summary, as with the stock style. */
+double PairGranGPU::init_one(int i, int j) {
+  if ((int)maxrad_dynamic_.size() <= std::max(i, j)) return 0.0;
+  const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
+  const double cut = std::max(d[i] + d[j], std::max(z[i] + d[j], d[i] + z[j]));
+  return cut * neighbor->contactDistanceFactor;
+}
 
 void PairGranGPU::compute(int eflag, int vflag) {
   if (eflag || vflag) ev_setup(eflag, vflag);
@@ -251,6 +276,8 @@ void PairGranGPU::compute(int eflag, int vflag) {
   const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
   double vir[6];
   const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
+  /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps */
+  if (neighbor->ago == 0) sphdem_dem_request_build(dem_);
   int rc = sphdem_dem_compute(dem_, n, tags_.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
                               update->setupflag ? 0 : 1, fbuf_.data(), tbuf_.data(), vflag_global ? vir : nullptr);
   if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));

@@ -33,7 +33,7 @@ class PairGranGPU : public Pair {
  private:
   int rolling_, limit_force_, device_, algo_;
   int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
-  double maxrad_;
+  std::vector<double> maxrad_dynamic_, maxrad_frozen_; /* per type (1..ntypes), as the stock style */
   int freeze_group_bit_;
   sphdem_dem dem_;
   sphdem_dem_params prm_;

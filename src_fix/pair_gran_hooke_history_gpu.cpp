@@ -27,7 +27,7 @@ static const char *const USAGE =
 
 PairGranHookeHistoryGPU::PairGranHookeHistoryGPU(LAMMPS *lmp)
     : Pair(lmp), kn(0), kt(0), gamman(0), gammat(0), xmu(0), dampflag(0), limit_damping(0),
-      model(SPHDEM_DEM_HOOKE), style("gran/hooke/history/gpu"), maxrad(0), freeze_group_bit(0), dem(nullptr),
+      model(SPHDEM_DEM_HOOKE), style("gran/hooke/history/gpu"), freeze_group_bit(0), dem(nullptr),
       device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
@@ -131,10 +131,27 @@ void PairGranHookeHistoryGPU::init_style() {
     if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
     if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit = f->groupbit;
   }
-  double mr = 0.0;
-  for (int i = 0; i < atom->nlocal; i++)
-    if (atom->radius[i] > mr) mr = atom->radius[i];
-  maxrad = mr;
+  /* the cutoff of the stock style (PairGranHookeHistory::init_style/init_one): per type the largest
+   * radius of the grains, frozen ones apart, and of the particles fix pour / fix deposit will insert */
+  const int nt = atom->ntypes;
+  std::vector<double> dyn(nt + 1, 0.0), frz(nt + 1, 0.0);
+  for (int i = 0; i < modify->nfix; i++) {
+    Fix *f = modify->fix[i];
+    if (std::strcmp(f->style, "pour") != 0 && std::strcmp(f->style, "deposit") != 0) continue;
+    for (int t = 1; t <= nt; t++) {
+      int itype = t;
+      const double *r = (const double *)f->extract("radius", itype);
+      if (r && *r > dyn[t]) dyn[t] = *r;
+    }
+  }
+  for (int i = 0; i < atom->nlocal; i++) {
+    std::vector<double> &r = (atom->mask[i] & freeze_group_bit) ? frz : dyn;
+    if (atom->radius[i] > r[atom->type[i]]) r[atom->type[i]] = atom->radius[i];
+  }
+  maxrad_dynamic.assign(nt + 1, 0.0);
+  maxrad_frozen.assign(nt + 1, 0.0);
+  MPI_Allreduce(&dyn[1], &maxrad_dynamic[1], nt, MPI_DOUBLE, MPI_MAX, world);
+  MPI_Allreduce(&frz[1], &maxrad_frozen[1], nt, MPI_DOUBLE, MPI_MAX, world);
   sync_params();
   if (!dem) {
     char msg[512];
@@ -194,9 +211,15 @@ void PairGranHookeHistoryGPU::sync_params() {
   if (dem && sphdem_dem_set_params(dem, &p)) fail(sphdem_dem_last_error(dem));
 }
 
-double PairGranHookeHistoryGPU::init_one(int, int) {
-  /* ghost atoms are not used (one rank, minimum image in the core); the cutoff sizes communication */
-  return 2.0 * maxrad;
+/* The largest contact distance of the type pair (stock init_one). Ghost atoms are not used (one rank,
+ * minimum image in the core); the cutoff sizes atom sorting, communication and the neighbour summary. */
+double PairGranHookeHistoryGPU::init_one(int i, int j) {
+  if ((int)maxrad_dynamic.size() <= (i > j ? i : j)) return 0.0;
+  const double *d = maxrad_dynamic.data(), *z = maxrad_frozen.data();
+  double cut = d[i] + d[j];
+  if (z[i] + d[j] > cut) cut = z[i] + d[j];
+  if (d[i] + z[j] > cut) cut = d[i] + z[j];
+  return cut;
 }
 
 void PairGranHookeHistoryGPU::compute(int eflag, int vflag) {

@@ -36,7 +36,7 @@ class PairGranHookeHistoryGPU : public Pair {
   int dampflag, limit_damping;
   int model;                /* sphdem_dem_model */
   std::string style;        /* for messages */
-  double maxrad;
+  std::vector<double> maxrad_dynamic, maxrad_frozen; /* per type (1..ntypes), as the stock style */
   int freeze_group_bit;
   sphdem_dem dem;
   int device_;              /* sphdem_device (keyword device) */

@@ -366,6 +366,10 @@ typedef struct {
   int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */
   double charvel;       /* HOOKE_LIGGGHTS: characteristic velocity V (m/s) of the stiffness */
   int kt_to_kn;         /* HOOKE_LIGGGHTS: 1 gives k_t = 2/7 k_n (LIGGGHTS ktToKnUser on), 0 k_t = k_n */
+  int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at
+                           once; 1 (LIGGGHTS, contactDistanceFactor 1): it keeps it until the next build
+                           asked for by sphdem_dem_request_build, which carries the history only of the
+                           pairs that touch at that moment (the core's own rebuilds carry all of it) */
 } sphdem_dem_params;
 
 /* A fixed plane: grains interact with it on the side its unit normal n points to. */
@@ -387,6 +391,9 @@ int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDE
 int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
 /* Fixed planes (replaces the previous set); nw may be 0. */
 int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
+/* The next sphdem_dem_compute rebuilds the pair list (call when the engine rebuilt its neighbour lists:
+ * pairs leave the list, and with keep_history separated pairs lose their history, on the engine's steps). */
+int sphdem_dem_request_build(sphdem_dem dem);
 /* Contact forces for n grains given in the caller's order. tag[i] in [1, 2^31) unique; x, v, omega 3n;
  * radius, mass n; flags n or NULL. dt: the time step that advances the tangential history (eq 13);
  * update_history 0 evaluates forces without changing the history (engine setup). f and torque (3n)
@@ -400,7 +407,9 @@ typedef struct { int64_t npairs, ncontacts, nbuilds; } sphdem_dem_stats;
 int sphdem_dem_stats_get(sphdem_dem dem, sphdem_dem_stats *s);
 /* Testing hooks: candidate pairs of the last build as caller indices (a, b), b = -1 - w for wall w,
  * a the grain of lower tag; returns the count or a negative code. History of the pair (tag_a, tag_b)
- * (tag_b = -1 - w for a wall): 4 doubles (tangential displacement xyz, touch flag); 0 if found. */
+ * (tag_b = -1 - w for a wall): 4 doubles (tangential displacement xyz, touch flag: > 0 touching, 0 no
+ * history; keep_history: < 0 not touching with the history kept, |flag| >= 2 codes the periodic image);
+ * 0 if found. */
 int64_t sphdem_dem_debug_pairs(sphdem_dem dem, int64_t *pairs, int64_t maxpairs);
 int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, double hist[4]);
 /* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls
