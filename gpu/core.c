@@ -855,6 +855,26 @@ int sphdem_step_rk4(sphdem_ctx c, double dt) {
   return SPHDEM_OK;
 }
 
+/* Messages: the precision (6 to 17 digits) at which %g prints a and b differently, so "dt A exceeds B" never
+ * shows two equal numbers; x rounded down to 3 digits, a suggested step that passes the check as printed. */
+static int digits_apart(double a, double b) {
+  char sa[40], sb[40];
+  for (int p = 6; p < 17; p++) {
+    snprintf(sa, sizeof sa, "%.*g", p, a);
+    snprintf(sb, sizeof sb, "%.*g", p, b);
+    if (strcmp(sa, sb) != 0) return p;
+  }
+  return 17;
+}
+
+static double round_down3(double x) {
+  if (!(x > 0) || !isfinite(x)) return x;
+  const double scale = pow(10.0, floor(log10(x)) - 2.0);
+  double r = floor(x / scale) * scale;
+  while (r > x) r -= scale;
+  return r;
+}
+
 int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   if (!c || !s) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
@@ -890,10 +910,13 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
                        "(stable %g s).", (long long)r.nlost, 2.0 * P->h, s->dt_stable);
   if (r.rhoerr > P->rho_err_max)
     return sphdem_fail(c, SPHDEM_ERR_DENSITY,
-                       "max |rho/rho0 - 1| = %.3g exceeds rho_err_max %.3g. Likely causes: c0 too low for the "
-                       "flow (Mach number vmax/c0 = %.3g should stay below 0.1), a time step too large "
-                       "(stable %g s), or tensile clumping (try the tensile keyword).",
-                       r.rhoerr, P->rho_err_max, s->vmax / P->c0, s->dt_stable);
+                       "max |rho/rho0 - 1| = %.3g exceeds rho_err_max %.3g. Likely causes: c0 too low: the "
+                       "compression scales as 1/c0^2, so c0 %g would need about %.3g to stay below rho_err_max "
+                       "(vmax %.3g m/s, Mach vmax/c0 %.3g, should stay below 0.1; a slow fluid this compressed "
+                       "holds a static pressure, e.g. hydrostatic, which needs c0 >= 10 sqrt(g H)); a time step "
+                       "too large (stable %g s); or tensile clumping (try the tensile keyword).",
+                       r.rhoerr, P->rho_err_max, P->c0, P->c0 * sqrt(r.rhoerr / P->rho_err_max), s->vmax,
+                       s->vmax / P->c0, s->dt_stable);
   if (dt > 0 && dt > s->dt_stable) {
     const char *lim = s->dt_stable == s->dt_cfl ? (D->mp ? "the CFL condition cfl*h/(c0 + vmax) with the largest phase sound speed" : "the CFL condition cfl*h/(c0 + vmax)")
                       : s->dt_stable == s->dt_visc ? "the viscous condition 0.125 h^2 rho0/mu"
@@ -902,8 +925,9 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
     return sphdem_fail(c, SPHDEM_ERR_UNSTABLE,
                        "time step %g s exceeds the stable SPH time step %g s, limited by %s (CFL %g s, "
                        "viscous %g s, force %g s; vmax %g m/s, amax %g m/s^2). Set the timestep to %g or less.",
-                       dt, s->dt_stable, lim, s->dt_cfl, s->dt_visc == DBL_MAX ? INFINITY : s->dt_visc,
-                       s->dt_force == DBL_MAX ? INFINITY : s->dt_force, s->vmax, s->amax, s->dt_stable);
+                       digits_apart(dt, s->dt_stable), dt, digits_apart(dt, s->dt_stable), s->dt_stable, lim,
+                       s->dt_cfl, s->dt_visc == DBL_MAX ? INFINITY : s->dt_visc,
+                       s->dt_force == DBL_MAX ? INFINITY : s->dt_force, s->vmax, s->amax, round_down3(s->dt_stable));
   }
   return SPHDEM_OK;
 }

@@ -608,16 +608,19 @@ bool FixSPHFluid::upload_fluid() {
   if (scaled_any) mass_scaled_ = true;
   /* a state that went bad between two checks (the last download): the regular blow-up message */
   for (size_t k = 0; k < n; k++) {
-    if (frho_[k] > 0 && std::isfinite(frho_[k])) continue;
+    if (frho_[k] > 0 && std::isfinite(frho_[k]) && std::isfinite(fx_[3 * k] + fx_[3 * k + 1] + fx_[3 * k + 2]) &&
+        std::isfinite(fv_[3 * k] + fv_[3 * k + 1] + fv_[3 * k + 2]))
+      continue;
     sphdem_stats s;
     const int rc = sphdem_stats_get(ctx_, 0.0, &s);
-    if (rc != SPHDEM_OK) blowup(stats_message(rc, s));
+    if (rc != SPHDEM_OK) blowup(stats_message(rc, s), false); /* the device holds the previous upload's order */
     char m[512];
-    snprintf(m, sizeof m, "fluid atom %lld has density %g at step " BIGINT_FORMAT " (must be > 0): the fluid blew "
+    snprintf(m, sizeof m, "fluid atom %lld has density %g (must be > 0), position or velocity not finite at step "
+             BIGINT_FORMAT ": the fluid blew "
              "up after the last check (check %ld; check 1 stops at the first bad step). Likely causes: a time step "
              "above the stable one, c0 too low for the flow, or particles entering the walls",
              (long long)ftag_[k], frho_[k], update->ntimestep, check_every_);
-    blowup(m);
+    blowup(m, false);
   }
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
@@ -870,10 +873,10 @@ std::string FixSPHFluid::stats_message(int rc, const sphdem_stats &s) const {
 
 /* ---- blow-up evidence ------------------------------------------------------------------------------ */
 
-void FixSPHFluid::blowup(const std::string &msg) {
+void FixSPHFluid::blowup(const std::string &msg, bool from_device) {
   std::string m = msg;
   if (failure_dump_) {
-    const std::string file = write_failure_dump();
+    const std::string file = write_failure_dump(from_device);
     if (!file.empty())
       m += " The state of step " + std::to_string((long long)update->ntimestep) + " (fluid, walls, grains) is in " +
            file + " (tools/dump2vtk.py converts it for ParaView; failure_dump no turns this off).";
@@ -884,10 +887,11 @@ void FixSPHFluid::blowup(const std::string &msg) {
 }
 
 /* The failure step as a 'dump custom' text file: every local atom with id type x y z vx vy vz density
- * pressure porosity. Fluid: the device state (as it is, non-finite values included); walls: the wall
- * state of the last rate evaluation (porosity 1); other atoms (grains): the material density m/V,
- * pressure 0, porosity 0. Returns the file name, empty when it could not be written. */
-std::string FixSPHFluid::write_failure_dump() {
+ * pressure porosity. Fluid: the device state as it is, non-finite values included (from_device: the
+ * device holds the fluid in the order of fidx_), else the host copy of the last download; walls: the wall
+ * state of the last rate evaluation from the device (porosity 1), else 0; other atoms (grains): the
+ * material density m/V, pressure 0, porosity 0. Returns the file name, empty when it could not be written. */
+std::string FixSPHFluid::write_failure_dump(bool from_device) {
   const int nlocal = atom->nlocal;
   std::vector<double> rho(nlocal, 0.0), p(nlocal, 0.0), eps(nlocal, 0.0);
   std::vector<char> done(nlocal, 0);
@@ -896,7 +900,14 @@ std::string FixSPHFluid::write_failure_dump() {
   for (int i = 0; i < nlocal; i++)
     for (int d = 0; d < 3; d++) xx[3 * i + d] = x[i][d], vv[3 * i + d] = v[i][d];
   const size_t n = fidx_.size(), nw = widx_.size();
-  if (ctx_ && n > 0) {
+  for (int i : fidx_)
+    if (i < nlocal) rho[i] = sa_[i][C_RHO], p[i] = sa_[i][C_P], eps[i] = sa_[i][C_EPS], done[i] = 1;
+  for (int i : widx_)
+    if (i < nlocal) done[i] = 1; /* wall density and pressure 0 unless the device has them (below) */
+  sphdem_stats st; /* the device's particle counts (the error code does not matter here) */
+  std::memset(&st, 0, sizeof st);
+  if (from_device && ctx_) sphdem_stats_get(ctx_, 0.0, &st);
+  if (from_device && ctx_ && n > 0 && st.nfluid == (int64_t)n) {
     std::vector<double> fx(3 * n), fv(3 * n), frho(n), fp(n), fe(n, 1.0);
     if (sphdem_get_fluid(ctx_, fx.data(), fv.data(), frho.data(), fp.data(), nullptr) == SPHDEM_OK) {
       if (couple_on_ && sphdem_get_porosity(ctx_, fe.data()) != SPHDEM_OK) fe.assign(n, 1.0);
@@ -908,7 +919,7 @@ std::string FixSPHFluid::write_failure_dump() {
       }
     }
   }
-  if (ctx_ && nw > 0) {
+  if (from_device && ctx_ && nw > 0 && st.nwall == (int64_t)nw) {
     std::vector<double> wp(nw, 0.0), wr(nw, 0.0);
     if (sphdem_get_wall_state(ctx_, wp.data(), wr.data()) != SPHDEM_OK) wp.assign(nw, 0.0), wr.assign(nw, 0.0);
     for (size_t k = 0; k < nw; k++) {

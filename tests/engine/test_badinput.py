@@ -3,6 +3,7 @@
 
   test_badinput.py STYLE EXE ENGINE
     STYLE  fluid | couple | cfd | probe | gran_gpu | gran_hertz_history_gpu | gran_hooke_history_gpu
+  test_badinput.py failure_dump EXE ENGINE   (see test_failure_dump: blow-ups leave a dump file named in the error)
     EXE    lmp_sphdem or liggghts_sphdem;  ENGINE  lammps | liggghts
 
 Every variant changes one thing of a small scene that runs (missing / non-finite / negative / zero / huge
@@ -398,6 +399,138 @@ GRAN_GPU = [
 ]
 
 
+# ---- a run that blows up keeps the evidence (fix sph/fluid keyword failure_dump) ---------------------------------
+TOOLS = os.path.join(HERE, "..", "..", "tools")
+
+
+def error_line(out):
+    return next((l for l in out.splitlines() if "ERROR" in l), "")
+
+
+class Dump:
+    """the last snapshot of a dump custom text file: step, columns, rows (lists of floats)"""
+
+    def __init__(self, path):
+        lines = open(path).read().splitlines()
+        i = max(k for k, l in enumerate(lines) if l.startswith("ITEM: TIMESTEP"))
+        self.step = int(lines[i + 1])
+        j = next(k for k in range(i, len(lines)) if lines[k].startswith("ITEM: ATOMS"))
+        self.columns = lines[j].split()[2:]
+        self.rows = [[float(w) for w in l.split()] for l in lines[j + 1:] if l.strip()]
+
+    def col(self, name):
+        c = self.columns.index(name)
+        return [r[c] for r in self.rows]
+
+
+def python_with_numpy():
+    """tools/dump2vtk.py needs numpy: this interpreter, else the system one"""
+    import subprocess
+    for py in (sys.executable, "/usr/bin/python3"):
+        if os.path.exists(py) and subprocess.run([py, "-c", "import numpy"], stderr=subprocess.DEVNULL).returncode == 0:
+            return py
+    return sys.executable
+
+
+def test_failure_dump(exe, engine):
+    """Blow-up scenes of the dam break (and the coupled one): the error names the failure dump, the dump holds
+    every atom with id type x y z vx vy vz density pressure porosity, tools/dump2vtk.py converts it; failure_dump
+    no writes nothing; failure_dump FILE writes FILE. Also the messages: a too-low c0 names the c0 that would do,
+    a time step just above the stable one is printed with the digits that tell them apart."""
+    import re
+    import subprocess
+    fails = 0
+
+    def ok(cond, what, out=""):
+        nonlocal fails
+        print("%s %s" % ("PASS" if cond else "FAIL", what))
+        if not cond:
+            fails += 1
+            print("     " + "\n     ".join(out.splitlines()[-6:]))
+        return cond
+
+    root = "failure_dump_" + engine
+    # (1) the time step becomes unstable as the column collapses (2e-4 s is stable at the start, not at step 400)
+    unstable = E.scene(engine, steps=400).replace("timestep 1e-4", "timestep 2e-4")
+    # (2) a blow-up between two checks (check 0: only at the end of the run): the regular message at the next
+    # re-neighbouring, never the internal one of the upload
+    between = E.scene(engine, steps=2000).replace("timestep 1e-4", "timestep 8e-4").replace(
+        "wall walls", "cfl 1 check 0 wall walls")
+    # (3) the coupled scene: grains in the dump too
+    coupled = E.couple_scene(engine, steps=2000).replace("timestep 5e-5", "timestep 4e-4").replace(
+        "wall walls", "cfl 1 check 0 wall walls")
+    for name, script, natoms in (("unstable", unstable, 486), ("between", between, None), ("coupled", coupled, None)):
+        wd = os.path.join(root, name)
+        rc, out = E.run([exe], wd, script, timeout=TIMEOUT)
+        line = error_line(out)
+        m = re.search(r"is in (sphdem_failure\.(\d+)\.dump) \(tools/dump2vtk.py converts it", line)
+        if not ok(rc > 0 and rc not in SIGNALS and m, "%s: the error names the failure dump (%s)" % (name, line[:160]),
+                  out):
+            continue
+        ok("set_fluid" not in line, "%s: the regular blow-up message, not the upload's" % name, out)
+        path = os.path.join(wd, m.group(1))
+        snap = Dump(path) if os.path.exists(path) else None
+        cols = "id type x y z vx vy vz density pressure porosity".split()
+        good = snap is not None and snap.columns == cols and snap.step == int(m.group(2))
+        if good and natoms:
+            good = len(snap.rows) == natoms
+        if not ok(good, "%s: %s holds %s atoms with columns %s" % (name, m.group(1),
+                                                                   len(snap.rows) if snap else 0, cols)):
+            continue
+        types = set(int(t) for t in snap.col("type"))
+        rho = [r for t, r in zip(snap.col("type"), snap.col("density")) if t == 1]
+        finite = [r for r in rho if r == r and abs(r) != float("inf")]
+        ok(finite and max(finite) > 0, "%s: fluid densities written (%d of %d finite)" % (name, len(finite), len(rho)))
+        if name == "coupled":
+            g = [r for t, r in zip(snap.col("type"), snap.col("density")) if t == 3]
+            ok(len(g) >= 1 and all(abs(r - 2500) < 1 for r in g) and 2 in types,
+               "coupled: the grains still in the box (%d of 6, material density 2500) and the walls are in the dump"
+               % len(g))
+        vtk = os.path.join(wd, "vtk")
+        p = subprocess.run([python_with_numpy(), os.path.join(TOOLS, "dump2vtk.py"), path, "-o", vtk],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        made = sorted(os.listdir(vtk)) if os.path.isdir(vtk) else []
+        ok(p.returncode == 0 and any(f.endswith(".vtk") for f in made) and any(f.endswith(".vtp") for f in made),
+           "%s: tools/dump2vtk.py converts it (%s)" % (name, ", ".join(made)), p.stdout.decode(errors="replace"))
+    # failure_dump no: the same message without a file; failure_dump FILE
+    for kw, want in (("failure_dump no", None), ("failure_dump blowup.dump", "blowup.dump")):
+        wd = os.path.join(root, kw.replace(" ", "_").replace(".", "_"))
+        rc, out = E.run([exe], wd, unstable.replace("wall walls", kw + " wall walls"), timeout=TIMEOUT)
+        line = error_line(out)
+        files = sorted(f for f in os.listdir(wd) if "failure" in f or f.endswith(".dump"))
+        if want is None:
+            ok(rc > 0 and "exceeds the stable SPH time step" in line and "failure dump" not in line.lower()
+               and "is in " not in line and not files, "failure_dump no: the message, no file (%s)" % files, out)
+        else:
+            ok(rc > 0 and ("is in %s (" % want) in line and files == [want], "%s: writes %s (%s)" % (kw, want, files),
+               out)
+    # the messages: c0 too low on a static column (vmax 0) names the c0 that would do
+    wd = os.path.join(root, "c0")
+    rc, out = E.run([exe], wd, E.scene(engine, steps=10).replace("c0 15", "c0 4").replace(
+        "hydrostatic 0.2", "hydrostatic 0.2 rho_err_max 0.01"), timeout=TIMEOUT)
+    line = error_line(out)
+    m = re.search(r"so c0 4 would need about ([0-9.e+]+) to stay below rho_err_max", line)
+    ok(rc > 0 and m and float(m.group(1)) > 4, "c0 too low: the message names the c0 that would do (%s)" %
+       (m.group(1) if m else line[:200]), out)
+    # a time step just above the stable one (2.1666...e-4 s): the two printed values differ, the suggestion passes
+    wd = os.path.join(root, "dt")
+    rc, out = E.run([exe], wd, E.scene(engine, steps=10).replace("timestep 1e-4", "timestep 0.00021666667"),
+                    timeout=TIMEOUT)
+    line = error_line(out)
+    m = re.search(r"time step (\S+) s exceeds the stable SPH time step (\S+) s.*Set the timestep to (\S+) or less",
+                  line)
+    good = rc > 0 and m and m.group(1) != m.group(2) and float(m.group(3)) <= float(m.group(2)) < float(m.group(1))
+    ok(good, "dt above the stable step: printed %s" % (str(m.groups()) if m else line[:200]), out)
+    if good:
+        # the set-up check (run 0) accepts it; the flow then speeds up and lowers the stable step
+        rc, out = E.run([exe], wd + "_suggested", E.scene(engine, steps=0).replace("timestep 1e-4",
+                                                                                  "timestep " + m.group(3)),
+                        timeout=TIMEOUT)
+        ok(rc == 0, "the suggested time step %s passes the set-up check" % m.group(3), out)
+    print("failure_dump (%s): %d failed" % (engine, fails))
+    return 1 if fails else 0
+
+
 def tables(style):
     if style == "fluid":
         return fluid_base, FLUID, ("lammps", "liggghts")
@@ -434,6 +567,8 @@ def main(argv):
         print(__doc__)
         return 2
     style, exe, engine = argv[1], argv[2], argv[3]
+    if style == "failure_dump":
+        return test_failure_dump(exe, engine)
     base, rows, engines = tables(style)
     if engine not in engines:
         print("%s is not a style of %s" % (style, engine))
