@@ -923,7 +923,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
                                                    : "the force condition 0.25 sqrt(h/amax)";
     if (D->mp && s->dt_stable == s->dt_visc) lim = "the viscous condition alpha_visc h^2 min(rho_i/mu_i) (eq 34)";
     return sphdem_fail(c, SPHDEM_ERR_UNSTABLE,
-                       "time step %g s exceeds the stable SPH time step %g s, limited by %s (CFL %g s, "
+                       "time step %.*g s exceeds the stable SPH time step %.*g s, limited by %s (CFL %g s, "
                        "viscous %g s, force %g s; vmax %g m/s, amax %g m/s^2). Set the timestep to %g or less.",
                        digits_apart(dt, s->dt_stable), dt, digits_apart(dt, s->dt_stable), s->dt_stable, lim,
                        s->dt_cfl, s->dt_visc == DBL_MAX ? INFINITY : s->dt_visc,
