@@ -7,11 +7,14 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
 
 #include "atom.h"
 #include "comm.h"
+#include "compute.h"
 #include "domain.h"
 #include "fix.h"
+#include "fix_check_timestep_gran.h"
 #include "fix_property_global.h"
 #include "force.h"
 #include "memory.h"
@@ -27,6 +30,73 @@ static const char *const USAGE =
     "model hertz|hooke tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
     "[ktToKnUser on|off (hooke)] "
     "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
+
+/* Stock styles that take the granular pair style for a PairGran (force->pair_match("gran", 0) matches
+ * gran/gpu too) and read its per-contact data or contact models: refused by name, before they could
+ * use this style as what it is not. fix multisphere: rigid clumps, whose contacts use the body masses. */
+namespace {
+struct Refused {
+  const char *style;
+  int compute;
+  const char *why;
+};
+const Refused kRefused[] = {
+    {"pair/gran/local", 1, "it reads the per-contact data of the stock pair style gran (use compute wall/gran/local "
+                           "for wall contacts)"},
+    {"contact/atom/gran", 1, "it reads the contact list of the stock pair style gran (compute contact/atom works)"},
+    {"heat/gran", 0, "it needs the per-contact data of the stock pair style gran"},
+    {"heat/gran/conduction", 0, "it needs the per-contact data of the stock pair style gran"},
+    {"contactproperty/atom", 0, "it stores per-contact data of the stock pair style gran"},
+    {"continuum/weighted", 0, "it needs the contact forces of the stock pair style gran"},
+    {"fiber/spring/simple", 0, "it needs the stock pair style gran"},
+    {"multicontact/halfspace", 0, "it needs the multicontact data of the stock pair style gran"},
+    {"multisphere", 0, "rigid multisphere clumps are not supported (the contacts would need the clump masses)"},
+    {"multisphere/nointegration", 0, "rigid multisphere clumps are not supported"},
+    {"multisphere/break", 0, "rigid multisphere clumps are not supported"},
+    {"concave", 0, "rigid multisphere clumps are not supported"},
+};
+const Refused *refused(const char *style, int compute) {
+  for (const Refused &r : kRefused)
+    if (r.compute == compute && std::strcmp(r.style, style) == 0) return &r;
+  return nullptr;
+}
+bool uses_gran_gpu(LAMMPS *lmp) { return lmp->force->pair_style && lmp->force->pair_match("gran/gpu", 1); }
+[[noreturn]] void refuse(LAMMPS *lmp, const Refused *r) {
+  sphdem_compat::error_all(lmp->error, __FILE__, __LINE__,
+                           std::string(r->compute ? "Compute " : "Fix ") + r->style +
+                               " cannot be used with pair_style gran/gpu: " + r->why);
+  throw 0; /* not reached */
+}
+std::map<std::string, sphdem_compat::FixCreator> g_stock_fix;
+std::map<std::string, sphdem_compat::ComputeCreator> g_stock_compute;
+Fix *guarded_fix(LAMMPS *lmp, int narg, char **arg) {
+  const Refused *r = narg > 2 ? refused(arg[2], 0) : nullptr;
+  if (r && uses_gran_gpu(lmp)) refuse(lmp, r);
+  return g_stock_fix.at(arg[2])(lmp, narg, arg);
+}
+Compute *guarded_compute(LAMMPS *lmp, int iarg, int narg, char **arg) {
+  const Refused *r = narg > 2 ? refused(arg[2], 1) : nullptr;
+  if (r && uses_gran_gpu(lmp)) refuse(lmp, r);
+  return g_stock_compute.at(arg[2])(lmp, iarg, narg, arg);
+}
+
+/* fix check/timestep/gran: the stock fix looks the pair style up by its exact name 'gran' (and only checks
+ * that one exists); everything it checks comes from the material fixes and the grains. While its init runs,
+ * the style answers to 'gran'. */
+class FixCheckTimestepGranGPU : public FixCheckTimestepGran {
+ public:
+  FixCheckTimestepGranGPU(LAMMPS *lmp, int narg, char **arg) : FixCheckTimestepGran(lmp, narg, arg) {}
+  void init() override {
+    char *name = force->pair_style;
+    char gran[] = "gran";
+    const bool gpu = name && std::strcmp(name, "gran/gpu") == 0;
+    if (gpu) force->pair_style = gran;
+    FixCheckTimestepGran::init();
+    force->pair_style = name;
+  }
+};
+Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new FixCheckTimestepGranGPU(lmp, narg, arg); }
+}  // namespace
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
@@ -143,8 +213,11 @@ void PairGranGPU::init_style() {
   if (domain->triclinic) fail("triclinic boxes are not supported");
   if (force->nktv2p != 1.0) fail("needs units si or cgs (nktv2p = 1)");
   freeze_group_bit_ = 0;
+  for (int i = 0; i < modify->ncompute; i++)
+    if (const Refused *r = refused(modify->compute[i]->style, 1)) refuse(lmp, r);
   for (int i = 0; i < modify->nfix; i++) {
     Fix *f = modify->fix[i];
+    if (const Refused *r = refused(f->style, 0)) refuse(lmp, r);
     if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
     if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
   }
@@ -243,7 +316,7 @@ void PairGranGPU::sync_params() {
 }
 
 /* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
- * the communication cutoff and the neighbour summary, as with the stock style. */
+ * the communication cutoff and the neighbour lists' bins, as with the stock style. */
 double PairGranGPU::init_one(int i, int j) {
   if ((int)maxrad_dynamic_.size() <= std::max(i, j)) return 0.0;
   const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
@@ -304,4 +377,22 @@ double PairGranGPU::memory_usage() {
 
 static Pair *pair_gran_gpu_creator(LAMMPS *lmp) { return new PairGranGPU(lmp); }
 
-void sphdem_register_pair_gran_gpu(LAMMPS *lmp) { (*lmp->force->pair_map)["gran/gpu"] = &pair_gran_gpu_creator; }
+void sphdem_register_pair_gran_gpu(LAMMPS *lmp) {
+  (*lmp->force->pair_map)["gran/gpu"] = &pair_gran_gpu_creator;
+  sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
+  sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
+  fixes["check/timestep/gran"] = &check_timestep_gran_creator;
+  for (const Refused &r : kRefused) {
+    if (r.compute) {
+      auto it = computes.find(r.style);
+      if (it == computes.end() || it->second == &guarded_compute) continue;
+      g_stock_compute[r.style] = it->second;
+      it->second = &guarded_compute;
+    } else {
+      auto it = fixes.find(r.style);
+      if (it == fixes.end() || it->second == &guarded_fix) continue;
+      g_stock_fix[r.style] = it->second;
+      it->second = &guarded_fix;
+    }
+  }
+}

@@ -11,6 +11,14 @@
                tangential history [rolling_friction cdt | limitForce on]' and 'model hooke tangential history
                [rolling_friction cdt ktToKnUser on]' (characteristicVelocity 0.8) vs 'gran/gpu' with the same
                words (material from fix property/global): final x, v, omega < 1e-12, thermo identical
+  pour_liggghts LIG  3000 frictional Hertz grains poured from an empty box (default atom sorting): gran vs
+               gran/gpu positions within 1e-8 d after 2000 steps (LIGGGHTS' contact-history rule)
+  mesh_liggghts LIG  1500 grains onto an STL floor (fix wall/gran mesh) with fix check/timestep/gran: positions
+               within 1e-8 d, the check's values equal
+  refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
+               themselves
+  pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
+  rigid_lammps LMP  fix rigid stops naming it
   errors_liggghts LIG  unsupported words (model hooke/stiffness, ktToKnUser with hertz, cohesion sjkr, a
                missing material) stop naming them
   example EXE INPUT [liggghts]  examples/dem_drop shortened (-var steps: 20000 LAMMPS, 5000 LIGGGHTS,
@@ -502,3 +510,205 @@ if __name__ == "__main__":
         sys.exit(0 if errors(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None) else 1)
     print(__doc__)
     sys.exit(2)
+# A pour from an empty box with the engine's default atom sorting (no atom_modify sort): the pair style
+# must report the stock cutoff before any grain exists. 3000 frictional Hertz grains (d = 2 mm) inserted at
+# once, falling at 1 m/s onto a floor and onto each other: many pairs separate and touch again before the
+# next neighbour-list build, where LIGGGHTS keeps their tangential history (it resets it only at a build,
+# for the pairs not touching then). The /gpu style that zeroed it at once differed by 0.2 d after 2000 steps.
+POUR_LIG = """units           si
+atom_style      granular
+boundary        p p f
+newton          off
+communicate     single vel yes
+region          box block 0 0.03 0 0.03 0 0.06 units box
+create_box      1 box
+neighbor        0.0005 bin
+neigh_modify    delay 0
+fix             m1 all property/global youngsModulus peratomtype 5e6
+fix             m2 all property/global poissonsRatio peratomtype 0.45
+fix             m3 all property/global coefficientRestitution peratomtypepair 1 0.7
+fix             m4 all property/global coefficientFriction peratomtypepair 1 0.5
+pair_style      {style} model hertz tangential history
+pair_coeff      * *
+fix             floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0
+fix             g all gravity 9.81 vector 0 0 -1
+fix             pts all particletemplate/sphere 15485863 atom_type 1 density constant 2500 radius constant 0.001
+fix             pdd all particledistribution/discrete 32452843 1 pts 1.0
+region          ins block 0.0 0.03 0.0 0.03 0.0012 0.05 units box
+fix             ins all insert/pack seed 49979687 distributiontemplate pdd insert_every once overlapcheck yes &
+                vel constant 0.3 -0.2 -1.0 particles_in_region {n} region ins
+fix             integrate all nve/sphere
+timestep        5e-6
+thermo_style    custom step atoms ke
+thermo_modify   format float %.15g
+thermo          500
+run             {steps}
+dump            d all custom 1 final.dump id x y z vx vy vz omegax omegay omegaz
+dump_modify     d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+run             0
+"""
+
+# A mesh floor (fix mesh/surface + fix wall/gran mesh) and fix check/timestep/gran, which looks the pair
+# style up by its name: 1500 grains poured onto the mesh, rolling friction on.
+MESH_STL = """solid floor
+ facet normal 0 0 1
+  outer loop
+   vertex 0 0 0
+   vertex 0.03 0 0
+   vertex 0.03 0.03 0
+  endloop
+ endfacet
+ facet normal 0 0 1
+  outer loop
+   vertex 0 0 0
+   vertex 0.03 0.03 0
+   vertex 0 0.03 0
+  endloop
+ endfacet
+endsolid floor
+"""
+MESH_LIG = POUR_LIG.replace("boundary        p p f", "boundary        f f f").replace(
+    "region          box block 0 0.03 0 0.03 0 0.06 units box",
+    "region          box block -0.005 0.035 -0.005 0.035 -0.02 0.04 units box").replace(
+    "fix             m4 all property/global coefficientFriction peratomtypepair 1 0.5\n",
+    "fix             m4 all property/global coefficientFriction peratomtypepair 1 0.5\n"
+    "fix             m5 all property/global coefficientRollingFriction peratomtypepair 1 0.02\n").replace(
+    "model hertz tangential history\npair_coeff", "model hertz tangential history rolling_friction cdt\npair_coeff").replace(
+    "fix             floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0",
+    "fix             cad all mesh/surface file floor.stl type 1\n"
+    "fix             floor all wall/gran model hertz tangential history rolling_friction cdt mesh n_meshes 1 meshes cad").replace(
+    "region          ins block 0.0 0.03 0.0 0.03 0.0012 0.05 units box",
+    "region          ins block 0.002 0.028 0.002 0.028 0.0012 0.03 units box").replace(
+    "fix             integrate all nve/sphere",
+    "fix             integrate all nve/sphere\nfix             ts all check/timestep/gran 500 0.2 0.2").replace(
+    "thermo_style    custom step atoms ke", "thermo_style    custom step atoms ke f_ts[1] f_ts[2] f_ts[3]")
+
+
+def max_dx(a, b):
+    """largest |x_a - x_b| over the grains of two dumps (rows id x y z ...), or None if the ids differ"""
+    if [r[0] for r in a] != [r[0] for r in b]:
+        return None
+    return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b))
+
+
+def pour_liggghts(lig, n=3000, steps=2000, mesh=False):
+    """gran vs gran/gpu on POUR_LIG (or MESH_LIG): no error (atom sorting with its default bin), final
+    positions within 1e-8 d, and (mesh) the check/timestep/gran values in the thermo output equal"""
+    d = 0.002
+    res = {}
+    for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
+        wd = os.path.join("dem_mesh_lig" if mesh else "dem_pour_lig", tag)
+        os.makedirs(wd, exist_ok=True)
+        if mesh:
+            with open(os.path.join(wd, "floor.stl"), "w") as f:
+                f.write(MESH_STL)
+        rc, out = run([lig], wd, (MESH_LIG if mesh else POUR_LIG).format(style=style, n=n, steps=steps), timeout=600)
+        if rc != 0 or "ERROR" in out:
+            print("FAIL %s: rc %d\n%s" % (style, rc, out[-1500:]))
+            return False
+        res[tag] = (load_dump(os.path.join(wd, "final.dump")), thermo(out))
+    a, b = res["stock"][0], res["gpu"][0]
+    dx = max_dx(a, b)
+    ok = dx is not None and dx < 1e-8 * d and len(a) > 0.9 * n
+    msg = "%s %s: %d grains after %d steps, max |x_gpu - x_stock| = %s d (bound 1e-8)" % (
+        "PASS" if ok else "FAIL", "mesh floor + check/timestep/gran" if mesh else "pour", len(a), steps,
+        "%.3g" % (dx / d) if dx is not None else "(grain ids differ)")
+    if mesh:  # the three values of fix check/timestep/gran (rayleigh, hertz, skin fractions) on each row
+        ta, tb = [[r for r in res[t][1] if len(r) == 6 and r[0].isdigit()] for t in ("stock", "gpu")]
+        worst = max(abs(float(x) - float(y)) / max(abs(float(x)), 1e-300)
+                    for r, q in zip(ta, tb) for x, y in zip(r[3:6], q[3:6])) if len(ta) == len(tb) else 1.0
+        checked = len(ta) >= 4 and all(float(r[4]) > 0 for r in ta[1:])
+        ok = ok and worst < 1e-9 and checked
+        msg += "; check/timestep/gran values (%d rows) relative difference %.2g (bound 1e-9)" % (len(ta), worst)
+    print(msg)
+    return ok
+
+
+def refused_liggghts(lig):
+    """stock styles that need the stock pair style's per-contact data, and fix multisphere, stop with an
+    ERROR naming them (given after pair_style: when created; before it: at the run's init)"""
+    base = lig_script("headon", "gran/gpu", "model hertz tangential history")
+    after = "pair_coeff * *\n"
+    heat = ("fix m7 all property/global thermalConductivity peratomtype 1.\n"
+            "fix m8 all property/global thermalCapacity peratomtype 10.\nfix heat all heat/gran initial_temperature 300\n")
+    cases = [("compute pair/gran/local", base.replace(after, after + "compute pgl all pair/gran/local id force\n")),
+             ("compute contact/atom/gran", base.replace(after, after + "compute c all contact/atom/gran\n")),
+             ("fix heat/gran", base.replace("pair_style gran/gpu", heat + "pair_style gran/gpu")),
+             ("fix multisphere", base.replace(after, after + "fix ms all multisphere\n"))]
+    ok = True
+    for k, (what, text) in enumerate(cases):
+        rc, out = run([lig], os.path.join("dem_refused_lig", str(k)), text)
+        want = "%s cannot be used with pair_style gran/gpu" % what.replace("compute ", "Compute ").replace("fix ", "Fix ")
+        good = rc != 0 and ("ERROR: " + want) in out
+        print("%s with gran/gpu: %s" % (what, "stops naming it" if good else "FAIL\n" + out[-800:]))
+        ok &= good
+    return ok
+
+
+# LAMMPS: a pour into an empty box (after examples/granular/in.pour): no 'Communication cutoff 0.0' or
+# 'Atom sorting disabled' warnings, the same trajectory as the stock style
+POUR_LMP = """units           lj
+atom_style      sphere
+boundary        p p fm
+newton          off
+comm_modify     vel yes
+region          reg block -10 10 -10 10 -0.5 16 units box
+create_box      1 reg
+neighbor        0.2 bin
+neigh_modify    delay 0
+pair_style      {style} 2000.0 NULL 50.0 NULL 0.5 0
+pair_coeff      * *
+timestep        0.001
+fix             1 all nve/sphere
+fix             2 all gravity 1.0 spherical 0.0 -180.0
+fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
+region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
+fix             ins all pour 1000 1 300719 vol 0.13 50 region slab
+thermo_style    custom step atoms ke
+thermo_modify   lost ignore norm no format float %.12g
+thermo          1000
+run             {steps}
+write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+
+def pour_lammps(lmp, steps=5000):
+    res = {}
+    for tag, style in (("stock", "gran/hertz/history"), ("gpu", "gran/hertz/history/gpu")):
+        rc, out = run([lmp], os.path.join("dem_pour_lmp", tag), POUR_LMP.format(style=style, steps=steps))
+        if rc != 0 or "ERROR" in out:
+            print("FAIL %s: rc %d\n%s" % (style, rc, out[-1500:]))
+            return False
+        res[tag] = (load_dump(os.path.join("dem_pour_lmp", tag, "final.dump")), out.count("WARNING"),
+                    "Atom sorting" in out or "Communication cutoff" in out)
+    dx = max_dx(res["stock"][0], res["gpu"][0])
+    ok = dx is not None and dx < 1e-10 and res["gpu"][1] == res["stock"][1] and not res["gpu"][2] and \
+        len(res["stock"][0]) > 500
+    print("%s pour (LAMMPS, %d grains, %d steps): warnings stock %d, /gpu %d (cutoff or sorting warnings: %s); "
+          "max |x_gpu - x_stock| %s d (bound 1e-10)" % ("PASS" if ok else "FAIL", len(res["stock"][0]), steps,
+                                                    res["stock"][1], res["gpu"][1], res["gpu"][2],
+                                                    "%.3g" % dx if dx is not None else "(ids differ)"))
+    return ok
+
+
+def rigid_lammps(lmp):
+    """fix rigid with the /gpu style stops with an ERROR naming it (the stock style would use body masses)"""
+    text = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"]).replace(
+        "fix 1 all nve/sphere", "fix 1 all rigid single")
+    rc, out = run([lmp], os.path.join("dem_rigid_lmp"), text)
+    good = rc != 0 and "ERROR" in out and "rigid bodies (fix 1) are not supported" in out
+    print("fix rigid with gran/hertz/history/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
+    return good
+
+
+
+    if mode == "pour_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2]) else 1)
+    if mode == "mesh_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], n=1500, mesh=True) else 1)
+    if mode == "refused_liggghts":
+        sys.exit(0 if refused_liggghts(sys.argv[2]) else 1)
+    if mode == "pour_lammps":
+        sys.exit(0 if pour_lammps(sys.argv[2]) else 1)
+    if mode == "rigid_lammps":
+        sys.exit(0 if rigid_lammps(sys.argv[2]) else 1)

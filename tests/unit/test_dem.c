@@ -454,6 +454,75 @@ static void test_bad_grains(void) {
   }
 }
 
+/* A grain slides along a frozen one, leaves it and touches it again within one pair-list lifetime (no
+ * rebuild: skin 1 mm, displacements 0.03 mm). LAMMPS models (keep_history 0): the history is zeroed when
+ * the pair separates, so the second contact starts from zero: its history after the first step equals
+ * that of a fresh context given the same state. LIGGGHTS (keep_history 1): the separated pair keeps its
+ * history until a build the engine asks for (sphdem_dem_request_build), which keeps it only for touching pairs. */
+static void bounce_phase(sphdem_dem d, double *x, double *v, double gap, int steps, double dt, double h[4]) {
+  int64_t tag[2] = {1, 2};
+  double om[6] = {0, 0, 0, 0, 0, 30.0}, r[2] = {0.001, 0.001}, m[2] = {1e-5, 1e-5}, f[6], t[6];
+  int fl[2] = {SPHDEM_DEM_FROZEN, 0};
+  for (int s = 0; s < steps; s++) {
+    x[3] = 0.002 + gap; /* grain 2 beside grain 1 along x, sliding along y */
+    x[4] += v[4] * dt;
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, fl, dt, 1, f, t, NULL);
+    TEST_ASSERT(rc == SPHDEM_OK, "bounce: %s", sphdem_dem_last_error(d));
+  }
+  TEST_ASSERT(sphdem_dem_debug_history(d, 1, 2, h) == SPHDEM_OK, "bounce history: %s", sphdem_dem_last_error(d));
+}
+
+static void test_recontact_history(void) {
+  const double dt = 1e-5;
+  for (int keep = 0; keep <= 1; keep++)
+    for (int algo = 0; algo <= 1; algo++) {
+      sphdem_dem_params p;
+      sphdem_dem_params_default(&p);
+      if (keep) { p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; }
+      else { p.model = SPHDEM_DEM_HERTZ; p.kn = 2e7; p.kt = 2e7 * 2.0 / 7.0; p.gamman = 5e3; p.gammat = 2.5e3; }
+      p.mu = 0.5; p.skin = 0.001; p.algo = algo; p.keep_history = keep;
+      for (int engine_build = 0; engine_build <= keep; engine_build++) {
+        sphdem_dem d = make(&p);
+        double x[6] = {0, 0, 0, 0, 0, 0}, v[6] = {0, 0, 0, 0, 0.1, 0}, h1[4], h2[4], h3[4], hf[4];
+        bounce_phase(d, x, v, -1e-5, 20, dt, h1);  /* first contact */
+        bounce_phase(d, x, v, +1e-5, 10, dt, h2);  /* apart, still in the pair list */
+        if (engine_build) { /* the engine rebuilds its lists while the grains are apart */
+          sphdem_dem_request_build(d);
+          bounce_phase(d, x, v, +1e-5, 1, dt, h2);
+        }
+        double xs[6], vs[6];
+        memcpy(xs, x, sizeof x); memcpy(vs, v, sizeof v);
+        bounce_phase(d, x, v, -1e-5, 1, dt, h3);   /* the first step of the second contact */
+        sphdem_dem_stats st;
+        sphdem_dem_stats_get(d, &st);
+        sphdem_dem fresh = make(&p);
+        bounce_phase(fresh, xs, vs, -1e-5, 1, dt, hf);
+        const double s1 = sqrt(h1[0] * h1[0] + h1[1] * h1[1] + h1[2] * h1[2]);
+        const int same_as_fresh = h3[0] == hf[0] && h3[1] == hf[1] && h3[2] == hf[2];
+        TEST_ASSERT(s1 > 1e-7 && h1[3] > 0.0, "keep %d algo %d: the first contact built no history (|s| %g)", keep, algo, s1);
+        TEST_ASSERT(st.nbuilds == 1 + engine_build, "keep %d algo %d: %lld pair-list builds", keep, algo, (long long)st.nbuilds);
+        if (!keep || engine_build) {
+          TEST_ASSERT(same_as_fresh && h3[3] > 0.0, "keep %d algo %d build %d: second contact history (%g %g %g) is not a "
+                      "fresh contact's (%g %g %g)", keep, algo, engine_build, h3[0], h3[1], h3[2], hf[0], hf[1], hf[2]);
+          TEST_ASSERT(h2[0] == 0.0 && h2[1] == 0.0 && h2[2] == 0.0 && h2[3] == 0.0,
+                      "keep %d algo %d: separated pair keeps history %g %g %g %g", keep, algo, h2[0], h2[1], h2[2], h2[3]);
+        } else {
+          TEST_ASSERT(h2[0] == h1[0] && h2[1] == h1[1] && h2[2] == h1[2] && h2[3] < 0.0,
+                      "algo %d: LIGGGHTS rule: the separated pair's history (%g %g %g, flag %g) is not the one it left with",
+                      algo, h2[0], h2[1], h2[2], h2[3]);
+          TEST_ASSERT(!same_as_fresh && h3[3] > 0.0, "algo %d: LIGGGHTS rule: the second contact started from zero", algo);
+        }
+        sphdem_dem_destroy(&fresh);
+        sphdem_dem_destroy(&d);
+      }
+    }
+  /* keep_history is LIGGGHTS' rule: refused for the LAMMPS models */
+  sphdem_dem_params q;
+  sphdem_dem_params_default(&q);
+  q.kn = 1e5; q.kt = 2e4; q.keep_history = 1;
+  expect_arg(q, "keep_history");
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -462,5 +531,6 @@ int main(void) {
   test_detection();
   test_single_contacts();
   test_dynamics();
+  test_recontact_history();
   return test_summary("unit_dem");
 }
