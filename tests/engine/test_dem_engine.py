@@ -490,26 +490,6 @@ def pile(lmp, nsteps=150000):
     return ok
 
 
-if __name__ == "__main__":
-    mode = sys.argv[1]
-    if mode == "restart_liggghts":
-        sys.exit(0 if restart_liggghts(sys.argv[2]) else 1)
-    if mode == "restart":
-        sys.exit(0 if restart(sys.argv[2]) else 1)
-    if mode == "pile":
-        sys.exit(0 if pile(sys.argv[2]) else 1)
-    if mode == "same":
-        sys.exit(0 if same(sys.argv[2]) else 1)
-    if mode == "same_liggghts":
-        sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
-    if mode == "errors_liggghts":
-        sys.exit(0 if errors_liggghts(sys.argv[2]) else 1)
-    if mode == "example":
-        sys.exit(0 if example(sys.argv[2], sys.argv[3], sys.argv[4] if len(sys.argv) > 4 else "lammps") else 1)
-    if mode == "errors":
-        sys.exit(0 if errors(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None) else 1)
-    print(__doc__)
-    sys.exit(2)
 # A pour from an empty box with the engine's default atom sorting (no atom_modify sort): the pair style
 # must report the stock cutoff before any grain exists. 3000 frictional Hertz grains (d = 2 mm) inserted at
 # once, falling at 1 m/s onto a floor and onto each other: many pairs separate and touch again before the
@@ -702,6 +682,18 @@ def rigid_lammps(lmp):
 
 
 
+if __name__ == "__main__":
+    mode = sys.argv[1]
+    if mode == "restart_liggghts":
+        sys.exit(0 if restart_liggghts(sys.argv[2]) else 1)
+    if mode == "restart":
+        sys.exit(0 if restart(sys.argv[2]) else 1)
+    if mode == "pile":
+        sys.exit(0 if pile(sys.argv[2]) else 1)
+    if mode == "same":
+        sys.exit(0 if same(sys.argv[2]) else 1)
+    if mode == "same_liggghts":
+        sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
     if mode == "pour_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2]) else 1)
     if mode == "mesh_liggghts":
@@ -712,3 +704,11 @@ def rigid_lammps(lmp):
         sys.exit(0 if pour_lammps(sys.argv[2]) else 1)
     if mode == "rigid_lammps":
         sys.exit(0 if rigid_lammps(sys.argv[2]) else 1)
+    if mode == "errors_liggghts":
+        sys.exit(0 if errors_liggghts(sys.argv[2]) else 1)
+    if mode == "example":
+        sys.exit(0 if example(sys.argv[2], sys.argv[3], sys.argv[4] if len(sys.argv) > 4 else "lammps") else 1)
+    if mode == "errors":
+        sys.exit(0 if errors(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None) else 1)
+    print(__doc__)
+    sys.exit(2)
