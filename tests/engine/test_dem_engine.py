@@ -560,8 +560,9 @@ MESH_LIG = POUR_LIG.replace("boundary        p p f", "boundary        f f f").re
     "region          ins block 0.0 0.03 0.0 0.03 0.0012 0.05 units box",
     "region          ins block 0.002 0.028 0.002 0.028 0.0012 0.03 units box").replace(
     "fix             integrate all nve/sphere",
-    "fix             integrate all nve/sphere\nfix             ts all check/timestep/gran 500 0.2 0.2").replace(
-    "thermo_style    custom step atoms ke", "thermo_style    custom step atoms ke f_ts[1] f_ts[2] f_ts[3]")
+    "fix             integrate all nve/sphere\nfix             ts all check/timestep/gran 500 0.2 0.2\n"
+    "compute         wl all wall/gran/local id force\ncompute         wls all reduce sum c_wl[4]").replace(
+    "thermo_style    custom step atoms ke", "thermo_style    custom step atoms ke f_ts[1] f_ts[2] f_ts[3] c_wls")
 
 
 def max_dx(a, b):
@@ -593,13 +594,17 @@ def pour_liggghts(lig, n=3000, steps=2000, mesh=False):
     msg = "%s %s: %d grains after %d steps, max |x_gpu - x_stock| = %s d (bound 1e-8)" % (
         "PASS" if ok else "FAIL", "mesh floor + check/timestep/gran" if mesh else "pour", len(a), steps,
         "%.3g" % (dx / d) if dx is not None else "(grain ids differ)")
-    if mesh:  # the three values of fix check/timestep/gran (rayleigh, hertz, skin fractions) on each row
-        ta, tb = [[r for r in res[t][1] if len(r) == 6 and r[0].isdigit()] for t in ("stock", "gpu")]
+    if mesh:  # fix check/timestep/gran (rayleigh, hertz, skin fractions) and the summed x force of compute
+        # wall/gran/local on each row
+        ta, tb = [[r for r in res[t][1] if len(r) == 7 and r[0].isdigit()] for t in ("stock", "gpu")]
         worst = max(abs(float(x) - float(y)) / max(abs(float(x)), 1e-300)
                     for r, q in zip(ta, tb) for x, y in zip(r[3:6], q[3:6])) if len(ta) == len(tb) else 1.0
-        checked = len(ta) >= 4 and all(float(r[4]) > 0 for r in ta[1:])
-        ok = ok and worst < 1e-9 and checked
-        msg += "; check/timestep/gran values (%d rows) relative difference %.2g (bound 1e-9)" % (len(ta), worst)
+        wall = max(abs(float(r[6]) - float(q[6])) / max(abs(float(r[6])), 1e-300) for r, q in zip(ta[1:], tb[1:])) \
+            if len(ta) == len(tb) else 1.0
+        checked = len(ta) >= 4 and all(float(r[4]) > 0 and float(r[6]) != 0 for r in ta[1:])
+        ok = ok and worst < 1e-9 and wall < 1e-8 and checked
+        msg += ("; check/timestep/gran values (%d rows) relative difference %.2g (bound 1e-9), wall/gran/local "
+                "force sum %.2g (bound 1e-8)" % (len(ta), worst, wall))
     print(msg)
     return ok
 
