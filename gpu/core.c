@@ -897,17 +897,21 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   if (D->mp) s->dt_visc = r.numax > 0 ? D->M.alpha_visc * P->h * P->h / r.numax : DBL_MAX;
   s->dt_force = s->amax > 0 ? 0.25 * sqrt(P->h / s->amax) : DBL_MAX;
   s->dt_stable = fmin(s->dt_cfl, fmin(s->dt_visc, s->dt_force));
+  /* after a blow-up the stable step of the wrecked state is no guide: say so instead of "stable 0 s" */
+  char stable_txt[96];
+  if (s->dt_stable > 0 && isfinite(s->dt_stable)) snprintf(stable_txt, sizeof stable_txt, "stable %g s", s->dt_stable);
+  else snprintf(stable_txt, sizeof stable_txt, "no stable step of this state: its velocities or accelerations are not finite");
   if (r.nnan > 0)
     return sphdem_fail(c, SPHDEM_ERR_NAN,
                        "%lld fluid particles have a non-finite position, velocity or density: the simulation "
                        "blew up. Likely causes: a time step above the stable %g s, too few wall layers or no "
                        "repulsion letting particles enter walls, or h/dx too small.",
-                       (long long)r.nnan, s->dt_stable);
+                       (long long)r.nnan, stable_txt);
   if (r.nlost > 0)
     return sphdem_fail(c, SPHDEM_ERR_LOST,
                        "%lld fluid particles left the box. Likely causes: walls missing or thinner than the "
                        "kernel support 2h (%g), no wall repulsion for a violent impact, or a time step too large "
-                       "(stable %g s).", (long long)r.nlost, 2.0 * P->h, s->dt_stable);
+                       "(%s).", (long long)r.nlost, 2.0 * P->h, stable_txt);
   if (r.rhoerr > P->rho_err_max)
     return sphdem_fail(c, SPHDEM_ERR_DENSITY,
                        "max |rho/rho0 - 1| = %.3g exceeds rho_err_max %.3g. Likely causes: c0 too low: the "

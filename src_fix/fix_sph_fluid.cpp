@@ -500,7 +500,7 @@ void FixSPHFluid::setup(int) {
   if (!valid && coupler_ && coupler_->couple_superficial_floor() > 0) start_superficial();
   host_current_ = false;
   download();              /* host rho, p and state columns now match the device */
-  if (!scene_checked_) check_scene();
+  if (!scene_checked_) check_scene(!valid);
 
   sphdem_stats s;
   const double dt_nominal = (double)every_ * update->dt; /* the fluid step of the stability check */
@@ -953,9 +953,10 @@ std::string FixSPHFluid::write_failure_dump(bool from_device) {
 }
 
 /* Set-up checks of the uploaded scene (once per fix): the particle masses against rho0 dx^dim (a wrong rho0,
- * h or dx gives forces scaled by orders of magnitude: the fluid free-falls or explodes), then particles on
- * top of each other or of wall particles (the core's cell search, closer than 0.5 dx). */
-void FixSPHFluid::check_scene() {
+ * h or dx gives forces scaled by orders of magnitude: the fluid free-falls or explodes), then, for a fresh
+ * start (atoms without a state from a restart file or an earlier run, where a flow may have brought particles
+ * close), particles on top of each other or of wall particles (the core's cell search, closer than 0.5 dx). */
+void FixSPHFluid::check_scene(bool fresh) {
   scene_checked_ = true;
   const size_t n = fidx_.size();
   if (n == 0) return;
@@ -975,6 +976,7 @@ void FixSPHFluid::check_scene() {
              prm_.dim, sum / (double)n, prm_.dim, vol, prm_.dx, have_dx_ ? "" : " = h/1.3, give dx", ratio);
     fail(msg);
   }
+  if (!fresh) return;
   double r[8];
   check(sphdem_check_spacing(ctx_, 0.5 * prm_.dx, r), "check_spacing");
   if (r[0] > 0) {

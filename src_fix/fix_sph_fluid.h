@@ -129,7 +129,7 @@ class FixSPHFluid : public Fix {
   /* a blow-up: the failure dump (keyword failure_dump), then the message naming it */
   [[noreturn]] void blowup(const std::string &msg, bool from_device = true);
   std::string write_failure_dump(bool from_device);
-  void check_scene(); /* set-up checks of the uploaded fluid: masses against rho0 dx^dim, particle spacing */
+  void check_scene(bool fresh); /* set-up checks of the uploaded fluid: masses against rho0 dx^dim, spacing */
   bool failure_dump_;         /* failure_dump yes (default) | FILE; no = off */
   std::string failure_file_;  /* FILE, empty = sphdem_failure.<step>.dump */
   bool have_dx_;
