@@ -904,7 +904,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   if (r.nnan > 0)
     return sphdem_fail(c, SPHDEM_ERR_NAN,
                        "%lld fluid particles have a non-finite position, velocity or density: the simulation "
-                       "blew up. Likely causes: a time step above the stable %g s, too few wall layers or no "
+                       "blew up. Likely causes: a time step too large (%s), too few wall layers or no "
                        "repulsion letting particles enter walls, or h/dx too small.",
                        (long long)r.nnan, stable_txt);
   if (r.nlost > 0)
