@@ -327,6 +327,8 @@ def lmp_pair_table(style):
                                   "set atom * density 2500", "mass 1 1e-3", "fix 1 all nve/sphere", "fix 1 all nve"),
           ["requires atom attributes radius, rmass, omega, torque"]),
         V("atom outside the box", R("timestep 1e-6", "set atom 1 x 0.5\ntimestep 1e-6"), ["Lost atoms"]),
+        V("coincident grains", R("create_atoms 1 single 0.00505 0 0", "create_atoms 1 single -0.00505 0 0"),
+          ["grains 1 and 2 are at the same position"]),
     ]
 
 
@@ -396,6 +398,10 @@ GRAN_GPU = [
       ["coefficientFriction", "must be >= 0"]),
     V("atom outside the box", R("timestep 1e-6", "set atom 1 x 0.5\ntimestep 1e-6"), ["Lost atoms"],
       skip={"liggghts": LOST}),
+    V("coincident grains", R("create_atoms 1 single 0.00505 0 0", "create_atoms 1 single -0.00505 0 0"),
+      ["grains 1 and 2 are at the same position"]),
+    V("fix multisphere", R("fix 1 all nve/sphere", "fix ms all multisphere"),
+      ["multisphere", "not supported"]),
 ]
 
 
