@@ -1,6 +1,8 @@
 /* sphdem_plugin.cpp - lammpsplugin_init entry of sphdemplugin.so for LAMMPS builds with the PLUGIN
  * package (`plugin load sphdemplugin.so`). Debian's LAMMPS has no PLUGIN package; the plugin record
- * is declared in lammpsplugin_decl.h. */
+ * is declared in lammpsplugin_decl.h. A plugin works only in the LAMMPS whose headers it was compiled
+ * with (class layouts and symbols change between versions), so it reports that version and LAMMPS
+ * warns "compiled for LAMMPS version X, loaded into LAMMPS version Y" when they differ. */
 #include "compute_sph_probe.h"
 #include "fix_cfd_grid.h"
 #include "fix_sph_couple.h"
@@ -10,6 +12,17 @@
 #include "pair_gran_hooke_history_gpu.h"
 #include "lammpsplugin_decl.h"
 #include "sphdem.h"
+
+/* The version of the headers: version.h of a LAMMPS source tree; Debian's headers have none, then
+ * the build passes the version string of the library (src_fix/CMakeLists.txt). */
+#if __has_include("version.h")
+#include "version.h"
+#define SPHDEM_BUILT_FOR_LAMMPS LAMMPS_VERSION
+#elif defined(SPHDEM_LAMMPS_VERSION)
+#define SPHDEM_BUILT_FOR_LAMMPS SPHDEM_LAMMPS_VERSION
+#else
+#error "no version.h in the LAMMPS headers and no SPHDEM_LAMMPS_VERSION given"
+#endif
 
 static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
   return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
@@ -39,7 +52,7 @@ static void *pair_hertz_gpu_creator(void *lmp) {
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   lammpsplugin_regfunc register_plugin = (lammpsplugin_regfunc)regfunc;
   lammpsplugin_t plugin;
-  plugin.version = static_cast<LAMMPS_NS::LAMMPS *>(lmp)->version; /* built for this LAMMPS */
+  plugin.version = SPHDEM_BUILT_FOR_LAMMPS; /* compiled for this LAMMPS, not the one that loads it */
   plugin.style = "fix";
   plugin.name = "sph/fluid";
   plugin.info = "sphdem " SPHDEM_VERSION " SPH fluid on CPU or GPU";
