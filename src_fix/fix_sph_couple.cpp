@@ -303,8 +303,13 @@ void FixSPHCouple::couple_before_rates(sphdem_ctx ctx) {
       if (cp_.torque) gom_[3 * k + d] = om[i][d];
     }
   }
-  check(ctx, sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr),
-        "set_grains");
+  const int rc = sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr);
+  /* grains that went non-finite during a run: the fluid fix writes its failure dump, with the grains */
+  if (rc != SPHDEM_OK && update->ntimestep > update->beginstep)
+    fluid_->fail_with_dump(std::string("Fix sph/couple: set_grains at step ") +
+                           std::to_string((long long)update->ntimestep) + ": " + sphdem_last_error(ctx) + " (" +
+                           sphdem_strerror(rc) + "); the grains blew up (their forces or time step).");
+  check(ctx, rc, "set_grains");
 }
 
 void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {

@@ -874,7 +874,7 @@ std::string FixSPHFluid::stats_message(int rc, const sphdem_stats &s) const {
 /* ---- blow-up evidence ------------------------------------------------------------------------------ */
 
 void FixSPHFluid::blowup(const std::string &msg, bool from_device) {
-  std::string m = msg;
+  std::string m = "Fix sph/fluid: " + msg;
   if (failure_dump_) {
     const std::string file = write_failure_dump(from_device);
     if (!file.empty())
@@ -883,7 +883,18 @@ void FixSPHFluid::blowup(const std::string &msg, bool from_device) {
     else
       m += " (the failure dump could not be written)";
   }
-  fail(m);
+  sphdem_compat::error_all(error, FLERR, m);
+}
+
+void FixSPHFluid::fail_with_dump(const std::string &msg) {
+  if (!failure_dump_) sphdem_compat::error_all(error, FLERR, msg);
+  const std::string file = write_failure_dump(true);
+  sphdem_compat::error_all(error, FLERR, msg + (file.empty() ? std::string(" (the failure dump could not be written)")
+                                                            : " The state of step " +
+                                                                  std::to_string((long long)update->ntimestep) +
+                                                                  " (fluid, walls, grains) is in " + file +
+                                                                  " (tools/dump2vtk.py converts it for ParaView; "
+                                                                  "failure_dump no turns this off)."));
 }
 
 /* The failure step as a 'dump custom' text file: every local atom with id type x y z vx vy vz density

@@ -59,6 +59,9 @@ class FixSPHFluid : public Fix {
   /* fix sph/couple registers itself in its init() (after this fix's init, which forgets the last
    * coupler); false when another coupler is already attached */
   bool attach_coupler(SPHCoupler *c);
+  /* a coupler that finds the coupled state broken during a run stops through here: the failure dump (keyword
+   * failure_dump) is written and named after msg, which carries the coupler's own prefix */
+  [[noreturn]] void fail_with_dump(const std::string &msg);
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;

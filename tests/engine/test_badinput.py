@@ -498,6 +498,16 @@ def test_failure_dump(exe, engine):
         made = sorted(os.listdir(vtk)) if os.path.isdir(vtk) else []
         ok(p.returncode == 0 and any(f.endswith(".vtk") for f in made) and any(f.endswith(".vtp") for f in made),
            "%s: tools/dump2vtk.py converts it (%s)" % (name, ", ".join(made)), p.stdout.decode(errors="replace"))
+    # (4) grains that go non-finite (an infinite force from fix addforce): the coupling stops through the fluid
+    # fix's failure dump
+    wd = os.path.join(root, "grains")
+    rc, out = E.run([exe], wd, E.couple_scene(engine, steps=20).replace(
+        "fix grav grains", "variable big equal 1e300*1e300\nfix kick grains addforce v_big 0 0\nfix grav grains"),
+        timeout=TIMEOUT)
+    line = error_line(out)
+    m = re.search(r"Fix sph/couple: set_grains at step \d+: .*non-finite.*is in (sphdem_failure\.\d+\.dump) \(", line)
+    ok(rc > 0 and rc not in SIGNALS and m and os.path.exists(os.path.join(wd, m.group(1))),
+       "grains blown up: the coupling's error names the failure dump (%s)" % line[:160], out)
     # failure_dump no: the same message without a file; failure_dump FILE
     for kw, want in (("failure_dump no", None), ("failure_dump blowup.dump", "blowup.dump")):
         wd = os.path.join(root, kw.replace(" ", "_").replace(".", "_"))
