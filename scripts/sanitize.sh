@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# sanitize.sh - AddressSanitizer + UBSan build (CUDA off) of the core, the shims and the launchers in
+# ./build-asan; runs the unit tests (ctest -L unit) and three shortened examples through the launchers
+# (SPH-DEM dam break with beads, GPU-DEM pair style drop, CFD-DEM bubbling bed). Any sanitizer finding
+# stops the run and fails the script. Run after scripts/setup.sh (the CI runs scripts/test.sh first).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+B=$ROOT/build-asan
+JOBS=${JOBS:-$(nproc)}
+t_start=$(date +%s)
+
+cmake -S . -B "$B" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSPHDEM_SANITIZE=ON -DSPHDEM_CUDA=OFF >"$B.log" 2>&1 ||
+  { cat "$B.log"; exit 1; }
+# only what runs below: the unit-test programs (from ctest's own list) and the two launchers
+targets=$(cd "$B" && ctest -L unit --show-only=json-v1 | python3 -c '
+import json, os, sys
+print(" ".join(sorted({os.path.basename(t["command"][0]) for t in json.load(sys.stdin)["tests"] if t.get("command")})))')
+cmake --build "$B" -j"$JOBS" --target $targets lmp_sphdem liggghts_sphdem >>"$B.log" 2>&1 ||
+  { tail -50 "$B.log"; exit 1; }
+t_built=$(date +%s)
+
+# Findings are fatal: ASan halts at the first report, UBSan is built with -fno-sanitize-recover and
+# prints a stack. Leak checking stays on for the unit tests (the core alone, no leak allowed). The
+# engine runs turn it off: LAMMPS, LIGGGHTS, Open MPI and hwloc do not free their own start-up
+# allocations at exit (a 200-step dem_drop reports 33 such records, every one allocated inside
+# liblammps, libmpi, libopen-pal, libhwloc or libc's vasprintf, none in the project's code), and their
+# stacks end in the uninstrumented libraries, so a suppression could not tell them from a leak of the
+# shims. One suppression file, for code outside the project (empty while none is needed).
+SUPP=$ROOT/scripts/sanitize.supp
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:report_error_type=1:suppressions=$SUPP"
+ASAN_COMMON="halt_on_error=1:abort_on_error=0:detect_stack_use_after_return=0:strict_string_checks=1:check_initialization_order=1"
+export OMP_NUM_THREADS=2 OMP_WAIT_POLICY=passive
+
+echo "== sanitize: unit tests (ASan + UBSan, leak check on)"
+(cd "$B" && ASAN_OPTIONS="$ASAN_COMMON:detect_leaks=1" LSAN_OPTIONS="suppressions=$SUPP:print_suppressions=0" \
+   ctest -L unit --output-on-failure -j2 --timeout 900)
+t_unit=$(date +%s)
+
+# run NAME LAUNCHER INPUT [-var ...]: a shortened example in $B/sanitize/NAME; it must exit 0, print no
+# ERROR and no sanitizer report, and reach its last step (the launchers print "Loop time")
+fail=0
+run() {
+  local name=$1 exe=$2 inp=$3
+  shift 3
+  local wd=$B/sanitize/$name
+  rm -rf "$wd" && mkdir -p "$wd"
+  local t0 rc=0
+  t0=$(date +%s)
+  (cd "$wd" && ASAN_OPTIONS="$ASAN_COMMON:detect_leaks=0" OMP_NUM_THREADS=1 \
+     timeout 900 "$exe" -in "$inp" -log log.sanitize "$@" >out.sanitize 2>&1) || rc=$?
+  local out=$wd/out.sanitize
+  if [ $rc -ne 0 ] || grep -qE "ERROR|runtime error|Sanitizer" "$out" || ! grep -q "^Loop time" "$out"; then
+    echo "FAIL: $name (exit $rc):"
+    tail -40 "$out"
+    fail=1
+  else
+    echo "PASS: $name ($(($(date +%s) - t0)) s, $(grep -c '^Loop time' "$out") run(s))"
+  fi
+}
+
+echo "== sanitize: shortened examples through the launchers (ASan + UBSan)"
+EX=$ROOT/examples
+run dambreak_particles_liggghts "$B/src_fix/liggghts_sphdem" "$EX/dambreak_particles/in.dambreak_particles" \
+    -var steps 160
+run dem_drop_lammps "$B/src_fix/lmp_sphdem" "$EX/dem_drop/in.dem_drop" -var steps 20000
+run bubbling_bed_lammps "$B/src_fix/lmp_sphdem" "$EX/bubbling_bed/in.bubbling_bed" -var tend 0.002 \
+    -var nvtk 1000 -var ndump 50
+t_end=$(date +%s)
+echo "sanitize: build $((t_built - t_start)) s, unit tests $((t_unit - t_built)) s, examples $((t_end - t_unit)) s"
+exit $fail
