@@ -81,6 +81,10 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
   if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  if (p->no_tangential_damping != 0 && p->no_tangential_damping != 1)
+    BAD("no_tangential_damping: must be 0 or 1 (got %d)", p->no_tangential_damping);
+  if (p->no_tangential_damping && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
+    BAD("no_tangential_damping: LIGGGHTS' tangential_damping off, for the hertz_liggghts and hooke_liggghts models");
   if (p->keep_history != 0 && p->keep_history != 1) BAD("keep_history: must be 0 or 1 (got %d)", p->keep_history);
   if (p->keep_history && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
     BAD("keep_history: LIGGGHTS' history rule, for the hertz_liggghts and hooke_liggghts models");
@@ -95,6 +99,18 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   return SPHDEM_OK;
 }
 
+/* LIGGGHTS' material of the pair (i, j), as its property registry derives it (global_properties.cpp:
+ * createYeff, createGeff, createCoeffRestLog, createBetaEff), operation by operation. */
+static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, double e, double mu, double mu_r) {
+  M->Yeff = 1. / ((1. - pow(vi, 2.)) / Yi + (1. - pow(vj, 2.)) / Yj);
+  M->Geff = 1. / (2. * (2. - vi) * (1. + vi) / Yi + 2. * (2. - vj) * (1. + vj) / Yj);
+  const double lg = e > 0.0 ? log(e) : 0.0;
+  M->betaeff = lg / sqrt(pow(lg, 2.) + pow(M_PI, 2.));
+  M->lnen = lg;
+  M->mu = mu;
+  M->mu_r = mu_r;
+}
+
 static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->P = *p;
   D->use_en = p->en > 0.0;
@@ -107,11 +123,8 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
   /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
-  D->Yeff = Y > 0.0 ? 1. / ((1. - pow(v, 2.)) / Y + (1. - pow(v, 2.)) / Y) : 0.0;
-  D->Geff = Y > 0.0 ? 1. / (2. * (2. - v) * (1. + v) / Y + 2. * (2. - v) * (1. + v) / Y) : 0.0;
-  const double lg = p->en > 0.0 ? log(p->en) : 0.0;
-  D->betaeff = lg / sqrt(pow(lg, 2.) + pow(M_PI, 2.));
-  D->lnen = lg;
+  if (Y > 0.0) derive_mat(&D->mat0, Y, v, Y, v, p->en, p->mu, p->mu_r);
+  else memset(&D->mat0, 0, sizeof D->mat0), D->mat0.mu = p->mu, D->mat0.mu_r = p->mu_r;
 }
 
 int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {
@@ -169,7 +182,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   if (m->zero_copy) D->x = D->v = D->om = D->rad = D->mass = D->f = D->tq = NULL; /* the caller's arrays */
   void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
-                  D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir};
+                  D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++)
     if (arrs[k]) m->ops->free(m, arrs[k]);
   free(m->hx0);
@@ -189,6 +202,60 @@ int sphdem_dem_set_params(sphdem_dem m, const sphdem_dem_params *p) {
   if (rc) return rc;
   derive(&m->D, p);
   m->need_build = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
+  if (!m) return SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  if (!mat || mat->n == 0) {
+    D->nmat = 0;
+    return SPHDEM_OK;
+  }
+  const int n = mat->n;
+  if (D->P.model != SPHDEM_DEM_HERTZ_LIGGGHTS && D->P.model != SPHDEM_DEM_HOOKE_LIGGGHTS)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: a table of materials is for the hertz_liggghts and "
+                           "hooke_liggghts models");
+  if (n < 0 || n > SPHDEM_DEM_MAX_MATERIALS)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: n %d outside 0..%d", n, SPHDEM_DEM_MAX_MATERIALS);
+  if (!mat->E || !mat->nu || !mat->en || !mat->mu)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: E, nu, en, mu are needed (one is NULL)");
+  for (int i = 0; i < n; i++) {
+    if (!(mat->E[i] > 0.0) || !isfinite(mat->E[i]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "E[%d]: Young's modulus must be > 0 (got %g)", i, mat->E[i]);
+    if (!(mat->nu[i] >= 0.0 && mat->nu[i] <= 0.5))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "nu[%d]: Poisson ratio %g outside [0, 0.5]", i, mat->nu[i]);
+    for (int j = 0; j < n; j++) {
+      const int64_t k = (int64_t)i * n + j, t = (int64_t)j * n + i;
+      const double en = mat->en[k], mu = mat->mu[k], mr = mat->mu_r ? mat->mu_r[k] : 0.0;
+      if (!(en > 0.05 && en <= 1.0))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "en[%d][%d]: restitution coefficient %g outside (0.05, 1]", i, j, en);
+      if (!(mu >= 0.0) || !isfinite(mu))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mu[%d][%d]: friction coefficient must be >= 0 (got %g)", i, j, mu);
+      if (!(mr >= 0.0) || !isfinite(mr))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mu_r[%d][%d]: rolling friction must be >= 0 (got %g)", i, j, mr);
+      if (en != mat->en[t] || mu != mat->mu[t] || (mat->mu_r && mr != mat->mu_r[t]))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: the pair values of [%d][%d] and [%d][%d] differ "
+                               "(en %g, %g; mu %g, %g): the table must be symmetric", i, j, j, i, en, mat->en[t], mu,
+                               mat->mu[t]);
+    }
+  }
+  dem_mat *h = (dem_mat *)malloc(sizeof(dem_mat) * (size_t)n * (size_t)n);
+  if (!h) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "materials: cannot allocate %d x %d pairs", n, n);
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) {
+      const int64_t k = (int64_t)i * n + j;
+      derive_mat(&h[k], mat->E[i], mat->nu[i], mat->E[j], mat->nu[j], mat->en[k], mat->mu[k],
+                 mat->mu_r ? mat->mu_r[k] : 0.0);
+    }
+  if (D->mat) m->ops->free(m, D->mat);
+  D->mat = NULL;
+  D->nmat = 0;
+  int rc = m->ops->alloc(m, (void **)&D->mat, sizeof(dem_mat) * (size_t)n * (size_t)n);
+  if (!rc) rc = m->ops->h2d(m, D->mat, h, sizeof(dem_mat) * (size_t)n * (size_t)n);
+  free(h);
+  if (rc) return rc;
+  D->nmat = n;
   return SPHDEM_OK;
 }
 
@@ -337,12 +404,14 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     m->cap_p = cap;
   }
   D->np = np;
+  D->carry_touching = D->P.keep_history && m->build_requested;
   TRY(m->ops->fill(m));
   if (D->P.algo == SPHDEM_DEM_PARTICLE_PARALLEL) TRY(m->ops->csr(m));
-  memcpy(m->hx0, x, sizeof(double) * 3 * n);
+  if (n) memcpy(m->hx0, x, sizeof(double) * 3 * n); /* x may be NULL when no grain is left */
   m->dmax_built = dmax;
   m->nbuilds++;
   m->need_build = 0;
+  m->build_requested = 0;
   return SPHDEM_OK;
 }
 
@@ -370,6 +439,10 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
                              x[3 * i], x[3 * i + 1], x[3 * i + 2]);
     if (radius[i] > rmax) rmax = radius[i];
+    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= (D->nmat > 0 ? D->nmat : 1)))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
+                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, D->nmat > 0 ? D->nmat : 1,
+                             D->nmat > 1 ? "s are" : " is");
   }
   TRY(ensure_grains(m, n));
   /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */

@@ -167,8 +167,17 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
 
 /* ---- contact laws ------------------------------------------------------------------------------------ */
 
+/* The LIGGGHTS material pair of grains a and b (b < 0: a wall, taken as of a's material): the params'
+ * one material, or the table entry of the two grains' materials (flags >> SPHDEM_DEM_MATERIAL_SHIFT). */
+SPHDEM_HD dem_mat dem_pair_material(const dem_dev *D, int32_t a, int32_t b) {
+  if (D->nmat == 0) return D->mat0;
+  const int ia = D->flags[a] >> SPHDEM_DEM_MATERIAL_SHIFT, ib = b >= 0 ? D->flags[b] >> SPHDEM_DEM_MATERIAL_SHIFT : ia;
+  return D->mat[(int64_t)ia * D->nmat + ib];
+}
+
 /* LIGGGHTS' granular model "hertz tangential history [rolling_friction cdt]" (surface model default:
- * lever arms r - delta/2), term by term, for one material: k_n = 4/3 Y* sqrt(R* delta),
+ * lever arms r - delta/2), term by term, with the material pair of the two grains (dem_pair_material,
+ * LIGGGHTS' [itype][jtype] values): k_n = 4/3 Y* sqrt(R* delta),
  * k_t = 8 G* sqrt(R* delta), gamma = -2 sqrt(5/6) beta sqrt(S m_eff) with S_n = 2 Y* sqrt(R* delta),
  * S_t = k_t; the tangential spring is capped at mu |F_n| (without damping when sliding); the
  * constant rolling torque mu_r k_n delta R* opposes the relative rotation, its normal part removed. */
@@ -180,6 +189,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double zero[3] = {0.0, 0.0, 0.0};
   const double *vb = wall ? zero : D->v + 3 * (int64_t)b, *wb = wall ? zero : D->om + 3 * (int64_t)b;
+  const dem_mat M = dem_pair_material(D, a, b);
   const double rinv = 1.0 / r;
   const double en[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
   const double vr1 = va[0] - vb[0], vr2 = va[1] - vb[1], vr3 = va[2] - vb[2];
@@ -208,19 +218,20 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   if (D->P.model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
     /* LIGGGHTS model hooke: stiffness from Y* and the characteristic velocity, damping from e */
     const double sqrtval = sqrt(reff), V = D->P.charvel;
-    kn = 16. / 15. * sqrtval * D->Yeff * pow(15. * meff * V * V / (16. * sqrtval * D->Yeff), 0.2);
+    kn = 16. / 15. * sqrtval * M.Yeff * pow(15. * meff * V * V / (16. * sqrtval * M.Yeff), 0.2);
     kt = D->P.kt_to_kn ? kn * 0.285714286 : kn; /* the 2/7 as LIGGGHTS writes it */
-    const double pl = M_PI / D->lnen;
+    const double pl = M_PI / M.lnen;
     gamman = sqrt(4. * meff * kn / (1. + pl * pl));
-    gammat = gamman;
+    gammat = D->P.no_tangential_damping ? 0.0 : gamman; /* tangential_damping off */
   } else {
     const double sqrtval = sqrt(reff * deltan);
-    const double Sn = 2. * D->Yeff * sqrtval, St = 8. * D->Geff * sqrtval;
-    kn = 4. / 3. * D->Yeff * sqrtval;
+    const double Sn = 2. * M.Yeff * sqrtval, St = 8. * M.Geff * sqrtval;
+    kn = 4. / 3. * M.Yeff * sqrtval;
     kt = St;
     const double sqrtFiveOverSix = 0.91287092917527685576161630466800355658790782499663875;
-    gamman = -2. * sqrtFiveOverSix * D->betaeff * sqrt(Sn * meff);
-    gammat = -2. * sqrtFiveOverSix * D->betaeff * sqrt(St * meff);
+    gamman = -2. * sqrtFiveOverSix * M.betaeff * sqrt(Sn * meff);
+    /* tangential_damping off: gamma_t = 0 */
+    gammat = D->P.no_tangential_damping ? 0.0 : -2. * sqrtFiveOverSix * M.betaeff * sqrt(St * meff);
   }
   double Fn = -gamman * vn + kn * deltan;
   if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
@@ -243,7 +254,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   }
   const double shrmag = sqrt(shear[0] * shear[0] + shear[1] * shear[1] + shear[2] * shear[2]);
   double Ft1 = -(kt * shear[0]), Ft2 = -(kt * shear[1]), Ft3 = -(kt * shear[2]);
-  const double Ft_shear = kt * shrmag, Ft_friction = D->P.mu * fabs(Fn);
+  const double Ft_shear = kt * shrmag, Ft_friction = M.mu * fabs(Fn);
   if (Ft_shear > Ft_friction) {
     if (shrmag != 0.0) {
       const double ratio = Ft_friction / Ft_shear;
@@ -275,7 +286,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   Fa[2] += Ft3;
   /* rolling friction, constant directional torque (cdt) */
   if (D->P.mu_r > 0.0) {
-    const double rmu = D->P.mu_r;
+    const double rmu = M.mu_r;
     double rt[3] = {0.0, 0.0, 0.0};
     if (wall) {
       const double wrmag = sqrt(wr1 * wr1 + wr2 * wr2 + wr3 * wr3);

@@ -13,6 +13,15 @@
 #define SPHDEM_DEM_VIR_COINCIDENT 7
 #define SPHDEM_DEM_VIR_DOUBLES 8
 
+/* LIGGGHTS' material of a pair of materials i, j as its property registry derives it (global_properties:
+ * Yeff, Geff, betaeff, coeffRestLog, coeffFrict, coeffRollFrict at [itype][jtype]). */
+typedef struct {
+  double Yeff, Geff; /* 1/((1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j), 1/(2(2 - nu_i)(1 + nu_i)/E_i + 2(2 - nu_j)(1 + nu_j)/E_j) */
+  double betaeff;    /* ln e / sqrt(ln^2 e + pi^2) */
+  double lnen;       /* ln e */
+  double mu, mu_r;   /* sliding and rolling friction */
+} dem_mat;
+
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the
  * caller's order; the cell grid sorts only an index array (sidx). */
 typedef struct {
@@ -23,8 +32,9 @@ typedef struct {
   double ct;          /* He eq 21 tangential coefficient */
   double Estar;       /* He eq 21 for one material: E / (2 (1 - nu^2)) */
   double tmax_fac;    /* He eq 22: (2 - nu) / (2 - 2 nu) mu */
-  double Yeff, Geff, betaeff; /* HERTZ_LIGGGHTS: effective moduli and damping ratio of two grains of one material */
-  double lnen;        /* HOOKE_LIGGGHTS: ln e */
+  dem_mat mat0;       /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: the material pair of the params' one material */
+  int nmat;           /* 0: every grain is of mat0; else materials in the table mat (sphdem_dem_set_materials) */
+  dem_mat *mat;       /* nmat x nmat material pairs (device), grain material index from its flags */
   double L[3];
   double glo[3], cs_inv[3];
   int nc[3];

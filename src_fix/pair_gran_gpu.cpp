@@ -2,7 +2,7 @@
  * [rolling_friction cdt]" contacts computed by the sphdem DEM core (CPU or CUDA), with the shear
  * history kept there per pair keyed by the two atom tags. Material from fix property/global
  * (youngsModulus, poissonsRatio, coefficientRestitution, coefficientFriction,
- * coefficientRollingFriction), one material. No physics here. */
+ * coefficientRollingFriction), one material or one per atom type. No physics here. */
 #include "pair_gran_gpu.h"
 
 #include <algorithm>
@@ -27,7 +27,7 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "model hertz|hooke tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on] "
+    "model hertz|hooke tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on|off] "
     "[ktToKnUser on|off (hooke)] "
     "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
@@ -100,7 +100,7 @@ Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      hooke_(0), kt_to_kn_(0), freeze_group_bit_(0), dem_(nullptr) {
+      hooke_(0), kt_to_kn_(0), tangential_damping_(1), nmat_(0), freeze_group_bit_(0), dem_(nullptr) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;
   restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
@@ -148,7 +148,9 @@ void PairGranGPU::settings(int narg, char **arg) {
       else if (val == "off") limit_force_ = 0;
       else fail("limitForce must be on or off (got '" + val + "')");
     } else if (kw == "tangential_damping") {
-      if (val != "on") fail("tangential_damping '" + val + "' is not supported (only on, the default)");
+      if (val == "on") tangential_damping_ = 1;
+      else if (val == "off") tangential_damping_ = 0;
+      else fail("tangential_damping must be on or off (got '" + val + "')");
     } else if (kw == "cohesion") {
       if (val != "off") fail("cohesion '" + val + "' is not supported (only off)");
     } else if (kw == "surface") {
@@ -190,20 +192,39 @@ void PairGranGPU::coeff(int narg, char **arg) {
     for (int j = i; j <= atom->ntypes; j++) setflag[i][j] = 1;
 }
 
-/* One material: the per-type (or per-type-pair) values of a fix property/global, all equal. */
-double PairGranGPU::material(const char *name, const char *kind) {
+/* The per-type (peratomtype: nt values) or per-type-pair (peratomtypepair: nt x nt, row-major) values
+ * of a fix property/global; returns whether they differ between atom types. A type pair's value must
+ * not depend on the order of the two types (the core evaluates a pair in the order of its atom tags). */
+bool PairGranGPU::material(const char *name, const char *kind, std::vector<double> &out) {
   const int nt = atom->ntypes;
   const bool pair = std::strcmp(kind, "peratomtypepair") == 0;
   Fix *f = modify->find_fix_property(name, "property/global", kind, nt, pair ? nt : 0, "pair gran/gpu");
   FixPropertyGlobal *g = static_cast<FixPropertyGlobal *>(f);
   if (!g) fail(std::string("needs fix property/global ") + name + " " + kind);
-  double v0 = pair ? g->compute_array(0, 0) : g->compute_vector(0);
+  out.assign(pair ? (size_t)nt * nt : (size_t)nt, 0.0);
+  bool differ = false;
   for (int i = 0; i < nt; i++)
     for (int j = 0; j < (pair ? nt : 1); j++) {
-      double v = pair ? g->compute_array(i, j) : g->compute_vector(i);
-      if (v != v0) fail(std::string(name) + " differs between atom types: gran/gpu supports one material");
+      const double v = pair ? g->compute_array(i, j) : g->compute_vector(i);
+      out[pair ? (size_t)i * nt + j : (size_t)i] = v;
+      differ |= v != out[0];
     }
-  return v0;
+  if (pair)
+    for (int i = 0; i < nt; i++)
+      for (int j = 0; j < i; j++)
+        if (out[(size_t)i * nt + j] != out[(size_t)j * nt + i])
+          fail(std::string(name) + " (fix property/global) is not symmetric: atom types " + std::to_string(j + 1) +
+               " " + std::to_string(i + 1) + " have " + std::to_string(out[(size_t)j * nt + i]) + ", types " +
+               std::to_string(i + 1) + " " + std::to_string(j + 1) + " " + std::to_string(out[(size_t)i * nt + j]));
+  return differ;
+}
+
+/* Several materials: the core gets the table of every type pair and each grain's type in its flags. */
+void PairGranGPU::apply_materials() {
+  if (!dem_) return;
+  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr};
+  if (nmat_) t = {nmat_, mat_E_.data(), mat_nu_.data(), mat_en_.data(), mat_mu_.data(), rolling_ ? mat_mur_.data() : nullptr};
+  if (sphdem_dem_set_materials(dem_, &t)) fail(std::string("material: ") + sphdem_dem_last_error(dem_));
 }
 
 void PairGranGPU::init_style() {
@@ -250,13 +271,15 @@ void PairGranGPU::init_style() {
                                       (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
                                       (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
   }
+  apply_materials();
   if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
 }
 
 /* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
  * of atom tags). The material stays in the fix property/global commands, given again after read_restart. */
 void PairGranGPU::write_restart(FILE *fp) {
-  int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_};
+  /* bit 1 of the sixth value: tangential_damping off (files without it read as on) */
+  int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_ | (tangential_damping_ ? 0 : 2)};
   fwrite(iv, sizeof(int), 6, fp);
   sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
   if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
@@ -269,7 +292,8 @@ void PairGranGPU::read_restart(FILE *fp, const int, const int) {
   if (!sphdem_restart::read_items(fp, iv, sizeof(int), 6) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
       !pending_history_.read(fp, (int64_t)atom->natoms))
     fail(pending_history_.error_or("restart file ends inside the pair style's data"));
-  rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5];
+  rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5] & 1;
+  tangential_damping_ = (iv[5] & 2) ? 0 : 1;
 }
 
 void PairGranGPU::sync_params() {
@@ -284,11 +308,26 @@ void PairGranGPU::sync_params() {
     p.kt_to_kn = kt_to_kn_;
   }
   p.algo = algo_;
-  p.E = material("youngsModulus", "peratomtype");
-  p.nu = material("poissonsRatio", "peratomtype");
-  p.en = material("coefficientRestitution", "peratomtypepair");
-  p.mu = material("coefficientFriction", "peratomtypepair");
-  p.mu_r = rolling_ ? material("coefficientRollingFriction", "peratomtypepair") : 0.0;
+  /* one material (every value equal between the types) in the params; several in a table of type pairs */
+  bool several = material("youngsModulus", "peratomtype", mat_E_);
+  several |= material("poissonsRatio", "peratomtype", mat_nu_);
+  several |= material("coefficientRestitution", "peratomtypepair", mat_en_);
+  several |= material("coefficientFriction", "peratomtypepair", mat_mu_);
+  mat_mur_.assign(mat_mu_.size(), 0.0);
+  if (rolling_) several |= material("coefficientRollingFriction", "peratomtypepair", mat_mur_);
+  nmat_ = several ? atom->ntypes : 0;
+  p.E = mat_E_[0];
+  p.nu = mat_nu_[0];
+  p.en = mat_en_[0];
+  p.mu = mat_mu_[0];
+  p.mu_r = *std::max_element(mat_mur_.begin(), mat_mur_.end()); /* > 0: rolling friction on */
+  p.no_tangential_damping = tangential_damping_ ? 0 : 1;
+  /* the params' checks name the first offending value; a table is checked per type (below) */
+  for (int k = 0; k < (int)mat_E_.size() && nmat_; k++) p.E = mat_E_[k] > 0.0 ? p.E : mat_E_[k];
+  for (int k = 0; k < (int)mat_nu_.size() && nmat_; k++) if (!(mat_nu_[k] >= 0.0 && mat_nu_[k] <= 0.5)) p.nu = mat_nu_[k];
+  for (int k = 0; k < (int)mat_en_.size() && nmat_; k++) if (!(mat_en_[k] > 0.05 && mat_en_[k] <= 1.0)) p.en = mat_en_[k];
+  for (int k = 0; k < (int)mat_mu_.size() && nmat_; k++) if (!(mat_mu_[k] >= 0.0)) p.mu = mat_mu_[k];
+  for (int k = 0; k < (int)mat_mur_.size() && nmat_; k++) if (!(mat_mur_[k] >= 0.0)) p.mu_r = mat_mur_[k];
   p.limit_damping = limit_force_;
   p.keep_history = 1; /* as LIGGGHTS: a separated pair keeps its history until the next list build */
   p.skin = neighbor->skin;
@@ -313,6 +352,7 @@ void PairGranGPU::sync_params() {
   }
   prm_ = p;
   if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
+  apply_materials();
 }
 
 /* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
@@ -338,10 +378,13 @@ void PairGranGPU::compute(int eflag, int vflag) {
   fbuf_.resize(3 * (size_t)n);
   tbuf_.resize(3 * (size_t)n);
   for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
-  const int *fl = nullptr; /* NULL: no grain frozen */
-  if (freeze_group_bit_) {
+  const int *fl = nullptr; /* NULL: no grain frozen, one material */
+  if (freeze_group_bit_ || nmat_) {
     flags_.resize(n);
-    for (int i = 0; i < n; i++) flags_[i] = (atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0;
+    const int *type = atom->type;
+    for (int i = 0; i < n; i++)
+      flags_[i] = ((atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0) |
+                  (nmat_ ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0);
     fl = flags_.data();
   }
   /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core

@@ -33,6 +33,9 @@ class PairGranGPU : public Pair {
  private:
   int rolling_, limit_force_, device_, algo_;
   int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
+  int tangential_damping_; /* tangential_damping on (default) / off */
+  int nmat_;               /* 0: one material; else atom->ntypes materials, their type-pair values below */
+  std::vector<double> mat_E_, mat_nu_, mat_en_, mat_mu_, mat_mur_;
   std::vector<double> maxrad_dynamic_, maxrad_frozen_; /* per type (1..ntypes), as the stock style */
   int freeze_group_bit_;
   sphdem_dem dem_;
@@ -47,7 +50,8 @@ class PairGranGPU : public Pair {
 
   void allocate();
   [[noreturn]] void fail(const std::string &msg);
-  double material(const char *name, const char *kind);
+  bool material(const char *name, const char *kind, std::vector<double> &out);
+  void apply_materials();
   void sync_params();
 };
 

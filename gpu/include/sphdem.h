@@ -366,6 +366,8 @@ typedef struct {
   int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */
   double charvel;       /* HOOKE_LIGGGHTS: characteristic velocity V (m/s) of the stiffness */
   int kt_to_kn;         /* HOOKE_LIGGGHTS: 1 gives k_t = 2/7 k_n (LIGGGHTS ktToKnUser on), 0 k_t = k_n */
+  int no_tangential_damping; /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: 1 sets gamma_t = 0 (LIGGGHTS
+                           tangential_damping off); 0 (default) damps the tangential force */
   int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at
                            once; 1 (LIGGGHTS, contactDistanceFactor 1): it keeps it until the next build
                            asked for by sphdem_dem_request_build, which carries the history only of the
@@ -379,6 +381,10 @@ typedef struct sphdem_dem_s *sphdem_dem;
 
 /* Per-grain flag bits (sphdem_dem_compute flags array). */
 #define SPHDEM_DEM_FROZEN 1     /* effective mass of its contacts is the partner's (LAMMPS fix freeze) */
+/* flags >> SPHDEM_DEM_MATERIAL_SHIFT: the grain's material (0-based) in the table of
+ * sphdem_dem_set_materials; 0 without a table */
+#define SPHDEM_DEM_MATERIAL_SHIFT 8
+#define SPHDEM_DEM_MAX_MATERIALS 4096
 
 void sphdem_dem_params_default(sphdem_dem_params *p);
 /* Check p; on error SPHDEM_ERR_ARG and a message naming the field. */
@@ -389,6 +395,18 @@ const char *sphdem_dem_last_error(sphdem_dem dem);
 int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
 /* Change parameters between calls (history is kept). */
 int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
+/* Several materials (HERTZ_LIGGGHTS, HOOKE_LIGGGHTS): n materials (LIGGGHTS atom types) with Young's
+ * modulus E and Poisson ratio nu (n each) and, per pair of materials (n x n, row-major [i n + j],
+ * symmetric), the restitution coefficient en, the friction mu and the rolling friction mu_r (NULL: 0).
+ * Each pair's Y*, G*, beta, ln e are derived as LIGGGHTS' property registry does; a grain's material is
+ * flags >> SPHDEM_DEM_MATERIAL_SHIFT. The params' E, nu, en, mu, mu_r are then unused by the contact law
+ * (mu_r > 0 still switches rolling friction on). mat NULL or n 0: one material, from the params. */
+typedef struct {
+  int n;
+  const double *E, *nu;
+  const double *en, *mu, *mu_r;
+} sphdem_dem_materials;
+int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
 /* Fixed planes (replaces the previous set); nw may be 0. */
 int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
 /* The next sphdem_dem_compute rebuilds the pair list (call when the engine rebuilt its neighbour lists:

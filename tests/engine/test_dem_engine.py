@@ -618,6 +618,27 @@ MESH_LIG = POUR_LIG.replace("boundary        p p f", "boundary        f f f").re
     "compute         wl all wall/gran/local id force\ncompute         wls all reduce sum c_wl[4]").replace(
     "thermo_style    custom step atoms ke", "thermo_style    custom step atoms ke f_ts[1] f_ts[2] f_ts[3] c_wls")
 
+# Two materials (atom types of different size, density, Young's modulus, Poisson ratio, and per type pair
+# restitution, friction and rolling friction), poured together: every type pair's Y*, G*, beta, mu, mu_r
+# from LIGGGHTS' mixing rules. The floor (stock fix wall/gran) is of material 1.
+MATERIALS_LIG = POUR_LIG.replace("create_box      1 box", "create_box      2 box").replace(
+    "fix             m1 all property/global youngsModulus peratomtype 5e6\n"
+    "fix             m2 all property/global poissonsRatio peratomtype 0.45\n"
+    "fix             m3 all property/global coefficientRestitution peratomtypepair 1 0.7\n"
+    "fix             m4 all property/global coefficientFriction peratomtypepair 1 0.5\n",
+    "fix             m1 all property/global youngsModulus peratomtype 5e6 2e7\n"
+    "fix             m2 all property/global poissonsRatio peratomtype 0.45 0.3\n"
+    "fix             m3 all property/global coefficientRestitution peratomtypepair 2 0.7 0.55 0.55 0.4\n"
+    "fix             m4 all property/global coefficientFriction peratomtypepair 2 0.5 0.3 0.3 0.2\n"
+    "fix             m5 all property/global coefficientRollingFriction peratomtypepair 2 0.02 0.05 0.05 0.1\n").replace(
+    "model hertz tangential history\npair_coeff", "model hertz tangential history rolling_friction cdt\npair_coeff").replace(
+    "fix             pdd all particledistribution/discrete 32452843 1 pts 1.0",
+    "fix             pts2 all particletemplate/sphere 67867967 atom_type 2 density constant 4000 radius constant "
+    "0.0008\nfix             pdd all particledistribution/discrete 32452843 2 pts 0.5 pts2 0.5")
+# tangential_damping off (LIGGGHTS' hertz model without the tangential dashpot), the pour of POUR_LIG
+TDAMP_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff",
+                             "model hertz tangential history tangential_damping off\npair_coeff")
+
 
 def max_dx(a, b):
     """largest |x_a - x_b| over the grains of two dumps (rows id x y z ...), or None if the ids differ"""
@@ -626,18 +647,20 @@ def max_dx(a, b):
     return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b))
 
 
-def pour_liggghts(lig, n=3000, steps=2000, mesh=False):
-    """gran vs gran/gpu on POUR_LIG (or MESH_LIG): no error (atom sorting with its default bin), final
-    positions within 1e-8 d, and (mesh) the check/timestep/gran values in the thermo output equal"""
+def pour_liggghts(lig, n=3000, steps=2000, mesh=False, scene=None):
+    """gran vs gran/gpu on POUR_LIG (or MESH_LIG, or scene = (name, text, what)): no error (atom sorting
+    with its default bin), final positions within 1e-8 d, and (mesh) the check/timestep/gran values in
+    the thermo output equal"""
     d = 0.002
     res = {}
     for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
-        wd = os.path.join("dem_mesh_lig" if mesh else "dem_pour_lig", tag)
+        wd = os.path.join(scene[0] if scene else "dem_mesh_lig" if mesh else "dem_pour_lig", tag)
         os.makedirs(wd, exist_ok=True)
         if mesh:
             with open(os.path.join(wd, "floor.stl"), "w") as f:
                 f.write(MESH_STL)
-        rc, out = run([lig], wd, (MESH_LIG if mesh else POUR_LIG).format(style=style, n=n, steps=steps), timeout=600)
+        text = scene[1] if scene else MESH_LIG if mesh else POUR_LIG
+        rc, out = run([lig], wd, text.format(style=style, n=n, steps=steps), timeout=600)
         if rc != 0 or "ERROR" in out:
             print("FAIL %s: rc %d\n%s" % (style, rc, out[-1500:]))
             return False
@@ -646,7 +669,8 @@ def pour_liggghts(lig, n=3000, steps=2000, mesh=False):
     dx = max_dx(a, b)
     ok = dx is not None and dx < 1e-8 * d and len(a) > 0.9 * n
     msg = "%s %s: %d grains after %d steps, max |x_gpu - x_stock| = %s d (bound 1e-8)" % (
-        "PASS" if ok else "FAIL", "mesh floor + check/timestep/gran" if mesh else "pour", len(a), steps,
+        "PASS" if ok else "FAIL", scene[2] if scene else "mesh floor + check/timestep/gran" if mesh else "pour",
+        len(a), steps,
         "%.3g" % (dx / d) if dx is not None else "(grain ids differ)")
     if mesh:  # fix check/timestep/gran (rayleigh, hertz, skin fractions) and the summed x force of compute
         # wall/gran/local on each row
@@ -755,6 +779,12 @@ if __name__ == "__main__":
         sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
     if mode == "pour_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2]) else 1)
+    if mode == "materials_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_materials_lig", MATERIALS_LIG,
+                                                        "pour of two materials (rolling_friction cdt)")) else 1)
+    if mode == "tdamp_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
+                                                        "pour with tangential_damping off")) else 1)
     if mode == "mesh_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], n=1500, mesh=True) else 1)
     if mode == "refused_liggghts":

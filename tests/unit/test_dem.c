@@ -523,6 +523,104 @@ static void test_recontact_history(void) {
   expect_arg(q, "keep_history");
 }
 
+/* Several materials (LIGGGHTS model hertz): the normal force of each material pair at rest is LIGGGHTS'
+ * 4/3 Y* sqrt(R* delta) delta with Y* = 1/((1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j); a sliding pair is held at
+ * mu_ij |F_n|; with tangential_damping off the first step's tangential force is the spring's
+ * -8 G* sqrt(R* delta) v_t dt alone; a table of one material repeated gives the bits of the params' one
+ * material; bad tables and material indices are refused. */
+static void test_materials(void) {
+  const double E[2] = {5e6, 2e7}, nu[2] = {0.45, 0.3};
+  const double en[4] = {0.7, 0.55, 0.55, 0.4}, mu[4] = {0.5, 0.3, 0.3, 0.2};
+  const double ra = 0.001, rb = 0.0008, delta = 2e-5, reff = ra * rb / (ra + rb), V = 0.05, dt = 1e-6;
+  int64_t tag[2] = {1, 2};
+  double x[6] = {0, 0, 0, ra + rb - delta, 0, 0}, v[6] = {0, V, 0, 0, 0, 0}, om[6] = {0}, r[2] = {ra, rb};
+  double m[2] = {1e-5, 6e-6}, f[6], t[6];
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = E[0]; p.nu = nu[0]; p.en = 0.7; p.mu = 10.0; p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
+  for (int tdoff = 0; tdoff < 2; tdoff++)
+    for (int ia = 0; ia < 2; ia++)
+      for (int ib = 0; ib < 2; ib++) {
+        p.no_tangential_damping = tdoff;
+        sphdem_dem d = make(&p);
+        const double big[4] = {10, 10, 10, 10};
+        sphdem_dem_materials mt = {2, E, nu, en, big, NULL};
+        int flags[2] = {ia << SPHDEM_DEM_MATERIAL_SHIFT, ib << SPHDEM_DEM_MATERIAL_SHIFT};
+        int rc = sphdem_dem_set_materials(d, &mt);
+        if (!rc) rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, flags, dt, 1, f, t, NULL);
+        const double Y = 1. / ((1. - nu[ia] * nu[ia]) / E[ia] + (1. - nu[ib] * nu[ib]) / E[ib]);
+        const double G = 1. / (2. * (2. - nu[ia]) * (1. + nu[ia]) / E[ia] + 2. * (2. - nu[ib]) * (1. + nu[ib]) / E[ib]);
+        const double fn = 4. / 3. * Y * sqrt(reff * delta) * delta, kt = 8. * G * sqrt(reff * delta);
+        /* grain 0 (the pair's a) is at -x of grain 1: pushed to -x */
+        TEST_ASSERT(rc == 0 && fabs(-f[0] / fn - 1) < 1e-12 && f[3] == -f[0],
+                    "materials %d %d: normal force %.15g vs %.15g (rc %d %s)", ia, ib, -f[0], fn, rc, sphdem_dem_last_error(d));
+        if (tdoff)
+          TEST_ASSERT(fabs(f[1] / (-kt * V * dt) - 1) < 1e-12, "tangential_damping off, materials %d %d: F_t %.15g vs "
+                      "the spring's %.15g", ia, ib, f[1], -kt * V * dt);
+        else /* the dashpot -gamma_t v_t (gamma_t < 0 in LIGGGHTS' sign: it adds to the spring's force) */
+          TEST_ASSERT(f[1] < -kt * V * dt * (1 + 1e-6), "tangential damping on, materials %d %d: F_t %.15g, spring %.15g",
+                      ia, ib, f[1], -kt * V * dt);
+        sphdem_dem_destroy(&d);
+      }
+  /* sliding: the friction of the material pair caps the tangential force at mu_ij |F_n| */
+  p.no_tangential_damping = 0;
+  {
+    sphdem_dem d = make(&p);
+    sphdem_dem_materials mt = {2, E, nu, en, mu, NULL};
+    int flags[2] = {0, 1 << SPHDEM_DEM_MATERIAL_SHIFT};
+    int rc = sphdem_dem_set_materials(d, &mt);
+    double vs[6] = {0, 1.0, 0, 0, 0, 0};
+    for (int s = 0; s < 200 && !rc; s++) rc = sphdem_dem_compute(d, 2, tag, x, vs, om, r, m, flags, dt, 1, f, t, NULL);
+    const double Y = 1. / ((1. - nu[0] * nu[0]) / E[0] + (1. - nu[1] * nu[1]) / E[1]);
+    const double fn = 4. / 3. * Y * sqrt(reff * delta) * delta;
+    TEST_ASSERT(rc == 0 && fabs(-f[1] / (mu[1] * fn) - 1) < 1e-12, "sliding between materials 0 and 1: F_t %.15g vs "
+                "-mu_01 F_n %.15g", f[1], -mu[1] * fn);
+    sphdem_dem_destroy(&d);
+  }
+  /* a table of the params' one material, repeated: the same bits as without a table, over 300 steps of a
+   * sliding, rolling, spinning pair with rolling friction (cdt) */
+  {
+    p.mu = 0.4; p.mu_r = 0.03;
+    const double E1[2] = {p.E, p.E}, nu1[2] = {p.nu, p.nu}, en1[4] = {p.en, p.en, p.en, p.en};
+    const double mu1[4] = {p.mu, p.mu, p.mu, p.mu}, mr1[4] = {p.mu_r, p.mu_r, p.mu_r, p.mu_r};
+    double fa[6], ta[6], fb[6], tb[6];
+    double x1[6], v1[6] = {0.01, 0.3, -0.02, 0, -0.1, 0.01}, w1[6] = {5, -3, 2, 1, 4, -6};
+    sphdem_dem d0 = make(&p), d1 = make(&p);
+    sphdem_dem_materials mt = {2, E1, nu1, en1, mu1, mr1};
+    int flags[2] = {1 << SPHDEM_DEM_MATERIAL_SHIFT, 0}, rc = sphdem_dem_set_materials(d1, &mt), same = 1;
+    memcpy(x1, x, sizeof x1);
+    for (int s = 0; s < 300 && !rc; s++) {
+      rc = sphdem_dem_compute(d0, 2, tag, x1, v1, w1, r, m, NULL, dt, 1, fa, ta, NULL);
+      if (!rc) rc = sphdem_dem_compute(d1, 2, tag, x1, v1, w1, r, m, flags, dt, 1, fb, tb, NULL);
+      same &= memcmp(fa, fb, sizeof fa) == 0 && memcmp(ta, tb, sizeof ta) == 0;
+      for (int k = 0; k < 6; k++) x1[k] += v1[k] * dt * 1e-2;
+    }
+    TEST_ASSERT(rc == 0 && same && fa[1] != 0.0 && ta[2] != 0.0, "a table of one material: the bits of the params' "
+                "material (rc %d, same %d)", rc, same);
+    /* bad tables and indices */
+    const double asym[4] = {0.5, 0.3, 0.2, 0.2};
+    sphdem_dem_materials bad = {2, E, nu, en, asym, NULL};
+    rc = sphdem_dem_set_materials(d0, &bad);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(d0), "symmetric"), "a non-symmetric table: rc %d '%s'",
+                rc, sphdem_dem_last_error(d0));
+    int flags3[2] = {0, 2 << SPHDEM_DEM_MATERIAL_SHIFT};
+    rc = sphdem_dem_compute(d1, 2, tag, x1, v1, w1, r, m, flags3, dt, 1, fb, tb, NULL);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(d1), "grain 2: material 2"), "material index 2 of "
+                "2: rc %d '%s'", rc, sphdem_dem_last_error(d1));
+    sphdem_dem_destroy(&d0);
+    sphdem_dem_destroy(&d1);
+    sphdem_dem_params q;
+    sphdem_dem_params_default(&q);
+    q.kn = 1e5; q.kt = 2e4;
+    sphdem_dem dh = make(&q);
+    rc = sphdem_dem_set_materials(dh, &mt);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG, "a table of materials with the LAMMPS hooke model: rc %d", rc);
+    sphdem_dem_destroy(&dh);
+    q.no_tangential_damping = 1;
+    expect_arg(q, "no_tangential_damping");
+  }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -532,5 +630,6 @@ int main(void) {
   test_single_contacts();
   test_dynamics();
   test_recontact_history();
+  test_materials();
   return test_summary("unit_dem");
 }
