@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # sanitize.sh - AddressSanitizer + UBSan build (CUDA off) of the core, the shims and the launchers in
-# ./build-asan; runs the unit tests (ctest -L unit) and three shortened examples through the launchers
-# (SPH-DEM dam break with beads, GPU-DEM pair style drop, CFD-DEM bubbling bed). Any sanitizer finding
-# stops the run and fails the script. Run after scripts/setup.sh (the CI runs scripts/test.sh first).
+# ./build-asan; runs the unit tests (ctest -L unit), three shortened examples through the launchers
+# (SPH-DEM dam break with beads, GPU-DEM pair style drop, CFD-DEM bubbling bed) and the malformed-input
+# tables of every style in both launchers (tests/engine/test_badinput.py; SANITIZE_BADINPUT=0 skips
+# them). Any sanitizer finding aborts the program (SIGABRT) and fails the script. Run after
+# scripts/setup.sh (the CI runs scripts/test.sh first).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -20,16 +22,18 @@ cmake --build "$B" -j"$JOBS" --target $targets lmp_sphdem liggghts_sphdem >>"$B.
   { tail -50 "$B.log"; exit 1; }
 t_built=$(date +%s)
 
-# Findings are fatal: ASan halts at the first report, UBSan is built with -fno-sanitize-recover and
-# prints a stack. Leak checking stays on for the unit tests (the core alone, no leak allowed). The
+# Findings are fatal: ASan and UBSan (built with -fno-sanitize-recover) print a stack and abort. Leak checking stays on for the unit tests (the core alone, no leak allowed). The
 # engine runs turn it off: LAMMPS, LIGGGHTS, Open MPI and hwloc do not free their own start-up
 # allocations at exit (a 200-step dem_drop reports 33 such records, every one allocated inside
 # liblammps, libmpi, libopen-pal, libhwloc or libc's vasprintf, none in the project's code), and their
 # stacks end in the uninstrumented libraries, so a suppression could not tell them from a leak of the
-# shims. One suppression file, for code outside the project (empty while none is needed).
+# shims. Suppressions only for code outside the project: sanitize.supp (UBSan, LSan; empty while none
+# is needed) and sanitize-liggghts.supp (ASan, the LIGGGHTS launcher: a use-after-free in LIGGGHTS'
+# own error printing).
 SUPP=$ROOT/scripts/sanitize.supp
-export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:report_error_type=1:suppressions=$SUPP"
-ASAN_COMMON="halt_on_error=1:abort_on_error=0:detect_stack_use_after_return=0:strict_string_checks=1:check_initialization_order=1"
+ASAN_LIGGGHTS="suppressions=$ROOT/scripts/sanitize-liggghts.supp"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:abort_on_error=1:report_error_type=1:suppressions=$SUPP"
+ASAN_COMMON="halt_on_error=1:abort_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1:check_initialization_order=1"
 export OMP_NUM_THREADS=2 OMP_WAIT_POLICY=passive
 
 echo "== sanitize: unit tests (ASan + UBSan, leak check on)"
@@ -45,9 +49,10 @@ run() {
   shift 3
   local wd=$B/sanitize/$name
   rm -rf "$wd" && mkdir -p "$wd"
-  local t0 rc=0
+  local t0 rc=0 extra=""
   t0=$(date +%s)
-  (cd "$wd" && ASAN_OPTIONS="$ASAN_COMMON:detect_leaks=0" OMP_NUM_THREADS=1 \
+  case $exe in *liggghts*) extra=":$ASAN_LIGGGHTS" ;; esac
+  (cd "$wd" && ASAN_OPTIONS="$ASAN_COMMON:detect_leaks=0$extra" OMP_NUM_THREADS=1 \
      timeout 900 "$exe" -in "$inp" -log log.sanitize "$@" >out.sanitize 2>&1) || rc=$?
   local out=$wd/out.sanitize
   if [ $rc -ne 0 ] || grep -qE "ERROR|runtime error|Sanitizer" "$out" || ! grep -q "^Loop time" "$out"; then
@@ -66,6 +71,39 @@ run dambreak_particles_liggghts "$B/src_fix/liggghts_sphdem" "$EX/dambreak_parti
 run dem_drop_lammps "$B/src_fix/lmp_sphdem" "$EX/dem_drop/in.dem_drop" -var steps 20000
 run bubbling_bed_lammps "$B/src_fix/lmp_sphdem" "$EX/bubbling_bed/in.bubbling_bed" -var tend 0.002 \
     -var nvtk 1000 -var ndump 50
+t_ex=$(date +%s)
+
+# the malformed-input tables: each variant must stop with its ERROR line and no signal; a sanitizer
+# finding aborts the launcher (SIGABRT), which the table counts as a failure
+if [ "${SANITIZE_BADINPUT:-1}" != 0 ]; then
+  echo "== sanitize: malformed-input tables through both launchers (ASan + UBSan)"
+  T=$ROOT/tests/engine/test_badinput.py
+  bad() { # bad NAME STYLE ENGINE
+    local wd=$B/sanitize/badinput_$1 exe=$B/src_fix/lmp_sphdem extra="" rc=0
+    [ "$3" = liggghts ] && exe=$B/src_fix/liggghts_sphdem && extra=":$ASAN_LIGGGHTS"
+    rm -rf "$wd" && mkdir -p "$wd"
+    (cd "$wd" && ASAN_OPTIONS="$ASAN_COMMON:detect_leaks=0$extra" OMP_NUM_THREADS=1 \
+       python3 "$T" "$2" "$exe" "$3" >out.sanitize 2>&1) || rc=$?
+    if [ $rc -ne 0 ] || grep -rqE "AddressSanitizer|runtime error" "$wd" --include=out.test; then
+      echo "FAIL: badinput $1 (exit $rc):"
+      grep -E "^FAIL" -A2 "$wd/out.sanitize" | head -30
+      grep -rl -E "AddressSanitizer|runtime error" "$wd" --include=out.test | head -5
+      fail=1
+    else
+      echo "PASS: badinput $1: $(tail -1 "$wd/out.sanitize")"
+    fi
+  }
+  for style in fluid couple cfd probe; do
+    bad "${style}_lammps" "$style" lammps
+    bad "${style}_liggghts" "$style" liggghts
+  done
+  bad gran_gpu_liggghts gran_gpu liggghts
+  bad gran_hertz_history_gpu_lammps gran_hertz_history_gpu lammps
+  bad gran_hooke_history_gpu_lammps gran_hooke_history_gpu lammps
+  bad failure_dump_lammps failure_dump lammps
+  bad failure_dump_liggghts failure_dump liggghts
+fi
 t_end=$(date +%s)
-echo "sanitize: build $((t_built - t_start)) s, unit tests $((t_unit - t_built)) s, examples $((t_end - t_unit)) s"
+echo "sanitize: build $((t_built - t_start)) s, unit tests $((t_unit - t_built)) s, examples $((t_ex - t_unit)) s," \
+     "malformed inputs $((t_end - t_ex)) s"
 exit $fail
