@@ -81,6 +81,11 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
   if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && p->rolling_model != SPHDEM_DEM_ROLL_EPSD2)
+    BAD("rolling_model: %d is not a sphdem_dem_rolling (0 cdt, 1 epsd2)", p->rolling_model);
+  if (p->rolling_model == SPHDEM_DEM_ROLL_EPSD2 && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS &&
+      p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
+    BAD("rolling_model: epsd2 is LIGGGHTS' rolling model, for the hertz_liggghts and hooke_liggghts models");
   if (p->no_tangential_damping != 0 && p->no_tangential_damping != 1)
     BAD("no_tangential_damping: must be 0 or 1 (got %d)", p->no_tangential_damping);
   if (p->no_tangential_damping && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
@@ -182,7 +187,8 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   if (m->zero_copy) D->x = D->v = D->om = D->rad = D->mass = D->f = D->tq = NULL; /* the caller's arrays */
   void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
-                  D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat};
+                  D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat,
+                  D->rin, D->rout, D->roll_old};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++)
     if (arrs[k]) m->ops->free(m, arrs[k]);
   free(m->hx0);
@@ -385,6 +391,17 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(m->ops->d2d(m, D->key_old, D->key, sizeof(uint64_t) * npold));
     TRY(m->ops->d2d(m, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
   }
+  /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
+  const int roll = D->P.rolling_model == SPHDEM_DEM_ROLL_EPSD2 && D->P.mu_r > 0.0;
+  D->roll_carry = roll && m->roll_valid && !m->seeded && npold > 0;
+  if (D->roll_carry) {
+    if (npold > m->cap_rold) {
+      int64_t cap = npold + npold / 4 + 16;
+      TRY(grow(m, (void **)&D->roll_old, sizeof(double) * 3, npold, cap));
+      m->cap_rold = cap;
+    }
+    TRY(m->ops->d2d(m, D->roll_old, D->rin, sizeof(double) * 3 * npold));
+  }
   D->np_old = npold;
   m->seeded = 0;
   TRY(setup_grid(m, n, x, dmax));
@@ -403,6 +420,18 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
     m->cap_p = cap;
   }
+  if (roll && (np > m->cap_roll || !D->rin)) {
+    int64_t cap = np + np / 4 + 64;
+    TRY(grow(m, (void **)&D->rin, sizeof(double) * 3, np, cap));
+    TRY(grow(m, (void **)&D->rout, sizeof(double) * 3, np, cap));
+    m->cap_roll = cap;
+  }
+  if (!roll && D->rin) { /* rolling model switched off: no rolling history */
+    m->ops->free(m, D->rin);
+    m->ops->free(m, D->rout);
+    D->rin = D->rout = NULL;
+    m->cap_roll = 0;
+  }
   D->np = np;
   D->carry_touching = D->P.keep_history && m->build_requested;
   TRY(m->ops->fill(m));
@@ -412,6 +441,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   m->nbuilds++;
   m->need_build = 0;
   m->build_requested = 0;
+  m->roll_valid = D->rin != NULL;
   return SPHDEM_OK;
 }
 
@@ -513,6 +543,11 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   double *t = D->hin;
   D->hin = D->hout;
   D->hout = t;
+  if (D->rin) {
+    t = D->rin;
+    D->rin = D->rout;
+    D->rout = t;
+  }
   t1 = dem_now();
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
   t0 = t1;

@@ -239,9 +239,11 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   /* tangential history; with keep_history a history kept from a contact through another periodic image
    * is not this contact's (the engine's list has the images as separate pairs) */
   double shear[3] = {hin[0], hin[1], hin[2]}, flag = 1.0;
+  int other_image = 0;
   if (D->P.keep_history) {
     flag = wall ? 2.0 : dem_image_flag(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b);
-    if (hin[3] <= -2.0 && -hin[3] != flag) shear[0] = shear[1] = shear[2] = 0.0;
+    other_image = hin[3] <= -2.0 && -hin[3] != flag;
+    if (other_image) shear[0] = shear[1] = shear[2] = 0.0;
   }
   if (D->update) {
     shear[0] += vtr1 * D->dt;
@@ -284,8 +286,37 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   Fa[0] += Ft1;
   Fa[1] += Ft2;
   Fa[2] += Ft3;
-  /* rolling friction, constant directional torque (cdt) */
-  if (D->P.mu_r > 0.0) {
+  /* rolling friction epsd2 (LIGGGHTS rolling_model_epsd2.h, torsionTorque off): a spring torque on the
+   * tangential part of the relative rotation, k_r = k_t R*^2, added to the pair's previous torque and
+   * capped at mu_r R* |F_n| */
+  if (D->P.mu_r > 0.0 && D->P.rolling_model == SPHDEM_DEM_ROLL_EPSD2) {
+    double wr[3];
+    if (wall) {
+      wr[0] = wr1, wr[1] = wr2, wr[2] = wr3;
+    } else {
+      for (int d = 0; d < 3; d++) wr[d] = wa[d] - wb[d];
+    }
+    const double wr_dot_delta = wr[0] * en[0] + wr[1] * en[1] + wr[2] * en[2];
+    double wr_tot[3], rt[3];
+    for (int d = 0; d < 3; d++) wr_tot[d] = wr[d] - en[d] * wr_dot_delta;
+    const double kr = kt * reff * reff, s = D->dt * kr;
+    const double *rold = D->rin + 3 * p;
+    for (int d = 0; d < 3; d++) rt[d] = (other_image ? 0.0 : rold[d]) + wr_tot[d] * s;
+    const double rtmag = sqrt(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
+    const double rtmax = fabs(Fn) * reff * M.mu_r;
+    if (rtmag > rtmax) {
+      const double factor = rtmax / rtmag;
+      for (int d = 0; d < 3; d++) rt[d] *= factor;
+    }
+    if (hout) {
+      double *rnew = D->rout + 3 * p;
+      for (int d = 0; d < 3; d++) rnew[d] = D->update ? rt[d] : (other_image ? 0.0 : rold[d]);
+    }
+    for (int d = 0; d < 3; d++) {
+      Ta[d] -= rt[d];
+      Tb[d] += rt[d];
+    }
+  } else if (D->P.mu_r > 0.0) { /* rolling friction, constant directional torque (cdt) */
     const double rmu = M.mu_r;
     double rt[3] = {0.0, 0.0, 0.0};
     if (wall) {
@@ -389,6 +420,8 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
   }
   double *h = D->hin + SPHDEM_DEM_NHIST * p;
   for (int q = 0; q < SPHDEM_DEM_NHIST; q++) h[q] = found >= 0 ? D->hist_old[SPHDEM_DEM_NHIST * found + q] : 0.0;
+  if (D->rin)
+    for (int q = 0; q < 3; q++) D->rin[3 * p + q] = found >= 0 && D->roll_carry ? D->roll_old[3 * found + q] : 0.0;
   if (found >= 0 && D->carry_touching) h[3] = 1.0; /* the engine wraps positions at its builds: image not recorded */
 }
 
@@ -577,6 +610,8 @@ SPHDEM_HD void dem_separated_history(const dem_dev *D, int64_t p, double *hout) 
   const int keep = D->P.keep_history;
   for (int q = 0; q < 3; q++) hout[q] = keep ? hin[q] : 0.0;
   hout[3] = keep && hin[3] > 0.0 ? -hin[3] : keep ? hin[3] : 0.0; /* < 0: not touching, image kept */
+  if (D->rin) /* epsd2's rolling torque: the same rule (LIGGGHTS resets it in surfacesClose, as the shear) */
+    for (int q = 0; q < 3; q++) D->rout[3 * p + q] = keep ? D->rin[3 * p + q] : 0.0;
 }
 
 /* Contact of pair p: 0 (and the history of dem_separated_history in hout) when the grains do not overlap; else the law of

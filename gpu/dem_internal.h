@@ -56,6 +56,9 @@ typedef struct {
   int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
   uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
   double *hin, *hout;
+  double *rin, *rout; /* ROLL_EPSD2: rolling spring torque per pair (3), double-buffered like hin/hout; NULL when off */
+  int roll_carry;     /* this build carries roll_old (else the rolling torques start from zero) */
+  double *roll_old;   /* rolling torques of the previous list, for the carry */
   int carry_touching; /* this build carries the history of touching pairs only (keep_history, build
                          requested by the engine) */
   /* previous list for the history carry */
@@ -98,6 +101,8 @@ struct sphdem_dem_s {
   int need_build;
   int build_requested;         /* sphdem_dem_request_build since the last build */
   int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
+  int roll_valid;              /* D->rin holds the rolling torques of the current list */
+  int64_t cap_roll, cap_rold;  /* capacities (pairs) of rin/rout and roll_old */
   int tags_valid;              /* device tag array matches htag */
   int zero_copy;               /* CPU backend: x, v, om, rad, mass, f, tq point at the caller's arrays
                                   during sphdem_dem_compute (no copies) */

@@ -27,7 +27,7 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "model hertz|hooke tangential history [rolling_friction cdt|off] [limitForce on|off] [tangential_damping on|off] "
+    "model hertz|hooke tangential history [rolling_friction cdt|epsd2|off] [limitForce on|off] [tangential_damping on|off] "
     "[ktToKnUser on|off (hooke)] "
     "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
@@ -141,8 +141,9 @@ void PairGranGPU::settings(int narg, char **arg) {
       tangential = true;
     } else if (kw == "rolling_friction") {
       if (val == "cdt") rolling_ = 1;
+      else if (val == "epsd2") rolling_ = 2;
       else if (val == "off") rolling_ = 0;
-      else fail("rolling_friction '" + val + "' is not supported (cdt or off)");
+      else fail("rolling_friction '" + val + "' is not supported (cdt, epsd2 or off)");
     } else if (kw == "limitForce") {
       if (val == "on") limit_force_ = 1;
       else if (val == "off") limit_force_ = 0;
@@ -322,6 +323,7 @@ void PairGranGPU::sync_params() {
   p.mu = mat_mu_[0];
   p.mu_r = *std::max_element(mat_mur_.begin(), mat_mur_.end()); /* > 0: rolling friction on */
   p.no_tangential_damping = tangential_damping_ ? 0 : 1;
+  p.rolling_model = rolling_ == 2 ? SPHDEM_DEM_ROLL_EPSD2 : SPHDEM_DEM_ROLL_CDT;
   /* the params' checks name the first offending value; a table is checked per type (below) */
   for (int k = 0; k < (int)mat_E_.size() && nmat_; k++) p.E = mat_E_[k] > 0.0 ? p.E : mat_E_[k];
   for (int k = 0; k < (int)mat_nu_.size() && nmat_; k++) if (!(mat_nu_[k] >= 0.0 && mat_nu_[k] <= 0.5)) p.nu = mat_nu_[k];

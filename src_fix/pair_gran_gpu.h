@@ -31,7 +31,7 @@ class PairGranGPU : public Pair {
   void read_restart(FILE *, const int major, const int minor) override; /* LIGGGHTS signature */
 
  private:
-  int rolling_, limit_force_, device_, algo_;
+  int rolling_, limit_force_, device_, algo_; /* rolling_: 0 off, 1 cdt, 2 epsd2 */
   int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
   int tangential_damping_; /* tangential_damping on (default) / off */
   int nmat_;               /* 0: one material; else atom->ntypes materials, their type-pair values below */

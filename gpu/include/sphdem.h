@@ -341,6 +341,13 @@ typedef enum {
                                    gamma_n = gamma_t = sqrt(4 m* k_n / (1 + (pi / ln e)^2)) */
 } sphdem_dem_model;
 
+/* Rolling friction of the LIGGGHTS models (mu_r > 0). */
+typedef enum {
+  SPHDEM_DEM_ROLL_CDT = 0,   /* constant directional torque mu_r k_n delta R* against the relative rotation */
+  SPHDEM_DEM_ROLL_EPSD2 = 1  /* LIGGGHTS epsd2: elastic-plastic spring torque, k_r = k_t R*^2 on the
+                                tangential relative rotation, capped at mu_r R* |F_n|, kept per pair */
+} sphdem_dem_rolling;
+
 typedef enum {
   SPHDEM_DEM_PAIR_PARALLEL = 0,     /* Yu 2024 §2.3: one thread per collision pair, atomic sums */
   SPHDEM_DEM_PARTICLE_PARALLEL = 1  /* one thread per grain over its pairs, no atomics, deterministic */
@@ -366,6 +373,7 @@ typedef struct {
   int periodic[3];      /* minimum image on these axes (a pair interacts through its nearest image only) */
   double charvel;       /* HOOKE_LIGGGHTS: characteristic velocity V (m/s) of the stiffness */
   int kt_to_kn;         /* HOOKE_LIGGGHTS: 1 gives k_t = 2/7 k_n (LIGGGHTS ktToKnUser on), 0 k_t = k_n */
+  int rolling_model;    /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS with mu_r > 0: sphdem_dem_rolling */
   int no_tangential_damping; /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: 1 sets gamma_t = 0 (LIGGGHTS
                            tangential_damping off); 0 (default) damps the tangential force */
   int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at

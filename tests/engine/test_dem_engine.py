@@ -353,7 +353,7 @@ def errors_liggghts(lig):
     cases = [("model hooke/stiffness tangential history", "model 'hooke/stiffness' is not supported"),
              ("model hertz tangential history ktToKnUser on", "ktToKnUser is a keyword of model hooke"),
              ("model hertz tangential history cohesion sjkr", "cohesion 'sjkr' is not supported"),
-             ("model hertz tangential history rolling_friction epsd2", "rolling_friction 'epsd2' is not supported")]
+             ("model hertz tangential history rolling_friction epsd", "rolling_friction 'epsd' is not supported")]
     for k, (args, want) in enumerate(cases):
         rc, out = run([lig], os.path.join("dem_err_lig", str(k)), lig_script("headon", "gran/gpu", args))
         good = rc != 0 and "ERROR" in out and want in out
@@ -638,6 +638,9 @@ MATERIALS_LIG = POUR_LIG.replace("create_box      1 box", "create_box      2 box
 # tangential_damping off (LIGGGHTS' hertz model without the tangential dashpot), the pour of POUR_LIG
 TDAMP_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff",
                              "model hertz tangential history tangential_damping off\npair_coeff")
+# rolling_friction epsd2 (elastic-plastic spring torque, kept per contact), the pour of POUR_LIG, with the
+# two materials of MATERIALS_LIG
+EPSD2_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "rolling_friction epsd2\npair_coeff")
 
 
 def max_dx(a, b):
@@ -782,6 +785,9 @@ if __name__ == "__main__":
     if mode == "materials_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_materials_lig", MATERIALS_LIG,
                                                         "pour of two materials (rolling_friction cdt)")) else 1)
+    if mode == "epsd2_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd2_lig", EPSD2_LIG,
+                                                        "pour of two materials, rolling_friction epsd2")) else 1)
     if mode == "tdamp_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
                                                         "pour with tangential_damping off")) else 1)

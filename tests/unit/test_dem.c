@@ -621,6 +621,57 @@ static void test_materials(void) {
   }
 }
 
+/* Rolling friction epsd2 (LIGGGHTS): two grains rolling on each other without slip (no tangential force) get
+ * the spring torque k_t R*^2 (w_a - w_b) dt per step, accumulated in the pair's history, until it reaches
+ * mu_r R* |F_n|; the engine's list build keeps it only for touching pairs. */
+static void test_epsd2(void) {
+  const double ra = 0.001, rb = 0.0008, delta = 2e-5, reff = ra * rb / (ra + rb), dt = 1e-6, W = 2.0;
+  const double cri = ra - 0.5 * delta, crj = rb - 0.5 * delta;
+  int64_t tag[2] = {1, 2};
+  double x[6] = {0, 0, 0, ra + rb - delta, 0, 0}, v[6] = {0}, om[6] = {0, 0, W, 0, 0, -W * cri / crj}, r[2] = {ra, rb};
+  double m[2] = {1e-5, 6e-6}, f[6], t[6];
+  for (int algo = 0; algo < 2; algo++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; p.mu = 0.5; p.mu_r = 0.05;
+    p.rolling_model = SPHDEM_DEM_ROLL_EPSD2; p.keep_history = 1; p.algo = algo; p.skin = 1e-4;
+    sphdem_dem d = make(&p);
+    const double G = 1. / (2. * (2. - p.nu) * (1. + p.nu) / p.E + 2. * (2. - p.nu) * (1. + p.nu) / p.E);
+    const double Y = 1. / ((1. - p.nu * p.nu) / p.E + (1. - p.nu * p.nu) / p.E);
+    const double kt = 8. * G * sqrt(reff * delta), fn = 4. / 3. * Y * sqrt(reff * delta) * delta;
+    const double step = kt * reff * reff * (om[2] - om[5]) * dt, cap = p.mu_r * reff * fn;
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 0, f, t, NULL); /* setup: no history */
+    double t_setup = t[2];
+    for (int s = 0; s < 3 && !rc; s++) rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    TEST_ASSERT(rc == 0 && fabs(t_setup / -step - 1) < 1e-12 && fabs(t[2] / (-3 * step) - 1) < 1e-12 && t[5] == -t[2] &&
+                fabs(f[1]) < 1e-12 * fn, "epsd2 (algo %d): rolling torque %.15g after 3 steps vs %.15g (setup %.15g vs %.15g), "
+                "F_t %.3g", algo, t[2], -3 * step, t_setup, -step, f[1]);
+    for (int s = 0; s < 200000 && !rc && fabs(t[2]) < cap * (1 - 1e-9); s++)
+      rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    TEST_ASSERT(rc == 0 && fabs(-t[2] / cap - 1) < 1e-12, "epsd2 (algo %d): capped torque %.15g vs mu_r R* F_n %.15g", algo,
+                -t[2], cap);
+    /* apart for one step (kept), back: the torque continues from the cap; apart at a requested build: zeroed */
+    x[3] += 2 * delta;
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    x[3] -= 2 * delta;
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    TEST_ASSERT(rc == 0 && fabs(-t[2] / cap - 1) < 1e-12, "epsd2 (algo %d): torque kept while apart %.15g", algo, -t[2]);
+    x[3] += 2 * delta;
+    sphdem_dem_request_build(d);
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    x[3] -= 2 * delta;
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    TEST_ASSERT(rc == 0 && fabs(t[2] / -step - 1) < 1e-12, "epsd2 (algo %d): after a build while apart the torque restarts: "
+                "%.15g vs %.15g", algo, t[2], -step);
+    sphdem_dem_destroy(&d);
+  }
+  sphdem_dem_params q;
+  sphdem_dem_params_default(&q);
+  q.kn = 1e5; q.kt = 2e4; q.rolling_model = SPHDEM_DEM_ROLL_EPSD2;
+  expect_arg(q, "rolling_model");
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -631,5 +682,6 @@ int main(void) {
   test_dynamics();
   test_recontact_history();
   test_materials();
+  test_epsd2();
   return test_summary("unit_dem");
 }
