@@ -81,6 +81,11 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (!(p->mu_r >= 0.0)) BAD("mu_r: rolling friction must be >= 0 (got %g)", p->mu_r);
   if (!(p->skin >= 0.0) || !isfinite(p->skin)) BAD("skin: must be finite and >= 0 (got %g)", p->skin);
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
+  if (p->cohesion < SPHDEM_DEM_COH_NONE || p->cohesion > SPHDEM_DEM_COH_SJKR2)
+    BAD("cohesion: %d is not a sphdem_dem_cohesion (0 none, 1 sjkr, 2 sjkr2)", p->cohesion);
+  if (p->cohesion && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
+    BAD("cohesion: sjkr and sjkr2 are LIGGGHTS' cohesion models, for the hertz_liggghts and hooke_liggghts models");
+  if (!(p->ced >= 0.0) || !isfinite(p->ced)) BAD("ced: cohesion energy density must be >= 0 (got %g)", p->ced);
   if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && p->rolling_model != SPHDEM_DEM_ROLL_EPSD2)
     BAD("rolling_model: %d is not a sphdem_dem_rolling (0 cdt, 1 epsd2)", p->rolling_model);
   if (p->rolling_model == SPHDEM_DEM_ROLL_EPSD2 && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS &&
@@ -106,7 +111,8 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
 
 /* LIGGGHTS' material of the pair (i, j), as its property registry derives it (global_properties.cpp:
  * createYeff, createGeff, createCoeffRestLog, createBetaEff), operation by operation. */
-static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, double e, double mu, double mu_r) {
+static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, double e, double mu, double mu_r,
+                       double ced) {
   M->Yeff = 1. / ((1. - pow(vi, 2.)) / Yi + (1. - pow(vj, 2.)) / Yj);
   M->Geff = 1. / (2. * (2. - vi) * (1. + vi) / Yi + 2. * (2. - vj) * (1. + vj) / Yj);
   const double lg = e > 0.0 ? log(e) : 0.0;
@@ -114,6 +120,7 @@ static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, d
   M->lnen = lg;
   M->mu = mu;
   M->mu_r = mu_r;
+  M->ced = ced;
 }
 
 static void derive(dem_dev *D, const sphdem_dem_params *p) {
@@ -128,7 +135,7 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
   /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
-  if (Y > 0.0) derive_mat(&D->mat0, Y, v, Y, v, p->en, p->mu, p->mu_r);
+  if (Y > 0.0) derive_mat(&D->mat0, Y, v, Y, v, p->en, p->mu, p->mu_r, p->ced);
   else memset(&D->mat0, 0, sizeof D->mat0), D->mat0.mu = p->mu, D->mat0.mu_r = p->mu_r;
 }
 
@@ -240,7 +247,10 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mu[%d][%d]: friction coefficient must be >= 0 (got %g)", i, j, mu);
       if (!(mr >= 0.0) || !isfinite(mr))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mu_r[%d][%d]: rolling friction must be >= 0 (got %g)", i, j, mr);
-      if (en != mat->en[t] || mu != mat->mu[t] || (mat->mu_r && mr != mat->mu_r[t]))
+      const double ck = mat->ced ? mat->ced[k] : 0.0;
+      if (!(ck >= 0.0) || !isfinite(ck))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "ced[%d][%d]: cohesion energy density must be >= 0 (got %g)", i, j, ck);
+      if (en != mat->en[t] || mu != mat->mu[t] || (mat->mu_r && mr != mat->mu_r[t]) || (mat->ced && ck != mat->ced[t]))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: the pair values of [%d][%d] and [%d][%d] differ "
                                "(en %g, %g; mu %g, %g): the table must be symmetric", i, j, j, i, en, mat->en[t], mu,
                                mat->mu[t]);
@@ -252,7 +262,7 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
     for (int j = 0; j < n; j++) {
       const int64_t k = (int64_t)i * n + j;
       derive_mat(&h[k], mat->E[i], mat->nu[i], mat->E[j], mat->nu[j], mat->en[k], mat->mu[k],
-                 mat->mu_r ? mat->mu_r[k] : 0.0);
+                 mat->mu_r ? mat->mu_r[k] : 0.0, mat->ced ? mat->ced[k] : 0.0);
     }
   if (D->mat) m->ops->free(m, D->mat);
   D->mat = NULL;

@@ -236,6 +236,18 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   double Fn = -gamman * vn + kn * deltan;
   if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
   for (int d = 0; d < 3; d++) Fa[d] = Fn * en[d];
+  /* cohesion sjkr / sjkr2 (LIGGGHTS cohesion_model_sjkr.h, sjkr2.h; tangential_reduce off: the friction
+   * limit keeps F_n): F = -k A along the normal, added before the tangential force as LIGGGHTS does */
+  if (D->P.cohesion) {
+    double Acont;
+    if (D->P.cohesion == SPHDEM_DEM_COH_SJKR)
+      Acont = wall ? (ra * ra - r * r) * M_PI
+                   : -M_PI / 4 * ((r - ra - rb) * (r + ra - rb) * (r - ra + rb) * (r + ra + rb)) / (r * r);
+    else
+      Acont = wall ? M_PI * 2. * ra * (ra - r) : M_PI * 2. * (2. * ra * rb / (ra + rb)) * (ra + rb - r);
+    const double Fn_coh = -M.ced * Acont;
+    for (int d = 0; d < 3; d++) Fa[d] += Fn_coh * en[d];
+  }
   /* tangential history; with keep_history a history kept from a contact through another periodic image
    * is not this contact's (the engine's list has the images as separate pairs) */
   double shear[3] = {hin[0], hin[1], hin[2]}, flag = 1.0;

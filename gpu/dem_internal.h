@@ -20,6 +20,7 @@ typedef struct {
   double betaeff;    /* ln e / sqrt(ln^2 e + pi^2) */
   double lnen;       /* ln e */
   double mu, mu_r;   /* sliding and rolling friction */
+  double ced;        /* cohesion energy density (cohesionEnergyDensity) */
 } dem_mat;
 
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the

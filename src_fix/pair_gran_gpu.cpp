@@ -29,7 +29,7 @@ using namespace LAMMPS_NS;
 static const char *const USAGE =
     "model hertz|hooke tangential history [rolling_friction cdt|epsd2|off] [limitForce on|off] [tangential_damping on|off] "
     "[ktToKnUser on|off (hooke)] "
-    "[cohesion off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
+    "[cohesion sjkr|sjkr2|off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
 /* Stock styles that take the granular pair style for a PairGran (force->pair_match("gran", 0) matches
  * gran/gpu too) and read its per-contact data or contact models: refused by name, before they could
@@ -100,7 +100,7 @@ Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
     : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      hooke_(0), kt_to_kn_(0), tangential_damping_(1), nmat_(0), freeze_group_bit_(0), dem_(nullptr) {
+      hooke_(0), kt_to_kn_(0), tangential_damping_(1), cohesion_(0), nmat_(0), freeze_group_bit_(0), dem_(nullptr) {
   single_enable = 0;
   no_virial_fdotr_compute = 1;
   restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
@@ -153,7 +153,12 @@ void PairGranGPU::settings(int narg, char **arg) {
       else if (val == "off") tangential_damping_ = 0;
       else fail("tangential_damping must be on or off (got '" + val + "')");
     } else if (kw == "cohesion") {
-      if (val != "off") fail("cohesion '" + val + "' is not supported (only off)");
+      if (val == "sjkr") cohesion_ = SPHDEM_DEM_COH_SJKR;
+      else if (val == "sjkr2") cohesion_ = SPHDEM_DEM_COH_SJKR2;
+      else if (val == "off") cohesion_ = SPHDEM_DEM_COH_NONE;
+      else fail("cohesion '" + val + "' is not supported (sjkr, sjkr2 or off)");
+    } else if (kw == "tangential_reduce") {
+      if (val != "off") fail("tangential_reduce '" + val + "' is not supported (only off, the default)");
     } else if (kw == "surface") {
       if (val != "default") fail("surface '" + val + "' is not supported (only default)");
     } else if (kw == "device") {
@@ -223,8 +228,10 @@ bool PairGranGPU::material(const char *name, const char *kind, std::vector<doubl
 /* Several materials: the core gets the table of every type pair and each grain's type in its flags. */
 void PairGranGPU::apply_materials() {
   if (!dem_) return;
-  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr};
-  if (nmat_) t = {nmat_, mat_E_.data(), mat_nu_.data(), mat_en_.data(), mat_mu_.data(), rolling_ ? mat_mur_.data() : nullptr};
+  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+  if (nmat_)
+    t = {nmat_, mat_E_.data(), mat_nu_.data(), mat_en_.data(), mat_mu_.data(), rolling_ ? mat_mur_.data() : nullptr,
+         cohesion_ ? mat_ced_.data() : nullptr};
   if (sphdem_dem_set_materials(dem_, &t)) fail(std::string("material: ") + sphdem_dem_last_error(dem_));
 }
 
@@ -279,8 +286,9 @@ void PairGranGPU::init_style() {
 /* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
  * of atom tags). The material stays in the fix property/global commands, given again after read_restart. */
 void PairGranGPU::write_restart(FILE *fp) {
-  /* bit 1 of the sixth value: tangential_damping off (files without it read as on) */
-  int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_ | (tangential_damping_ ? 0 : 2)};
+  /* sixth value: bit 0 ktToKnUser, bit 1 tangential_damping off, bits 2-3 the cohesion model (files
+   * without them read as damping on, no cohesion) */
+  int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_ | (tangential_damping_ ? 0 : 2) | (cohesion_ << 2)};
   fwrite(iv, sizeof(int), 6, fp);
   sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
   if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
@@ -295,6 +303,7 @@ void PairGranGPU::read_restart(FILE *fp, const int, const int) {
     fail(pending_history_.error_or("restart file ends inside the pair style's data"));
   rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5] & 1;
   tangential_damping_ = (iv[5] & 2) ? 0 : 1;
+  cohesion_ = (iv[5] >> 2) & 3;
 }
 
 void PairGranGPU::sync_params() {
@@ -316,6 +325,8 @@ void PairGranGPU::sync_params() {
   several |= material("coefficientFriction", "peratomtypepair", mat_mu_);
   mat_mur_.assign(mat_mu_.size(), 0.0);
   if (rolling_) several |= material("coefficientRollingFriction", "peratomtypepair", mat_mur_);
+  mat_ced_.assign(mat_mu_.size(), 0.0);
+  if (cohesion_) several |= material("cohesionEnergyDensity", "peratomtypepair", mat_ced_);
   nmat_ = several ? atom->ntypes : 0;
   p.E = mat_E_[0];
   p.nu = mat_nu_[0];
@@ -324,6 +335,9 @@ void PairGranGPU::sync_params() {
   p.mu_r = *std::max_element(mat_mur_.begin(), mat_mur_.end()); /* > 0: rolling friction on */
   p.no_tangential_damping = tangential_damping_ ? 0 : 1;
   p.rolling_model = rolling_ == 2 ? SPHDEM_DEM_ROLL_EPSD2 : SPHDEM_DEM_ROLL_CDT;
+  p.cohesion = cohesion_;
+  p.ced = mat_ced_[0];
+  for (int k = 0; k < (int)mat_ced_.size() && nmat_; k++) if (!(mat_ced_[k] >= 0.0)) p.ced = mat_ced_[k];
   /* the params' checks name the first offending value; a table is checked per type (below) */
   for (int k = 0; k < (int)mat_E_.size() && nmat_; k++) p.E = mat_E_[k] > 0.0 ? p.E : mat_E_[k];
   for (int k = 0; k < (int)mat_nu_.size() && nmat_; k++) if (!(mat_nu_[k] >= 0.0 && mat_nu_[k] <= 0.5)) p.nu = mat_nu_[k];

@@ -341,6 +341,14 @@ typedef enum {
                                    gamma_n = gamma_t = sqrt(4 m* k_n / (1 + (pi / ln e)^2)) */
 } sphdem_dem_model;
 
+/* Cohesion of the LIGGGHTS models, between overlapping grains: F = -k A along the normal (attractive),
+ * k the cohesion energy density. */
+typedef enum {
+  SPHDEM_DEM_COH_NONE = 0,
+  SPHDEM_DEM_COH_SJKR = 1,  /* A = -pi/4 (r-ri-rj)(r+ri-rj)(r-ri+rj)(r+ri+rj)/r^2 (wall: pi (ri^2 - r^2)) */
+  SPHDEM_DEM_COH_SJKR2 = 2  /* A = 2 pi R* delta, R* = 2 ri rj/(ri + rj) (wall: 2 pi ri delta) */
+} sphdem_dem_cohesion;
+
 /* Rolling friction of the LIGGGHTS models (mu_r > 0). */
 typedef enum {
   SPHDEM_DEM_ROLL_CDT = 0,   /* constant directional torque mu_r k_n delta R* against the relative rotation */
@@ -374,6 +382,8 @@ typedef struct {
   double charvel;       /* HOOKE_LIGGGHTS: characteristic velocity V (m/s) of the stiffness */
   int kt_to_kn;         /* HOOKE_LIGGGHTS: 1 gives k_t = 2/7 k_n (LIGGGHTS ktToKnUser on), 0 k_t = k_n */
   int rolling_model;    /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS with mu_r > 0: sphdem_dem_rolling */
+  int cohesion;         /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: sphdem_dem_cohesion */
+  double ced;           /* cohesion energy density k (J/m^3) of the params' one material */
   int no_tangential_damping; /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: 1 sets gamma_t = 0 (LIGGGHTS
                            tangential_damping off); 0 (default) damps the tangential force */
   int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at
@@ -405,7 +415,8 @@ int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDE
 int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
 /* Several materials (HERTZ_LIGGGHTS, HOOKE_LIGGGHTS): n materials (LIGGGHTS atom types) with Young's
  * modulus E and Poisson ratio nu (n each) and, per pair of materials (n x n, row-major [i n + j],
- * symmetric), the restitution coefficient en, the friction mu and the rolling friction mu_r (NULL: 0).
+ * symmetric), the restitution coefficient en, the friction mu, the rolling friction mu_r and the cohesion
+ * energy density ced (NULL: 0).
  * Each pair's Y*, G*, beta, ln e are derived as LIGGGHTS' property registry does; a grain's material is
  * flags >> SPHDEM_DEM_MATERIAL_SHIFT. The params' E, nu, en, mu, mu_r are then unused by the contact law
  * (mu_r > 0 still switches rolling friction on). mat NULL or n 0: one material, from the params. */
@@ -413,6 +424,7 @@ typedef struct {
   int n;
   const double *E, *nu;
   const double *en, *mu, *mu_r;
+  const double *ced;    /* n x n cohesion energy density (NULL: 0) */
 } sphdem_dem_materials;
 int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
 /* Fixed planes (replaces the previous set); nw may be 0. */

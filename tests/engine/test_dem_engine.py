@@ -352,7 +352,8 @@ def errors_liggghts(lig):
     ok = True
     cases = [("model hooke/stiffness tangential history", "model 'hooke/stiffness' is not supported"),
              ("model hertz tangential history ktToKnUser on", "ktToKnUser is a keyword of model hooke"),
-             ("model hertz tangential history cohesion sjkr", "cohesion 'sjkr' is not supported"),
+             ("model hertz tangential history cohesion easo/capillary/viscous",
+              "cohesion 'easo/capillary/viscous' is not supported"),
              ("model hertz tangential history rolling_friction epsd", "rolling_friction 'epsd' is not supported")]
     for k, (args, want) in enumerate(cases):
         rc, out = run([lig], os.path.join("dem_err_lig", str(k)), lig_script("headon", "gran/gpu", args))
@@ -641,6 +642,12 @@ TDAMP_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff",
 # rolling_friction epsd2 (elastic-plastic spring torque, kept per contact), the pour of POUR_LIG, with the
 # two materials of MATERIALS_LIG
 EPSD2_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "rolling_friction epsd2\npair_coeff")
+# cohesion sjkr (two materials, per-pair cohesion energy density) and sjkr2 (one material)
+SJKR_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "cohesion sjkr rolling_friction cdt\npair_coeff").replace(
+    "fix             m5 all", "fix             m6 all property/global cohesionEnergyDensity peratomtypepair 2 3e5 2e5 2e5 1e5\n"
+    "fix             m5 all")
+SJKR2_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff", "model hertz tangential history cohesion sjkr2\npair_coeff").replace(
+    "fix             m4 all", "fix             m6 all property/global cohesionEnergyDensity peratomtypepair 1 3e5\nfix             m4 all")
 
 
 def max_dx(a, b):
@@ -788,6 +795,11 @@ if __name__ == "__main__":
     if mode == "epsd2_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd2_lig", EPSD2_LIG,
                                                         "pour of two materials, rolling_friction epsd2")) else 1)
+    if mode == "sjkr_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_sjkr_lig", SJKR_LIG,
+                                                        "pour of two materials, cohesion sjkr")) else 1)
+    if mode == "sjkr2_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_sjkr2_lig", SJKR2_LIG, "pour, cohesion sjkr2")) else 1)
     if mode == "tdamp_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
                                                         "pour with tangential_damping off")) else 1)

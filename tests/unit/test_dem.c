@@ -672,6 +672,38 @@ static void test_epsd2(void) {
   expect_arg(q, "rolling_model");
 }
 
+/* Cohesion sjkr, sjkr2 (LIGGGHTS): at rest the normal force is the Hertz force minus k A, with the contact
+ * area of each model and the cohesion energy density k of the material pair. */
+static void test_cohesion(void) {
+  const double E[2] = {5e6, 2e7}, nu[2] = {0.45, 0.3}, en[4] = {0.7, 0.55, 0.55, 0.4}, mu[4] = {0.5, 0.3, 0.3, 0.2};
+  const double ced[4] = {3e5, 2e5, 2e5, 1e5};
+  const double ra = 0.001, rb = 0.0008, delta = 2e-5, reff = ra * rb / (ra + rb), r = ra + rb - delta;
+  int64_t tag[2] = {1, 2};
+  double x[6] = {0, 0, 0, r, 0, 0}, v[6] = {0}, om[6] = {0}, rad[2] = {ra, rb}, m[2] = {1e-5, 6e-6}, f[6], t[6];
+  for (int model = SPHDEM_DEM_COH_SJKR; model <= SPHDEM_DEM_COH_SJKR2; model++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = E[0]; p.nu = nu[0]; p.en = 0.7; p.cohesion = model;
+    sphdem_dem d = make(&p);
+    sphdem_dem_materials mt = {2, E, nu, en, mu, NULL, ced};
+    int flags[2] = {0, 1 << SPHDEM_DEM_MATERIAL_SHIFT};
+    int rc = sphdem_dem_set_materials(d, &mt);
+    if (!rc) rc = sphdem_dem_compute(d, 2, tag, x, v, om, rad, m, flags, 1e-6, 1, f, t, NULL);
+    const double Y = 1. / ((1. - nu[0] * nu[0]) / E[0] + (1. - nu[1] * nu[1]) / E[1]);
+    const double A = model == SPHDEM_DEM_COH_SJKR
+                         ? M_PI / 4 * (-(r - ra - rb) * (r + ra - rb) * (r - ra + rb) * (r + ra + rb)) / (r * r)
+                         : 2 * M_PI * (2 * ra * rb / (ra + rb)) * delta;
+    const double fn = 4. / 3. * Y * sqrt(reff * delta) * delta - ced[1] * A;
+    TEST_ASSERT(rc == 0 && fabs(-f[0] / fn - 1) < 1e-12 && f[3] == -f[0] && fn < 4. / 3. * Y * sqrt(reff * delta) * delta,
+                "cohesion %s: normal force %.15g vs Hertz - k A %.15g", model == 1 ? "sjkr" : "sjkr2", -f[0], fn);
+    sphdem_dem_destroy(&d);
+  }
+  sphdem_dem_params q;
+  sphdem_dem_params_default(&q);
+  q.kn = 1e5; q.kt = 2e4; q.cohesion = SPHDEM_DEM_COH_SJKR;
+  expect_arg(q, "cohesion");
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -683,5 +715,6 @@ int main(void) {
   test_recontact_history();
   test_materials();
   test_epsd2();
+  test_cohesion();
   return test_summary("unit_dem");
 }
