@@ -86,11 +86,12 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (p->cohesion && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
     BAD("cohesion: sjkr and sjkr2 are LIGGGHTS' cohesion models, for the hertz_liggghts and hooke_liggghts models");
   if (!(p->ced >= 0.0) || !isfinite(p->ced)) BAD("ced: cohesion energy density must be >= 0 (got %g)", p->ced);
-  if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && p->rolling_model != SPHDEM_DEM_ROLL_EPSD2)
-    BAD("rolling_model: %d is not a sphdem_dem_rolling (0 cdt, 1 epsd2)", p->rolling_model);
-  if (p->rolling_model == SPHDEM_DEM_ROLL_EPSD2 && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS &&
+  if (p->rolling_model < SPHDEM_DEM_ROLL_CDT || p->rolling_model > SPHDEM_DEM_ROLL_EPSD)
+    BAD("rolling_model: %d is not a sphdem_dem_rolling (0 cdt, 1 epsd2, 2 epsd)", p->rolling_model);
+  if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS &&
       p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("rolling_model: epsd2 is LIGGGHTS' rolling model, for the hertz_liggghts and hooke_liggghts models");
+    BAD("rolling_model: epsd and epsd2 are LIGGGHTS' rolling models, for the hertz_liggghts and hooke_liggghts models");
+  if (!(p->rvd >= 0.0) || !isfinite(p->rvd)) BAD("rvd: rolling viscous damping must be >= 0 (got %g)", p->rvd);
   if (p->no_tangential_damping != 0 && p->no_tangential_damping != 1)
     BAD("no_tangential_damping: must be 0 or 1 (got %d)", p->no_tangential_damping);
   if (p->no_tangential_damping && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
@@ -121,6 +122,7 @@ static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, d
   M->mu = mu;
   M->mu_r = mu_r;
   M->ced = ced;
+  M->rvd = 0.0;
 }
 
 static void derive(dem_dev *D, const sphdem_dem_params *p) {
@@ -137,6 +139,7 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
   if (Y > 0.0) derive_mat(&D->mat0, Y, v, Y, v, p->en, p->mu, p->mu_r, p->ced);
   else memset(&D->mat0, 0, sizeof D->mat0), D->mat0.mu = p->mu, D->mat0.mu_r = p->mu_r;
+  D->mat0.rvd = p->rvd;
 }
 
 int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {
@@ -248,6 +251,10 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
       if (!(mr >= 0.0) || !isfinite(mr))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mu_r[%d][%d]: rolling friction must be >= 0 (got %g)", i, j, mr);
       const double ck = mat->ced ? mat->ced[k] : 0.0;
+      const double rv = mat->rvd ? mat->rvd[k] : 0.0;
+      if (!(rv >= 0.0) || !isfinite(rv) || (mat->rvd && rv != mat->rvd[t]))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "rvd[%d][%d]: rolling viscous damping must be >= 0 and symmetric "
+                               "(got %g)", i, j, rv);
       if (!(ck >= 0.0) || !isfinite(ck))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "ced[%d][%d]: cohesion energy density must be >= 0 (got %g)", i, j, ck);
       if (en != mat->en[t] || mu != mat->mu[t] || (mat->mu_r && mr != mat->mu_r[t]) || (mat->ced && ck != mat->ced[t]))
@@ -263,6 +270,7 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
       const int64_t k = (int64_t)i * n + j;
       derive_mat(&h[k], mat->E[i], mat->nu[i], mat->E[j], mat->nu[j], mat->en[k], mat->mu[k],
                  mat->mu_r ? mat->mu_r[k] : 0.0, mat->ced ? mat->ced[k] : 0.0);
+      h[k].rvd = mat->rvd ? mat->rvd[k] : 0.0;
     }
   if (D->mat) m->ops->free(m, D->mat);
   D->mat = NULL;
@@ -402,7 +410,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(m->ops->d2d(m, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
   }
   /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
-  const int roll = D->P.rolling_model == SPHDEM_DEM_ROLL_EPSD2 && D->P.mu_r > 0.0;
+  const int roll = D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0;
   D->roll_carry = roll && m->roll_valid && !m->seeded && npold > 0;
   if (D->roll_carry) {
     if (npold > m->cap_rold) {

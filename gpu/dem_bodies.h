@@ -301,7 +301,10 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   /* rolling friction epsd2 (LIGGGHTS rolling_model_epsd2.h, torsionTorque off): a spring torque on the
    * tangential part of the relative rotation, k_r = k_t R*^2, added to the pair's previous torque and
    * capped at mu_r R* |F_n| */
-  if (D->P.mu_r > 0.0 && D->P.rolling_model == SPHDEM_DEM_ROLL_EPSD2) {
+  /* epsd (rolling_model_epsd.h, 3D): k_r = 2.25 k_n mu_r^2 R*^2, and below the cap a dashpot on the same
+   * rotation, not kept in the history */
+  if (D->P.mu_r > 0.0 && D->P.rolling_model != SPHDEM_DEM_ROLL_CDT) {
+    const int epsd = D->P.rolling_model == SPHDEM_DEM_ROLL_EPSD;
     double wr[3];
     if (wall) {
       wr[0] = wr1, wr[1] = wr2, wr[2] = wr3;
@@ -311,18 +314,31 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     const double wr_dot_delta = wr[0] * en[0] + wr[1] * en[1] + wr[2] * en[2];
     double wr_tot[3], rt[3];
     for (int d = 0; d < 3; d++) wr_tot[d] = wr[d] - en[d] * wr_dot_delta;
-    const double kr = kt * reff * reff, s = D->dt * kr;
+    const double kr = epsd ? 2.25 * kn * M.mu_r * M.mu_r * reff * reff : kt * reff * reff, s = D->dt * kr;
     const double *rold = D->rin + 3 * p;
     for (int d = 0; d < 3; d++) rt[d] = (other_image ? 0.0 : rold[d]) + wr_tot[d] * s;
     const double rtmag = sqrt(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
     const double rtmax = fabs(Fn) * reff * M.mu_r;
-    if (rtmag > rtmax) {
+    const int capped = rtmag > rtmax;
+    if (capped) {
       const double factor = rtmax / rtmag;
       for (int d = 0; d < 3; d++) rt[d] *= factor;
     }
     if (hout) {
       double *rnew = D->rout + 3 * p;
       for (int d = 0; d < 3; d++) rnew[d] = D->update ? rt[d] : (other_image ? 0.0 : rold[d]);
+    }
+    if (epsd && !capped) {
+      double r_inertia;
+      const double mi = D->mass[a];
+      if (wall) {
+        r_inertia = 1.4 * mi * reff * reff;
+      } else {
+        const double mj = D->mass[b], ri_red = mi * ra * ra, rj_red = mj * rb * rb;
+        r_inertia = 1.4 * ri_red * rj_red / (ri_red + rj_red);
+      }
+      const double r_coef = M.rvd * 2 * sqrt(r_inertia * kr);
+      for (int d = 0; d < 3; d++) rt[d] += r_coef * wr_tot[d];
     }
     for (int d = 0; d < 3; d++) {
       Ta[d] -= rt[d];

@@ -21,6 +21,7 @@ typedef struct {
   double lnen;       /* ln e */
   double mu, mu_r;   /* sliding and rolling friction */
   double ced;        /* cohesion energy density (cohesionEnergyDensity) */
+  double rvd;        /* rolling viscous damping (coefficientRollingViscousDamping) */
 } dem_mat;
 
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the

@@ -27,7 +27,7 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "model hertz|hooke tangential history [rolling_friction cdt|epsd2|off] [limitForce on|off] [tangential_damping on|off] "
+    "model hertz|hooke tangential history [rolling_friction cdt|epsd|epsd2|off] [limitForce on|off] [tangential_damping on|off] "
     "[ktToKnUser on|off (hooke)] "
     "[cohesion sjkr|sjkr2|off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
@@ -142,8 +142,9 @@ void PairGranGPU::settings(int narg, char **arg) {
     } else if (kw == "rolling_friction") {
       if (val == "cdt") rolling_ = 1;
       else if (val == "epsd2") rolling_ = 2;
+      else if (val == "epsd") rolling_ = 3;
       else if (val == "off") rolling_ = 0;
-      else fail("rolling_friction '" + val + "' is not supported (cdt, epsd2 or off)");
+      else fail("rolling_friction '" + val + "' is not supported (cdt, epsd, epsd2 or off)");
     } else if (kw == "limitForce") {
       if (val == "on") limit_force_ = 1;
       else if (val == "off") limit_force_ = 0;
@@ -228,10 +229,10 @@ bool PairGranGPU::material(const char *name, const char *kind, std::vector<doubl
 /* Several materials: the core gets the table of every type pair and each grain's type in its flags. */
 void PairGranGPU::apply_materials() {
   if (!dem_) return;
-  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
   if (nmat_)
     t = {nmat_, mat_E_.data(), mat_nu_.data(), mat_en_.data(), mat_mu_.data(), rolling_ ? mat_mur_.data() : nullptr,
-         cohesion_ ? mat_ced_.data() : nullptr};
+         cohesion_ ? mat_ced_.data() : nullptr, rolling_ == 3 ? mat_rvd_.data() : nullptr};
   if (sphdem_dem_set_materials(dem_, &t)) fail(std::string("material: ") + sphdem_dem_last_error(dem_));
 }
 
@@ -334,7 +335,15 @@ void PairGranGPU::sync_params() {
   p.mu = mat_mu_[0];
   p.mu_r = *std::max_element(mat_mur_.begin(), mat_mur_.end()); /* > 0: rolling friction on */
   p.no_tangential_damping = tangential_damping_ ? 0 : 1;
-  p.rolling_model = rolling_ == 2 ? SPHDEM_DEM_ROLL_EPSD2 : SPHDEM_DEM_ROLL_CDT;
+  p.rolling_model = rolling_ == 2 ? SPHDEM_DEM_ROLL_EPSD2 : rolling_ == 3 ? SPHDEM_DEM_ROLL_EPSD : SPHDEM_DEM_ROLL_CDT;
+  mat_rvd_.assign(mat_mu_.size(), 0.0);
+  if (rolling_ == 3) {
+    if (domain->dimension == 2) fail("rolling_friction epsd is supported in 3D only");
+    several |= material("coefficientRollingViscousDamping", "peratomtypepair", mat_rvd_);
+    nmat_ = several ? atom->ntypes : 0;
+  }
+  p.rvd = mat_rvd_[0];
+  for (int k = 0; k < (int)mat_rvd_.size() && nmat_; k++) if (!(mat_rvd_[k] >= 0.0)) p.rvd = mat_rvd_[k];
   p.cohesion = cohesion_;
   p.ced = mat_ced_[0];
   for (int k = 0; k < (int)mat_ced_.size() && nmat_; k++) if (!(mat_ced_[k] >= 0.0)) p.ced = mat_ced_[k];

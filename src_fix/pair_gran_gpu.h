@@ -31,12 +31,12 @@ class PairGranGPU : public Pair {
   void read_restart(FILE *, const int major, const int minor) override; /* LIGGGHTS signature */
 
  private:
-  int rolling_, limit_force_, device_, algo_; /* rolling_: 0 off, 1 cdt, 2 epsd2 */
+  int rolling_, limit_force_, device_, algo_; /* rolling_: 0 off, 1 cdt, 2 epsd2, 3 epsd */
   int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
   int tangential_damping_; /* tangential_damping on (default) / off */
   int cohesion_;           /* sphdem_dem_cohesion: off, sjkr, sjkr2 */
   int nmat_;               /* 0: one material; else atom->ntypes materials, their type-pair values below */
-  std::vector<double> mat_E_, mat_nu_, mat_en_, mat_mu_, mat_mur_, mat_ced_;
+  std::vector<double> mat_E_, mat_nu_, mat_en_, mat_mu_, mat_mur_, mat_ced_, mat_rvd_;
   std::vector<double> maxrad_dynamic_, maxrad_frozen_; /* per type (1..ntypes), as the stock style */
   int freeze_group_bit_;
   sphdem_dem dem_;

@@ -352,8 +352,11 @@ typedef enum {
 /* Rolling friction of the LIGGGHTS models (mu_r > 0). */
 typedef enum {
   SPHDEM_DEM_ROLL_CDT = 0,   /* constant directional torque mu_r k_n delta R* against the relative rotation */
-  SPHDEM_DEM_ROLL_EPSD2 = 1  /* LIGGGHTS epsd2: elastic-plastic spring torque, k_r = k_t R*^2 on the
+  SPHDEM_DEM_ROLL_EPSD2 = 1, /* LIGGGHTS epsd2: elastic-plastic spring torque, k_r = k_t R*^2 on the
                                 tangential relative rotation, capped at mu_r R* |F_n|, kept per pair */
+  SPHDEM_DEM_ROLL_EPSD = 2   /* LIGGGHTS epsd (3D): the same with k_r = 2.25 k_n mu_r^2 R*^2 and, below the
+                                cap, the dashpot eta_r 2 sqrt(I_r k_r) (eta_r = rvd, I_r = 1.4 m_i r_i^2 m_j r_j^2 /
+                                (m_i r_i^2 + m_j r_j^2)) on the tangential relative rotation */
 } sphdem_dem_rolling;
 
 typedef enum {
@@ -384,6 +387,7 @@ typedef struct {
   int rolling_model;    /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS with mu_r > 0: sphdem_dem_rolling */
   int cohesion;         /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: sphdem_dem_cohesion */
   double ced;           /* cohesion energy density k (J/m^3) of the params' one material */
+  double rvd;           /* ROLL_EPSD: rolling viscous damping coefficient of the params' one material */
   int no_tangential_damping; /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: 1 sets gamma_t = 0 (LIGGGHTS
                            tangential_damping off); 0 (default) damps the tangential force */
   int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at
@@ -425,6 +429,7 @@ typedef struct {
   const double *E, *nu;
   const double *en, *mu, *mu_r;
   const double *ced;    /* n x n cohesion energy density (NULL: 0) */
+  const double *rvd;    /* n x n rolling viscous damping of ROLL_EPSD (NULL: 0) */
 } sphdem_dem_materials;
 int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
 /* Fixed planes (replaces the previous set); nw may be 0. */

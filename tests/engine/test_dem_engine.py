@@ -354,7 +354,7 @@ def errors_liggghts(lig):
              ("model hertz tangential history ktToKnUser on", "ktToKnUser is a keyword of model hooke"),
              ("model hertz tangential history cohesion easo/capillary/viscous",
               "cohesion 'easo/capillary/viscous' is not supported"),
-             ("model hertz tangential history rolling_friction epsd", "rolling_friction 'epsd' is not supported")]
+             ("model hertz tangential history rolling_friction epsd3", "rolling_friction 'epsd3' is not supported")]
     for k, (args, want) in enumerate(cases):
         rc, out = run([lig], os.path.join("dem_err_lig", str(k)), lig_script("headon", "gran/gpu", args))
         good = rc != 0 and "ERROR" in out and want in out
@@ -648,6 +648,10 @@ SJKR_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "cohesion s
     "fix             m5 all")
 SJKR2_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff", "model hertz tangential history cohesion sjkr2\npair_coeff").replace(
     "fix             m4 all", "fix             m6 all property/global cohesionEnergyDensity peratomtypepair 1 3e5\nfix             m4 all")
+# rolling_friction epsd (spring k_r = 2.25 k_n mu_r^2 R*^2 and a viscous dashpot below the cap), two materials
+EPSD_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "rolling_friction epsd\npair_coeff").replace(
+    "fix             m5 all", "fix             m7 all property/global coefficientRollingViscousDamping peratomtypepair 2 "
+    "0.3 0.2 0.2 0.1\nfix             m5 all")
 
 
 def max_dx(a, b):
@@ -800,6 +804,9 @@ if __name__ == "__main__":
                                                         "pour of two materials, cohesion sjkr")) else 1)
     if mode == "sjkr2_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_sjkr2_lig", SJKR2_LIG, "pour, cohesion sjkr2")) else 1)
+    if mode == "epsd_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd_lig", EPSD_LIG,
+                                                        "pour of two materials, rolling_friction epsd")) else 1)
     if mode == "tdamp_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
                                                         "pour with tangential_damping off")) else 1)

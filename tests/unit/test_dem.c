@@ -666,6 +666,24 @@ static void test_epsd2(void) {
                 "%.15g vs %.15g", algo, t[2], -step);
     sphdem_dem_destroy(&d);
   }
+  /* epsd: spring k_r = 2.25 k_n mu_r^2 R*^2 and, below the cap, the dashpot rvd 2 sqrt(I_r k_r) w_rel (not kept) */
+  {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; p.mu = 0.5; p.mu_r = 0.3; p.rvd = 0.2;
+    p.rolling_model = SPHDEM_DEM_ROLL_EPSD; p.keep_history = 1; p.skin = 1e-4;
+    sphdem_dem d = make(&p);
+    const double Y = 1. / ((1. - p.nu * p.nu) / p.E + (1. - p.nu * p.nu) / p.E);
+    const double kn = 4. / 3. * Y * sqrt(reff * delta), kr = 2.25 * kn * p.mu_r * p.mu_r * reff * reff;
+    const double ir = 1.4 * (m[0] * ra * ra) * (m[1] * rb * rb) / (m[0] * ra * ra + m[1] * rb * rb);
+    const double wrel = om[2] - om[5], damp = p.rvd * 2 * sqrt(ir * kr) * wrel;
+    int rc = sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    rc |= sphdem_dem_compute(d, 2, tag, x, v, om, r, m, NULL, dt, 1, f, t, NULL);
+    const double want = -(2 * kr * wrel * dt + damp);
+    TEST_ASSERT(rc == 0 && fabs(t[2] / want - 1) < 1e-12 && t[5] == -t[2] && fabs(kn * delta * reff * p.mu_r) > fabs(want),
+                "epsd: torque %.15g after 2 steps vs spring + dashpot %.15g", t[2], want);
+    sphdem_dem_destroy(&d);
+  }
   sphdem_dem_params q;
   sphdem_dem_params_default(&q);
   q.kn = 1e5; q.kt = 2e4; q.rolling_model = SPHDEM_DEM_ROLL_EPSD2;
