@@ -652,6 +652,11 @@ SJKR2_LIG = POUR_LIG.replace("model hertz tangential history\npair_coeff", "mode
 EPSD_LIG = MATERIALS_LIG.replace("rolling_friction cdt\npair_coeff", "rolling_friction epsd\npair_coeff").replace(
     "fix             m5 all", "fix             m7 all property/global coefficientRollingViscousDamping peratomtypepair 2 "
     "0.3 0.2 0.2 0.1\nfix             m5 all")
+# LIGGGHTS model hooke with the two materials, tangential_damping off and epsd2
+HOOKE_MATERIALS_LIG = MATERIALS_LIG.replace("model hertz tangential history rolling_friction cdt\npair_coeff",
+                                            "model hooke tangential history rolling_friction epsd2 tangential_damping off"
+                                            "\npair_coeff").replace(
+    "fix             m5 all", "fix             m8 all property/global characteristicVelocity scalar 1.0\nfix             m5 all")
 
 
 def max_dx(a, b):
@@ -807,6 +812,10 @@ if __name__ == "__main__":
     if mode == "epsd_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd_lig", EPSD_LIG,
                                                         "pour of two materials, rolling_friction epsd")) else 1)
+    if mode == "hooke_materials_liggghts":
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_hooke_materials_lig", HOOKE_MATERIALS_LIG,
+                                                        "pour of two materials, model hooke, tangential_damping off, "
+                                                        "rolling_friction epsd2")) else 1)
     if mode == "tdamp_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
                                                         "pour with tangential_damping off")) else 1)
