@@ -14,10 +14,18 @@ t_start=$(date +%s)
 
 cmake -S . -B "$B" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSPHDEM_SANITIZE=ON -DSPHDEM_CUDA=OFF >"$B.log" 2>&1 ||
   { cat "$B.log"; exit 1; }
-# only what runs below: the unit-test programs (from ctest's own list) and the two launchers
-targets=$(cd "$B" && ctest -L unit --show-only=json-v1 | python3 -c '
-import json, os, sys
-print(" ".join(sorted({os.path.basename(t["command"][0]) for t in json.load(sys.stdin)["tests"] if t.get("command")})))')
+# only what runs below: the programs of the unit-labelled tests (read from the generated test file, which
+# names them before they are built) and the two launchers
+targets=$(python3 - "$B/tests/CTestTestfile.cmake" <<'PY'
+import os, re, sys
+text = open(sys.argv[1]).read()
+exe = dict(re.findall(r'^add_test\((\S+) "([^"]+)"', text, re.M))
+unit = [n for n, props in re.findall(r'^set_tests_properties\((\S+) PROPERTIES (.*)$', text, re.M)
+        if re.search(r'LABELS "([^"]*;)?unit(;[^"]*)?"', props)]
+print(" ".join(sorted({os.path.basename(exe[n]) for n in unit if n in exe})))
+PY
+)
+[ -n "$targets" ] || { echo "sanitize: no unit-labelled tests found in $B/tests/CTestTestfile.cmake"; exit 1; }
 cmake --build "$B" -j"$JOBS" --target $targets lmp_sphdem liggghts_sphdem >>"$B.log" 2>&1 ||
   { tail -50 "$B.log"; exit 1; }
 t_built=$(date +%s)
