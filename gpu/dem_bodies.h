@@ -169,10 +169,10 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
 
 /* The LIGGGHTS material pair of grains a and b (b < 0: a wall, taken as of a's material): the params'
  * one material, or the table entry of the two grains' materials (flags >> SPHDEM_DEM_MATERIAL_SHIFT). */
-SPHDEM_HD dem_mat dem_pair_material(const dem_dev *D, int32_t a, int32_t b) {
-  if (D->nmat == 0) return D->mat0;
+SPHDEM_HD const dem_mat *dem_pair_material(const dem_dev *D, int32_t a, int32_t b) {
+  if (D->nmat == 0) return &D->mat0;
   const int ia = D->flags[a] >> SPHDEM_DEM_MATERIAL_SHIFT, ib = b >= 0 ? D->flags[b] >> SPHDEM_DEM_MATERIAL_SHIFT : ia;
-  return D->mat[(int64_t)ia * D->nmat + ib];
+  return &D->mat[(int64_t)ia * D->nmat + ib];
 }
 
 /* LIGGGHTS' granular model "hertz tangential history [rolling_friction cdt]" (surface model default:
@@ -189,7 +189,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double zero[3] = {0.0, 0.0, 0.0};
   const double *vb = wall ? zero : D->v + 3 * (int64_t)b, *wb = wall ? zero : D->om + 3 * (int64_t)b;
-  const dem_mat M = dem_pair_material(D, a, b);
+  const dem_mat *M = dem_pair_material(D, a, b);
   const double rinv = 1.0 / r;
   const double en[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
   const double vr1 = va[0] - vb[0], vr2 = va[1] - vb[1], vr3 = va[2] - vb[2];
@@ -218,20 +218,20 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   if (D->P.model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
     /* LIGGGHTS model hooke: stiffness from Y* and the characteristic velocity, damping from e */
     const double sqrtval = sqrt(reff), V = D->P.charvel;
-    kn = 16. / 15. * sqrtval * M.Yeff * pow(15. * meff * V * V / (16. * sqrtval * M.Yeff), 0.2);
+    kn = 16. / 15. * sqrtval * M->Yeff * pow(15. * meff * V * V / (16. * sqrtval * M->Yeff), 0.2);
     kt = D->P.kt_to_kn ? kn * 0.285714286 : kn; /* the 2/7 as LIGGGHTS writes it */
-    const double pl = M_PI / M.lnen;
+    const double pl = M_PI / M->lnen;
     gamman = sqrt(4. * meff * kn / (1. + pl * pl));
     gammat = D->P.no_tangential_damping ? 0.0 : gamman; /* tangential_damping off */
   } else {
     const double sqrtval = sqrt(reff * deltan);
-    const double Sn = 2. * M.Yeff * sqrtval, St = 8. * M.Geff * sqrtval;
-    kn = 4. / 3. * M.Yeff * sqrtval;
+    const double Sn = 2. * M->Yeff * sqrtval, St = 8. * M->Geff * sqrtval;
+    kn = 4. / 3. * M->Yeff * sqrtval;
     kt = St;
     const double sqrtFiveOverSix = 0.91287092917527685576161630466800355658790782499663875;
-    gamman = -2. * sqrtFiveOverSix * M.betaeff * sqrt(Sn * meff);
+    gamman = -2. * sqrtFiveOverSix * M->betaeff * sqrt(Sn * meff);
     /* tangential_damping off: gamma_t = 0 */
-    gammat = D->P.no_tangential_damping ? 0.0 : -2. * sqrtFiveOverSix * M.betaeff * sqrt(St * meff);
+    gammat = D->P.no_tangential_damping ? 0.0 : -2. * sqrtFiveOverSix * M->betaeff * sqrt(St * meff);
   }
   double Fn = -gamman * vn + kn * deltan;
   if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
@@ -245,7 +245,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
                    : -M_PI / 4 * ((r - ra - rb) * (r + ra - rb) * (r - ra + rb) * (r + ra + rb)) / (r * r);
     else
       Acont = wall ? M_PI * 2. * ra * (ra - r) : M_PI * 2. * (2. * ra * rb / (ra + rb)) * (ra + rb - r);
-    const double Fn_coh = -M.ced * Acont;
+    const double Fn_coh = -M->ced * Acont;
     for (int d = 0; d < 3; d++) Fa[d] += Fn_coh * en[d];
   }
   /* tangential history; with keep_history a history kept from a contact through another periodic image
@@ -268,7 +268,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   }
   const double shrmag = sqrt(shear[0] * shear[0] + shear[1] * shear[1] + shear[2] * shear[2]);
   double Ft1 = -(kt * shear[0]), Ft2 = -(kt * shear[1]), Ft3 = -(kt * shear[2]);
-  const double Ft_shear = kt * shrmag, Ft_friction = M.mu * fabs(Fn);
+  const double Ft_shear = kt * shrmag, Ft_friction = M->mu * fabs(Fn);
   if (Ft_shear > Ft_friction) {
     if (shrmag != 0.0) {
       const double ratio = Ft_friction / Ft_shear;
@@ -314,11 +314,11 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     const double wr_dot_delta = wr[0] * en[0] + wr[1] * en[1] + wr[2] * en[2];
     double wr_tot[3], rt[3];
     for (int d = 0; d < 3; d++) wr_tot[d] = wr[d] - en[d] * wr_dot_delta;
-    const double kr = epsd ? 2.25 * kn * M.mu_r * M.mu_r * reff * reff : kt * reff * reff, s = D->dt * kr;
+    const double kr = epsd ? 2.25 * kn * M->mu_r * M->mu_r * reff * reff : kt * reff * reff, s = D->dt * kr;
     const double *rold = D->rin + 3 * p;
     for (int d = 0; d < 3; d++) rt[d] = (other_image ? 0.0 : rold[d]) + wr_tot[d] * s;
     const double rtmag = sqrt(rt[0] * rt[0] + rt[1] * rt[1] + rt[2] * rt[2]);
-    const double rtmax = fabs(Fn) * reff * M.mu_r;
+    const double rtmax = fabs(Fn) * reff * M->mu_r;
     const int capped = rtmag > rtmax;
     if (capped) {
       const double factor = rtmax / rtmag;
@@ -337,7 +337,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
         const double mj = D->mass[b], ri_red = mi * ra * ra, rj_red = mj * rb * rb;
         r_inertia = 1.4 * ri_red * rj_red / (ri_red + rj_red);
       }
-      const double r_coef = M.rvd * 2 * sqrt(r_inertia * kr);
+      const double r_coef = M->rvd * 2 * sqrt(r_inertia * kr);
       for (int d = 0; d < 3; d++) rt[d] += r_coef * wr_tot[d];
     }
     for (int d = 0; d < 3; d++) {
@@ -345,7 +345,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
       Tb[d] += rt[d];
     }
   } else if (D->P.mu_r > 0.0) { /* rolling friction, constant directional torque (cdt) */
-    const double rmu = M.mu_r;
+    const double rmu = M->mu_r;
     double rt[3] = {0.0, 0.0, 0.0};
     if (wall) {
       const double wrmag = sqrt(wr1 * wr1 + wr2 * wr2 + wr3 * wr3);
