@@ -221,7 +221,12 @@ CFD = [
       ["fix gas2", "cfd/grid", "same grains", "twice"]),
     V("periodic box with gas walls", R("boundary f f f", "boundary p f f"),
       ["periodic", "x", "gas"]),
-    V("2D run", R("units si", "units si\ndimension 2", "boundary f f f", "boundary f f p"),
+    # a valid 2D box (z straddles 0, as current LAMMPS requires), grains in the plane, gravity along -y
+    V("2D run", R("units si", "units si\ndimension 2", "boundary f f f", "boundary f f p",
+                  "0 0.003 0 0.003 0 0.01 units box", "0 0.003 0 0.01 -0.0005 0.0005 units box",
+                  "0.0015 0.0015 0.005 units box", "0.0015 0.005 0 units box",
+                  "0.0015 0.0015 0.007 units box", "0.0015 0.007 0 units box",
+                  "vector 0 0 -1", "vector 0 -1 0"),
       ["3D", "dimension 2"]),
     V("grain outside the box", R("create_atoms 1 single 0.0015 0.0015 0.007 units box",
                                  "create_atoms 1 single 0.0015 0.0015 0.007 units box\nset atom 2 z 0.02"),
