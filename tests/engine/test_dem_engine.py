@@ -277,19 +277,16 @@ def example_dump(path):
     return sorted([float(v) for v in l.split()] for l in lines[i + 1:] if l.strip())
 
 
-# examples/dem_drop, stock vs /gpu style in the same engine. The bcc lattice leaves the grains apart and
-# they start almost at rest (velocity in lattice units), so nothing touches before the lowest layer reaches
-# the floor (LAMMPS: step ~13400); a comparison that ends earlier tests free fall only. After the impact
-# the packing amplifies round-off by ~10x per 1000 steps, so an exact match depends on the order of the
-# stock style's arithmetic, which changed between LAMMPS versions. The test therefore runs through the
-# impact and measures the /gpu style against the stock style's own sensitivity: a third run of the stock
-# style with every grain displaced by 1e-15 m (a few hundred ulps of the coordinates) at the start. The
-# /gpu run must end no further from the stock run than twice that one does (max difference of x, v, omega
-# over the grains / the column's magnitude; twice, as the pile test's scatter bound). Measured 2026-12-01:
-# LAMMPS 29 Sep 2021 (20000 steps) /gpu 3.7e-10, displaced stock 1.7e-6; LAMMPS 19 Nov 2024 1.2e-9 and
-# 5.9e-6 (its thermo differs in the 10th digit at step 20000); LIGGGHTS 3.8 (10000 steps; its
-# grains start at 0.3 m/s and hit the floor at step ~5000, and its /gpu style differs from the stock one
-# by ~1e-13 per contact step) 9.5e-4 and 9.1e-4.
+# examples/dem_drop, stock vs /gpu style in the same engine. The bcc lattice leaves the grains apart, so
+# nothing touches before the lowest layer reaches the floor; a comparison that ends earlier tests free fall
+# only. After the impact the packing amplifies round-off by ~10x per 1000 steps, so an exact match depends
+# on the order of the stock style's arithmetic, which changed between LAMMPS versions. The test therefore
+# runs through the impact and measures the /gpu style against the stock style's own sensitivity: a third
+# run of the stock style with every grain displaced by 1e-15 m (a few hundred ulps of the coordinates) at
+# the start. The /gpu run must end no further from the stock run than twice that one does (max difference
+# of x, v, omega over the grains / the column's magnitude; twice, as the pile test's scatter bound).
+# Measured 2026-12-02 (grains start at 0.3 m/s): LAMMPS 29 Sep 2021 (20000 steps) /gpu 1.2e-4, displaced
+# stock 4.1e-2; LIGGGHTS 3.8 (10000 steps) 9.5e-4 and 9.1e-4.
 EXAMPLE_STEPS = {"lammps": 20000, "liggghts": 10000}
 # seed: LIGGGHTS wants a prime > 10000
 EXAMPLE_DISPLACE = "displace_atoms  all random 1e-15 1e-15 1e-15 15485863 units box\n"
