@@ -781,6 +781,20 @@ def rigid_lammps(lmp):
 
 
 
+
+# the LIGGGHTS pour scenes of the options, stock vs gran/gpu: mode -> (work dir, script, description)
+POUR_SCENES = {
+    "materials_liggghts": ("dem_materials_lig", MATERIALS_LIG, "pour of two materials (rolling_friction cdt)"),
+    "epsd2_liggghts": ("dem_epsd2_lig", EPSD2_LIG, "pour of two materials, rolling_friction epsd2"),
+    "sjkr_liggghts": ("dem_sjkr_lig", SJKR_LIG, "pour of two materials, cohesion sjkr"),
+    "sjkr2_liggghts": ("dem_sjkr2_lig", SJKR2_LIG, "pour, cohesion sjkr2"),
+    "epsd_liggghts": ("dem_epsd_lig", EPSD_LIG, "pour of two materials, rolling_friction epsd"),
+    "hooke_materials_liggghts": ("dem_hooke_materials_lig", HOOKE_MATERIALS_LIG,
+                                 "pour of two materials, model hooke, tangential_damping off, rolling_friction epsd2"),
+    "tdamp_liggghts": ("dem_tdamp_lig", TDAMP_LIG, "pour with tangential_damping off"),
+}
+
+
 if __name__ == "__main__":
     mode = sys.argv[1]
     if mode == "restart_liggghts":
@@ -795,27 +809,8 @@ if __name__ == "__main__":
         sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
     if mode == "pour_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2]) else 1)
-    if mode == "materials_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_materials_lig", MATERIALS_LIG,
-                                                        "pour of two materials (rolling_friction cdt)")) else 1)
-    if mode == "epsd2_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd2_lig", EPSD2_LIG,
-                                                        "pour of two materials, rolling_friction epsd2")) else 1)
-    if mode == "sjkr_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_sjkr_lig", SJKR_LIG,
-                                                        "pour of two materials, cohesion sjkr")) else 1)
-    if mode == "sjkr2_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_sjkr2_lig", SJKR2_LIG, "pour, cohesion sjkr2")) else 1)
-    if mode == "epsd_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_epsd_lig", EPSD_LIG,
-                                                        "pour of two materials, rolling_friction epsd")) else 1)
-    if mode == "hooke_materials_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_hooke_materials_lig", HOOKE_MATERIALS_LIG,
-                                                        "pour of two materials, model hooke, tangential_damping off, "
-                                                        "rolling_friction epsd2")) else 1)
-    if mode == "tdamp_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=("dem_tdamp_lig", TDAMP_LIG,
-                                                        "pour with tangential_damping off")) else 1)
+    if mode in POUR_SCENES:
+        sys.exit(0 if pour_liggghts(sys.argv[2], scene=POUR_SCENES[mode]) else 1)
     if mode == "mesh_liggghts":
         sys.exit(0 if pour_liggghts(sys.argv[2], n=1500, mesh=True) else 1)
     if mode == "refused_liggghts":
