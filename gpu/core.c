@@ -118,6 +118,7 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
 }
 
 double sphdem_tait_B(const sphdem_params *p) { return p->c0 * p->c0 * p->rho0 / p->gamma; }
+double sphdem_stokes_time(double rho_p, double d, double mu) { return rho_p * d * d / (18.0 * mu); }
 
 double sphdem_hydrostatic_rho(const sphdem_params *p, double depth) {
   double g = sqrt(p->gravity[0] * p->gravity[0] + p->gravity[1] * p->gravity[1] +

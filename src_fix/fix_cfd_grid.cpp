@@ -400,7 +400,7 @@ void FixCFDGrid::init() {
       if (!(atom->mask[i] & groupbit) || !(atom->radius[i] > 0)) continue;
       const double r = atom->radius[i];
       const double rhop = atom->rmass[i] / (4.0 / 3.0 * pi * r * r * r);
-      tmin = std::min(tmin, rhop * 4.0 * r * r / (18.0 * prm_.mu_g));
+      tmin = std::min(tmin, sphdem_stokes_time(rhop, 2.0 * r, prm_.mu_g));
       rhomax = std::max(rhomax, rhop);
     }
     char m[512];

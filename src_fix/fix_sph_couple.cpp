@@ -225,7 +225,7 @@ void FixSPHCouple::init() {
       if (!(atom->mask[i] & groupbit) || !(atom->radius[i] > 0)) continue;
       const double r = atom->radius[i], d = 2.0 * r;
       const double vol = domain->dimension == 2 ? pi * r * r : 4.0 / 3.0 * pi * r * r * r;
-      const double tau = atom->rmass[i] / vol * d * d / (18.0 * cp_.mu);
+      const double tau = sphdem_stokes_time(atom->rmass[i] / vol, d, cp_.mu);
       if (tau < tmin) tmin = tau, tag = (long long)atom->tag[i];
     }
     double all;

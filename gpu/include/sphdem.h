@@ -164,6 +164,9 @@ void sphdem_timers_reset(sphdem_ctx ctx);
 double sphdem_tait_B(const sphdem_params *p);
 /* Hydrostatically consistent initial density at depth (zsurf - z) (Tait inverted). */
 double sphdem_hydrostatic_rho(const sphdem_params *p, double depth);
+/* Stokes relaxation time rho_p d^2 / (18 mu) of a grain of density rho_p and diameter d in a fluid of
+ * dynamic viscosity mu (the set-up checks of the explicit drag against the fluid or gas step). */
+double sphdem_stokes_time(double rho_p, double d, double mu);
 
 /* Testing hooks: neighbor pairs within 2h found by the cell search (i<j, indices in upload order),
  * written to pairs (2*maxpairs); returns the pair count or a negative error code. */
