@@ -17,7 +17,7 @@
 #include "lammpsplugin_decl.h"
 #include "modify.h"
 
-/* LAMMPS that throws LAMMPSException on errors (always since 2023): see src_fix/sphdem_main.cpp */
+/* LAMMPS that throws LAMMPSException on errors (always since 2023): see src_fix/launch/sphdem_main.cpp */
 #if defined(LAMMPS_EXCEPTIONS) || __has_include("exceptions.h")
 #include "exceptions.h"
 #define SPHDEM_LAMMPS_THROWS 1

@@ -1,4 +1,4 @@
-/* test_mp.c - unit tests of the multiphase fluid (Shi & Huang 2022; gpu/mp.c, gpu/mp_bodies.h) on the CPU:
+/* test_mp.c - unit tests of the multiphase fluid (Shi & Huang 2022; gpu/sph/mp.c, gpu/sph/mp_bodies.h) on the CPU:
  * rheology and EOS closed forms, parameter checks, the renormalised shear rate of a linear shear field
  * (2D and 3D), the lambda classification of interior and free-surface particles, momentum conservation
  * of the pair terms, phase handling through resorts. */

@@ -1,5 +1,5 @@
 /* test_pair_restart.cpp - the restart-file reader of the GPU granular pair styles
- * (src_fix/pair_gran_gpu_restart.h, no engine needed): a history written from a real DEM core reads
+ * (src_fix/pair/pair_gran_gpu_restart.h, no engine needed): a history written from a real DEM core reads
  * back and restores; corrupt or truncated counts and keys are refused with a message before anything
  * is allocated (no std::bad_alloc / std::length_error reaches the engine). */
 #include <cmath>

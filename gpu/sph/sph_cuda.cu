@@ -1,4 +1,4 @@
-/* backend_cuda.cu - CUDA backend: kernels that call the shared bodies of sph_bodies.h. */
+/* sph_cuda.cu - CUDA backend: kernels that call the shared bodies of sph_bodies.h. */
 #include <cuda_runtime.h>
 #include <thrust/device_ptr.h>
 #include <thrust/execution_policy.h>
@@ -8,7 +8,7 @@
 
 #include "mp_bodies.h"
 #include "sph_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define SPHDEM_BLOCK 256
 #define SPHDEM_RED_BLOCKS 512

@@ -1,4 +1,4 @@
-/* core.c - the sphdem context: parameters, particle upload/download, search grid, stepping, stats. */
+/* sph.c - the sphdem context: parameters, particle upload/download, search grid, stepping, stats. */
 #define _POSIX_C_SOURCE 200809L
 #include <float.h>
 #include <math.h>
@@ -9,7 +9,7 @@
 #include <time.h>
 
 #include "sph_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 static double now(void) {
   struct timespec ts;

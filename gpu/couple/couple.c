@@ -37,7 +37,7 @@
 #include <string.h>
 
 #include "couple_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define TRYC(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
 /* grain cells are at least hc/2, so the fluid->grain search spans at most this many layers */

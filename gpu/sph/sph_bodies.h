@@ -3,7 +3,7 @@
 #define SPHDEM_SPH_BODIES_H
 
 #include <math.h>
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -233,7 +233,7 @@ SPHDEM_HD void ksum_body(const sphdem_dev *D, int64_t i) {
 /* Adami generalized wall condition at wall particle w (eqs 13-15): sums over the fluid particles f within
  * the support (wall_state_add, one per f), then the wall's extrapolated state (wall_state_finish).
  * wall_state_body walks the 3^dim SPH cells around w; the CPU backend feeds the same sums from a
- * wall -> fluid list (backend_cpu.c), in the same order where no cell wraps periodically. */
+ * wall -> fluid list (sph_cpu.c), in the same order where no cell wraps periodically. */
 typedef struct { double sw, spw, srr[3], sv[3], se; } wall_state_acc;
 
 SPHDEM_HD void wall_state_add(const sphdem_dev *D, const double *xw, int32_t f, wall_state_acc *A) {

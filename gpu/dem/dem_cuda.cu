@@ -1,4 +1,4 @@
-/* dem.cu - CUDA backend of the GPU DEM: kernels that call the bodies of dem_bodies.h, thrust sorts/scans. */
+/* dem_cuda.cu - CUDA backend of the GPU DEM: kernels that call the bodies of dem_bodies.h, thrust sorts/scans. */
 #include <cuda_runtime.h>
 #include <thrust/device_ptr.h>
 #include <thrust/execution_policy.h>

@@ -1,6 +1,6 @@
 /* fix_sph_couple.cpp - fix sph/couple: parses the coupling keywords into sphdem_couple_params, uploads the
  * grains of its group before each fluid rate evaluation of a fix sph/fluid, holds the fluid forces on
- * them between fluid steps and adds them to atom->f every step. No physics here (gpu/couple.c). */
+ * them between fluid steps and adds them to atom->f every step. No physics here (gpu/couple/couple.c). */
 #include "fix_sph_couple.h"
 
 #include <algorithm>

@@ -15,7 +15,7 @@
 #endif
 
 #include "couple_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 static int grow64(int64_t **p, int64_t *cap, int64_t n) {
   if (n <= *cap) return 0;

@@ -1,7 +1,7 @@
 /* fix_cfd_grid.cpp - fix cfd/grid: parses the gas keywords into sphdem_cfd_params, advances the coarse-grid
  * gas of CFD-DEM (Yu 2024 §2.1-2.4) every N engine steps with the grains of its group, holds the gas
  * forces on them between gas steps and adds them to atom->f every step; VTK output of the cell fields.
- * No physics here (gpu/cfd.c). */
+ * No physics here (gpu/cfd/cfd.c). */
 #include "fix_cfd_grid.h"
 
 #include <algorithm>

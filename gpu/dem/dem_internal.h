@@ -2,13 +2,13 @@
 #ifndef SPHDEM_DEM_INTERNAL_H
 #define SPHDEM_DEM_INTERNAL_H
 
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define SPHDEM_DEM_NHIST 4      /* per pair: tangential displacement xyz, touch flag */
 #define SPHDEM_DEM_MAX_CELLS (1 << 24)
 #define SPHDEM_DEM_MAX_WALLS 16 /* the walls travel in the kernel parameters: keep dem_dev small */
 #define SPHDEM_DEM_MAX_TAG 2147483647LL
-/* D->vir: 6 virial doubles, the contact counter (dem.cu), then the first pair found with coincident
+/* D->vir: 6 virial doubles, the contact counter (dem_cuda.cu), then the first pair found with coincident
  * centres as ((a + 1) << 32) | b (uint64, 0 = none) */
 #define SPHDEM_DEM_VIR_COINCIDENT 7
 #define SPHDEM_DEM_VIR_DOUBLES 8

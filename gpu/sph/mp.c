@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "mp_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define TRYM(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
 

@@ -2,7 +2,7 @@
 #ifndef SPHDEM_CFD_INTERNAL_H
 #define SPHDEM_CFD_INTERNAL_H
 
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define SPHDEM_CFD_MAX_CELLS (1LL << 26)
 

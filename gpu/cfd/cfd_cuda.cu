@@ -1,4 +1,4 @@
-/* cfd.cu - CUDA backend of the gas grid: one kernel per body of cfd_bodies.h, block reductions. */
+/* cfd_cuda.cu - CUDA backend of the gas grid: one kernel per body of cfd_bodies.h, block reductions. */
 #include <cuda_runtime.h>
 #include <stdlib.h>
 

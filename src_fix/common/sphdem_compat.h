@@ -15,7 +15,7 @@
 #include <map>
 #include <string>
 
-/* The fmt stand-in (src_fix/fmt_standin) only declares what the LAMMPS headers name. */
+/* The fmt stand-in (src_fix/launch/fmt_standin) only declares what the LAMMPS headers name. */
 #include "compute.h"
 #include "error.h"
 #include "fix.h"

@@ -1,4 +1,4 @@
-/* backend_cpu.c - CPU backend: OpenMP loops over the shared bodies of sph_bodies.h. */
+/* sph_cpu.c - CPU backend: OpenMP loops over the shared bodies of sph_bodies.h. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -8,7 +8,7 @@
 
 #include "mp_bodies.h"
 #include "sph_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define TRY_CPU(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
 

@@ -1,8 +1,8 @@
-/* couple.cu - CUDA backend of the SPH-DEM coupling: kernels over the bodies of couple_bodies.h. */
+/* couple_cuda.cu - CUDA backend of the SPH-DEM coupling: kernels over the bodies of couple_bodies.h. */
 #include <cuda_runtime.h>
 
 #include "couple_bodies.h"
-#include "sphdem_internal.h"
+#include "sph_internal.h"
 
 #define SPHDEM_CBLOCK 128
 

@@ -1,4 +1,4 @@
-/* sphdem_internal.h - core data shared by the context code and both backends (not public). */
+/* sph_internal.h - core data shared by the context code and both backends (not public). */
 #ifndef SPHDEM_INTERNAL_H
 #define SPHDEM_INTERNAL_H
 
@@ -207,12 +207,12 @@ extern "C" {
 #endif
 /* Set the context error message (printf-style); returns code. */
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
-/* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (core.c). */
+/* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph.c). */
 int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
-/* Device memory counted in c->bytes (core.c); dfree takes the bytes allocated and clears *ptr. */
+/* Device memory counted in c->bytes (sph.c); dfree takes the bytes allocated and clears *ptr. */
 int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
-/* Derived constants again after a parameter change (core.c). */
+/* Derived constants again after a parameter change (sph.c). */
 void sphdem_rederive(struct sphdem_ctx_s *c);
 /* Coupling steps of compute_rates (couple.c): before the pressure pass (grain sort, porosity) and after
  * the rates pass (grain forces, reaction); and release of the coupling memory. */

@@ -1,5 +1,5 @@
 /* couple_bodies.h - unresolved SPH-DEM coupling of He 2018 §2.3 (eqs 26-33), written once for the CPU
- * loops (couple_cpu.c) and the CUDA kernels (couple.cu).
+ * loops (couple_cpu.c) and the CUDA kernels (couple_cuda.cu).
  *
  * Conventions (see also the notes in couple.c):
  * - One coupling kernel: Wendland (eq 5) with smoothing length hc (default the fluid h), support 2 hc,
