@@ -22,9 +22,9 @@
  * ceil(d/2h) (for hc = h, d <= 2h) are the special cases.
  *
  * Not exchanged: the reaction of the optional rotational-drag torque (angular momentum goes to the grains
- * only). With superficial density and wall_eps 1, wall particles get the porosity of the fluid beside them
+ * only). With superficial density and wall_porosity 1, wall particles get the porosity of the fluid beside them
  * (Shepard average, as eqs 13-14 extrapolate velocity and pressure) and act with the superficial density
- * eps_w rho_w (eq 15); with wall_eps 0 (default) they act as plain fluid (eps_w = 1). wall_eps 1 made the
+ * eps_w rho_w (eq 15); with wall_porosity 0 (default) they act as plain fluid (eps_w = 1). wall_porosity 1 made the
  * rotating drum (examples/drum, coarse) stop at the start of the rotation: where a grain packs the fluid
  * against the wall, eps_w reaches the floor eps_min and the wall pressure term, ~ V_w P_w / (eps_w rho_w),
  * grows as 1/eps_w. Coupling time is counted in SPHDEM_T_COUPLE.
@@ -61,7 +61,7 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
          "mu (fluid viscosity of the drag law) must be > 0 (got %g)", cp->mu);
   CCHECK(cp->eps_min > 0 && cp->eps_min < 1, "eps_min (porosity floor) must be in (0, 1) (got %g)", cp->eps_min);
   CCHECK(cp->superficial == 0 || cp->superficial == 1, "superficial must be 0 or 1 (got %d)", cp->superficial);
-  CCHECK(cp->wall_eps == 0 || cp->wall_eps == 1, "wall_eps (wall porosity) must be 0 or 1 (got %d)", cp->wall_eps);
+  CCHECK(cp->wall_porosity == 0 || cp->wall_porosity == 1, "wall_porosity (wall porosity) must be 0 or 1 (got %d)", cp->wall_porosity);
   CCHECK(cp->immersion >= 0 && cp->immersion <= 1, "immersion must be in [0, 1], 0 = off (got %g)", cp->immersion);
   CCHECK(cp->eps_walls == 0 || cp->eps_walls == 1, "eps_walls must be 0 or 1 (got %d)", cp->eps_walls);
   CCHECK(cp->pressure_form == 0 || cp->pressure_form == 1, "pressure_form must be 0 (mass) or 1 (volume) (got %d)",
@@ -104,7 +104,7 @@ static void free_grains(struct sphdem_ctx_s *c) {
                   (void **)&D->gfpg, (void **)&D->gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) free_dev(c, p24[k], 24 * n);
   free_dev(c, (void **)&D->grad, 8 * n);
-  free_dev(c, (void **)&D->gsig, 8 * n);
+  free_dev(c, (void **)&D->grain_shepard, 8 * n);
   free_dev(c, (void **)&D->gtag, 8 * n);
   free_dev(c, (void **)&D->gcell, 4 * n);
   c->cap_g = 0;
@@ -119,7 +119,7 @@ static int ensure_grains(struct sphdem_ctx_s *c, int64_t n) {
                   (void **)&D->gfpg, (void **)&D->gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(calloc_dev(c, p24[k], 24 * m));
   TRYC(calloc_dev(c, (void **)&D->grad, 8 * m));
-  TRYC(calloc_dev(c, (void **)&D->gsig, 8 * m));
+  TRYC(calloc_dev(c, (void **)&D->grain_shepard, 8 * m));
   TRYC(calloc_dev(c, (void **)&D->gtag, 8 * m));
   TRYC(calloc_dev(c, (void **)&D->gcell, 4 * m));
   c->cap_g = (int64_t)m;
@@ -167,7 +167,7 @@ int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
 
 void sphdem_couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+  free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
   c->cap_cw = 0;
   free_grains(c);
   free_dev(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
@@ -180,7 +180,7 @@ void sphdem_couple_release(struct sphdem_ctx_s *c) {
   c->hgf = NULL;
   c->cap_hgf = 0;
   D->ng = 0;
-  D->couple = D->couple_eos = D->pvol = 0;
+  D->couple = D->couple_eos = D->pressure_volume_form = 0;
   c->nforces = 0;
   c->forces_valid = 0;
   c->grains_dirty = 0;
@@ -206,9 +206,9 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   int was_on = D->couple;
   D->couple = 1;
   D->couple_eos = cp->superficial;
-  D->pvol = cp->pressure_form;
-  D->cimm = cp->immersion;
-  D->ceps_walls = cp->eps_walls;
+  D->pressure_volume_form = cp->pressure_form;
+  D->immersion_s = cp->immersion;
+  D->eps_wall_share = cp->eps_walls;
   D->drag = cp->drag;
   D->torque = cp->torque;
   D->cmu = cp->mu;
@@ -342,14 +342,14 @@ static void set_layers(sphdem_dev *D) {
 int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
-  /* wall porosity (wall_eps 1), written by the wall-state pass */
-  if (D->couple_eos && c->cp.wall_eps && (D->nw > c->cap_cw || !D->weps)) {
-    free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+  /* wall porosity (wall_porosity 1), written by the wall-state pass */
+  if (D->couple_eos && c->cp.wall_porosity && (D->nw > c->cap_cw || !D->wall_porosity)) {
+    free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
-    TRYC(calloc_dev(c, (void **)&D->weps, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
+    TRYC(calloc_dev(c, (void **)&D->wall_porosity, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
     c->cap_cw = D->nw > 0 ? D->nw : 1;
-  } else if ((!D->couple_eos || !c->cp.wall_eps) && D->weps) {
-    free_dev(c, (void **)&D->weps, 8 * (size_t)c->cap_cw);
+  } else if ((!D->couple_eos || !c->cp.wall_porosity) && D->wall_porosity) {
+    free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
   }
   if (c->grains_dirty || D->gncells == 0) TRYC(sort_grains(c));

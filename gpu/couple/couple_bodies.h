@@ -138,7 +138,7 @@ SPHDEM_HD int couple_porosity_add(const sphdem_dev *D, const double *xa, int32_t
 
 SPHDEM_HD void couple_porosity_finish(const sphdem_dev *D, int64_t a, double s) {
   const double *xa = D->x + 3 * a;
-  if (D->ceps_walls && D->nw > 0 && s > 0.0) {
+  if (D->eps_wall_share && D->nw > 0 && s > 0.0) {
     double sw = 0.0;
     cell_walk w;
     int64_t cc;
@@ -205,10 +205,10 @@ SPHDEM_HD void couple_grain_finish(const sphdem_dev *D, int64_t j, const couple_
   int dim = D->P.dim;
   double sig = A->sig;
   double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0}, imm = 1.0;
-  if (D->cimm > 0.0) {
+  if (D->immersion_s > 0.0) {
     /* keyword immersion: the share of the grain's kernel support outside the walls that holds fluid */
     double room = 1.0 - A->sigw;
-    imm = room > 1e-12 ? sig / (room * D->cimm) : 1.0;
+    imm = room > 1e-12 ? sig / (room * D->immersion_s) : 1.0;
     if (imm > 1.0) imm = 1.0;
   }
   if (sig > 0.0) {
@@ -233,7 +233,7 @@ SPHDEM_HD void couple_grain_finish(const sphdem_dev *D, int64_t j, const couple_
       else tq[2] = kt * (0.5 * cu[2] - om[2]);
     }
   }
-  D->gsig[j] = sig;
+  D->grain_shepard[j] = sig;
   for (int d = 0; d < 3; d++) {
     D->gfpg[3 * j + d] = fpg[d];
     D->gfd[3 * j + d] = fd[d];
@@ -255,7 +255,7 @@ SPHDEM_HD double couple_grain_wall_sum(const sphdem_dev *D, const double *xj) {
 SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
   const double *xj = D->gx + 3 * j;
   couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-  if (D->cimm > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+  if (D->immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
   cell_walk w;
   int64_t cc;
   walk_fluid_around(D, xj, &w);
@@ -270,8 +270,8 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
 SPHDEM_HD void couple_reaction_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
   double r[3];
   double r2 = separation(D, xa, D->gx + 3 * j, r);
-  if (r2 >= D->support2c || !(D->gsig[j] > 0.0)) return;
-  double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->gsig[j];
+  if (r2 >= D->support2c || !(D->grain_shepard[j] > 0.0)) return;
+  double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->grain_shepard[j];
   for (int d = 0; d < D->P.dim; d++) s[d] += k * D->gf[3 * j + d];
 }
 

@@ -135,7 +135,7 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   for (int64_t j = 0; j < D->ng; j++) {
     const double *xj = D->gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-    if (D->cimm > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+    if (D->immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
     for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
     couple_grain_finish(D, j, &A);
   }

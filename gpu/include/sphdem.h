@@ -208,7 +208,7 @@ typedef struct {
                            touched by a few fluid particles feels a share of the force, not the whole (eq 28's
                            Shepard correction alone gives it the full force, and eq 33 puts the reaction on those
                            few particles). 0 (default): off, as the paper */
-  int wall_eps;         /* with superficial density: 1 = wall particles carry the Shepard average of the porosity of
+  int wall_porosity;    /* with superficial density: 1 = wall particles carry the Shepard average of the porosity of
                            the fluid beside them (superficial wall density eps_w rho_w); 0 (default) = walls are
                            plain fluid (eps_w = 1). See doc/fix_sph_couple.md for what each does. */
   double dmax;          /* largest grain diameter expected (sizes the DEM cells); 0 = from the grains */

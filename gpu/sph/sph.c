@@ -477,8 +477,8 @@ static int sort_set(sphdem_ctx c, int set) {
     /* multiphase: the phase follows its particle (the other fields are recomputed by every rate pass) */
     if (D->ph && c->cap_mp >= n) TRY(c->ops->gather(c, D->ph, 4, n));
     /* Runge-Kutta: a resort between stages carries the state at t_n and the stage sums */
-    if (D->rkx && c->cap_rk >= n) {
-      void *rk[] = {D->rkx, D->rkv, D->rkax, D->rkav, D->rkr, D->rkar};
+    if (D->rk_x0 && c->cap_rk >= n) {
+      void *rk[] = {D->rk_x0, D->rk_v0, D->rk_dx, D->rk_dv, D->rk_rho0, D->rk_drho};
       int rb[] = {24, 24, 24, 24, 8, 8};
       for (int k = 0; k < 6; k++) TRY(c->ops->gather(c, rk[k], rb[k], n));
     }
@@ -808,8 +808,8 @@ int sphdem_compute_rates(sphdem_ctx c) {
 static void free_rk(sphdem_ctx c) {
   sphdem_dev *D = &c->D;
   size_t n = (size_t)c->cap_rk;
-  DFREE(c, D->rkx, 24 * n); DFREE(c, D->rkv, 24 * n); DFREE(c, D->rkr, 8 * n);
-  DFREE(c, D->rkax, 24 * n); DFREE(c, D->rkav, 24 * n); DFREE(c, D->rkar, 8 * n);
+  DFREE(c, D->rk_x0, 24 * n); DFREE(c, D->rk_v0, 24 * n); DFREE(c, D->rk_rho0, 8 * n);
+  DFREE(c, D->rk_dx, 24 * n); DFREE(c, D->rk_dv, 24 * n); DFREE(c, D->rk_drho, 8 * n);
   c->cap_rk = 0;
 }
 
@@ -818,9 +818,9 @@ static int ensure_rk(sphdem_ctx c, int64_t n) {
   free_rk(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRY(dalloc(c, (void **)&D->rkx, 24 * m)); TRY(dalloc(c, (void **)&D->rkv, 24 * m));
-  TRY(dalloc(c, (void **)&D->rkr, 8 * m)); TRY(dalloc(c, (void **)&D->rkax, 24 * m));
-  TRY(dalloc(c, (void **)&D->rkav, 24 * m)); TRY(dalloc(c, (void **)&D->rkar, 8 * m));
+  TRY(dalloc(c, (void **)&D->rk_x0, 24 * m)); TRY(dalloc(c, (void **)&D->rk_v0, 24 * m));
+  TRY(dalloc(c, (void **)&D->rk_rho0, 8 * m)); TRY(dalloc(c, (void **)&D->rk_dx, 24 * m));
+  TRY(dalloc(c, (void **)&D->rk_dv, 24 * m)); TRY(dalloc(c, (void **)&D->rk_drho, 8 * m));
   c->cap_rk = (int64_t)m;
   return SPHDEM_OK;
 }

@@ -246,14 +246,14 @@ SPHDEM_HD void wall_state_add(const sphdem_dev *D, const double *xw, int32_t f, 
   /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
   double rf = eos_density(D, f, D->rho[f]);
   for (int d = 0; d < 3; d++) { A->srr[d] += rf * r[d] * W; A->sv[d] += D->v[3 * f + d] * W; }
-  if (D->weps) A->se += fluid_eps(D, f) * W;
+  if (D->wall_porosity) A->se += fluid_eps(D, f) * W;
 }
 
 SPHDEM_HD void wall_state_finish(const sphdem_dev *D, int64_t w, const wall_state_acc *A) {
   double sw = A->sw;
   /* coupled, superficial density: the wall particle carries the porosity of the fluid beside it (extrapolated
    * like eqs 13-14), so that fluid-wall pairs see the same mixture as fluid-fluid pairs */
-  if (D->weps) D->weps[w] = sw > 0.0 ? A->se / sw : 1.0;
+  if (D->wall_porosity) D->wall_porosity[w] = sw > 0.0 ? A->se / sw : 1.0;
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
   double pw = 0.0;
   if (sw > 0.0) {
@@ -313,8 +313,8 @@ SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double 
  * and continuity rho_a sum_b V_b v_ab.grad W (V = m / rho), is the mass form's pair with P_a/rho_a^2 scaled by
  * *ka = rho_a/rho_b, P_b/rho_b^2 by *kb = rho_b/rho_a and a's continuity term by ka. Both 1 in the mass form (eq 9). */
 SPHDEM_HD void pair_form_factors(const sphdem_dev *D, double rhoa, double rhob, double *ka, double *kb) {
-  *ka = D->pvol ? rhoa / rhob : 1.0;
-  *kb = D->pvol ? rhob / rhoa : 1.0;
+  *ka = D->pressure_volume_form ? rhoa / rhob : 1.0;
+  *kb = D->pressure_volume_form ? rhob / rhoa : 1.0;
 }
 
 /* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
@@ -372,7 +372,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   /* pressure_form volume: the extra continuity part rides on dda/ddb, so one record still serves both sides */
   double ka, kb;
   pair_form_factors(D, rhoa, rhob, &ka, &kb);
-  if (D->pvol) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
+  if (D->pressure_volume_form) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
   pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
   double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0; /* eq 12 */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
@@ -405,7 +405,7 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
   /* wall particles keep their volume V_w = m_w / rho0 (Adami 2012); their density follows eq 15 */
   double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0, rw = D->wrho[w];
-  if (D->weps) { mb *= D->weps[w]; rw *= D->weps[w]; } /* coupled: superficial wall density eps_w rho_w */
+  if (D->wall_porosity) { mb *= D->wall_porosity[w]; rw *= D->wall_porosity[w]; } /* coupled: superficial wall density eps_w rho_w */
   for (int d = 0; d < 3; d++) {
     vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
@@ -523,27 +523,27 @@ SPHDEM_HD void drift_body(const sphdem_dev *D, int64_t i, double dt) {
 SPHDEM_HD void rk_stage_body(const sphdem_dev *D, int64_t i, int mode, double wk, double cst) {
   if (mode == 0) {
     for (int d = 0; d < 3; d++) {
-      D->rkx[3 * i + d] = D->x[3 * i + d]; D->rkv[3 * i + d] = D->v[3 * i + d];
-      D->rkax[3 * i + d] = D->rkav[3 * i + d] = 0.0;
+      D->rk_x0[3 * i + d] = D->x[3 * i + d]; D->rk_v0[3 * i + d] = D->v[3 * i + d];
+      D->rk_dx[3 * i + d] = D->rk_dv[3 * i + d] = 0.0;
     }
-    D->rkr[i] = D->rho[i];
-    D->rkar[i] = 0.0;
+    D->rk_rho0[i] = D->rho[i];
+    D->rk_drho[i] = 0.0;
     return;
   }
   for (int d = 0; d < D->P.dim; d++) {
     double kx = D->v[3 * i + d] + D->u[3 * i + d], kv = D->a[3 * i + d];
-    D->rkax[3 * i + d] += wk * kx;
-    D->rkav[3 * i + d] += wk * kv;
-    double x = D->rkx[3 * i + d] + (mode == 2 ? D->rkax[3 * i + d] : cst * kx);
+    D->rk_dx[3 * i + d] += wk * kx;
+    D->rk_dv[3 * i + d] += wk * kv;
+    double x = D->rk_x0[3 * i + d] + (mode == 2 ? D->rk_dx[3 * i + d] : cst * kx);
     if (D->P.periodic[d]) {
       double lo = D->P.boxlo[d], L = D->L[d];
       if (x < lo) x += L; else if (x >= lo + L) x -= L;
     }
     D->x[3 * i + d] = x;
-    D->v[3 * i + d] = D->rkv[3 * i + d] + (mode == 2 ? D->rkav[3 * i + d] : cst * kv);
+    D->v[3 * i + d] = D->rk_v0[3 * i + d] + (mode == 2 ? D->rk_dv[3 * i + d] : cst * kv);
   }
-  D->rkar[i] += wk * D->drho[i];
-  D->rho[i] = D->rkr[i] + (mode == 2 ? D->rkar[i] : cst * D->drho[i]);
+  D->rk_drho[i] += wk * D->drho[i];
+  D->rho[i] = D->rk_rho0[i] + (mode == 2 ? D->rk_drho[i] : cst * D->drho[i]);
 }
 
 /* ---- reductions ---------------------------------------------------------------------------- */

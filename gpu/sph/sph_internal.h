@@ -48,20 +48,20 @@ typedef struct {
   /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
   int couple;          /* coupling passes run in compute_rates */
   int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
-  int pvol;            /* coupled, pressure_form volume: volume form of the pressure and continuity pair terms */
-  double cimm;         /* keyword immersion S of the coupling (0 = off) */
-  int ceps_walls;      /* eq 26 normalised by the kernel share inside the walls (keyword eps_walls) */
+  int pressure_volume_form;            /* coupled, pressure_form volume: volume form of the pressure and continuity pair terms */
+  double immersion_s;         /* keyword immersion S of the coupling (0 = off) */
+  int eps_wall_share;      /* eq 26 normalised by the kernel share inside the walls (keyword eps_walls) */
   int drag, torque;    /* sphdem_drag, rotational drag on/off */
   double cmu;          /* fluid viscosity in the drag laws */
   double eps_floor;    /* eps_min */
   double hc, inv_hc, alphaC, support2c; /* coupling kernel (support 2 hc) */
   double *eps;         /* porosity at fluid particles (eq 26, before the floor), device order */
   double *fr;          /* reaction force m_a S_a on fluid particles (eq 33), 3 per particle */
-  double *weps;        /* porosity at wall particles (superficial density only; extrapolated from the fluid) */
+  double *wall_porosity;        /* porosity at wall particles (superficial density only; extrapolated from the fluid) */
   /* grains, in grain-grid (cell-sorted) order; gtag = upload index + 1 */
   int64_t ng;
   double *gx, *gv, *grad, *gom;
-  double *gsig;        /* Shepard sum sum_b V_b W_jb at each grain (eqs 28, 33) */
+  double *grain_shepard;        /* Shepard sum sum_b V_b W_jb at each grain (eqs 28, 33) */
   double *gf, *gfd, *gfpg, *gtq; /* total fluid force, drag part, pressure-gradient/viscous part, torque */
   int64_t *gtag;
   int32_t *gcell, *gcstart, *gcend;
@@ -91,7 +91,7 @@ typedef struct {
   double *wxi;         /* interpolation (mirror) point of each wall particle, 3 */
   double *wmu;         /* ghost viscosity (multiphase), from the phase with the larger M11 share */
   /* fourth-order Runge-Kutta (sphdem_step_rk4): state at t_n and the weighted sums of the stage rates */
-  double *rkx, *rkv, *rkr, *rkax, *rkav, *rkar;
+  double *rk_x0, *rk_v0, *rk_rho0, *rk_dx, *rk_dv, *rk_drho;
   double *ksum;        /* fluid kernel sum of each fluid particle (keyword isolated; NULL when off) */
   int ks_ok;           /* ksum is in the current particle order (set by the evaluation, cleared by sorts/uploads) */
 } sphdem_dev;

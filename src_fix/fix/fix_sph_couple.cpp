@@ -127,7 +127,7 @@ void FixSPHCouple::parse_args(int narg, char **arg) {
       if (!(cp_.immersion >= 0 && cp_.immersion <= 1)) fail("immersion must be in [0, 1], 0 = off (got " + val + ")");
     } else if (kw == "wall_porosity") {
       if (val != "none" && val != "fluid") fail("wall_porosity must be none or fluid (got '" + val + "')");
-      cp_.wall_eps = val == "fluid";
+      cp_.wall_porosity = val == "fluid";
     } else if (kw == "pressure_form") {
       if (val != "mass" && val != "volume") fail("pressure_form must be mass or volume (got '" + val + "')");
       cp_.pressure_form = val == "volume";
@@ -250,7 +250,7 @@ void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
              "wall_porosity %s, immersion %g, eps_walls %s, pressure_form %s; fluid step every %ld engine steps\n",
              drag_name(cp_.drag), cp_.mu, cp_.hc, cp_.eps_min, cp_.superficial ? "yes" : "no",
              cp_.torque ? "yes" : "no", cp_.dmax, cp_.dmax > 0 ? "" : " (from the grains)",
-             cp_.wall_eps ? "fluid" : "none", cp_.immersion, cp_.eps_walls ? "yes" : "no",
+             cp_.wall_porosity ? "fluid" : "none", cp_.immersion, cp_.eps_walls ? "yes" : "no",
              cp_.pressure_form ? "volume" : "mass", fluid_->every());
     sphdem_compat::logmesg(lmp, line);
   }

@@ -45,7 +45,7 @@ static void run_coupled(sphdem_device dev, int nsteps, double *xout, double *rou
   sphdem_couple_params cp;
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = SPHDEM_DRAG_ERGUN_WENYU; cp.mu = 1e-3; cp.torque = 1;
-  if (g_keywords == 1) { cp.immersion = 0.5; cp.eps_walls = 1; cp.wall_eps = 1; }
+  if (g_keywords == 1) { cp.immersion = 0.5; cp.eps_walls = 1; cp.wall_porosity = 1; }
   if (g_keywords == 2) cp.pressure_form = 1;
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   double gx[3 * NG], gv[3 * NG] = {0}, gr[NG], om[3 * NG], f[3 * NG], m[NG];

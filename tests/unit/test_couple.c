@@ -228,7 +228,7 @@ static void momentum_exchange(int dim, int drag, int torque) {
   sphdem_couple_params cp;
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = drag; cp.mu = 1e-3; cp.torque = torque; cp.immersion = g_immersion;
-  cp.wall_eps = g_wall_eps;
+  cp.wall_porosity = g_wall_eps;
   SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
   SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
@@ -567,7 +567,7 @@ static void bed_at_rest(void) {
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = getenv("BED_DRAG") ? atoi(getenv("BED_DRAG")) : SPHDEM_DRAG_ERGUN_WENYU; cp.mu = 1e-3;
   if (getenv("BED_SUPERFICIAL")) cp.superficial = atoi(getenv("BED_SUPERFICIAL"));
-  cp.wall_eps = getenv("BED_WALLEPS") ? atoi(getenv("BED_WALLEPS")) : 1; /* as recorded in the note above */
+  cp.wall_porosity = getenv("BED_WALLEPS") ? atoi(getenv("BED_WALLEPS")) : 1; /* as recorded in the note above */
   if (getenv("BED_EPSWALLS")) cp.eps_walls = atoi(getenv("BED_EPSWALLS"));
   if (getenv("BED_HCF")) cp.hc = atof(getenv("BED_HCF")) * p.h;
   cp.pressure_form = g_bed_case ? g_bed_pform : getenv("BED_PFORM") ? atoi(getenv("BED_PFORM")) : 0;
