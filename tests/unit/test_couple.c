@@ -3,7 +3,7 @@
  * coupling off == bit-identical to the uncoupled run, argument errors naming the field. */
 #include <math.h>
 #include "couple_bodies.h"
-#include "scene.h"
+#include "couple_bed.h"
 #include "testlib.h"
 
 static double urand(void) { return rand() / (RAND_MAX + 1.0); }
@@ -13,12 +13,6 @@ static int cmp_pair(const void *a, const void *b) {
   if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
   if (x[1] != y[1]) return x[1] < y[1] ? -1 : 1;
   return 0;
-}
-
-static void base_params(sphdem_params *p, int dim) {
-  sphdem_params_default(p);
-  p->dim = dim; p->dx = 0.01; p->h = 0.013; p->rho0 = 1000; p->c0 = 10; p->skin = 0.003;
-  p->visc = SPHDEM_VISC_ARTIFICIAL; p->alpha = 0.05;
 }
 
 static sphdem_ctx make_ctx(const sphdem_params *p) {
@@ -200,13 +194,6 @@ static void drag_laws(void) {
 }
 
 /* ---- momentum exchange, forces ------------------------------------------------------------------------- */
-static void tank_scene(sphdem_params *p, scene *s, int dim) {
-  base_params(p, dim);
-  p->dx = 0.005; p->h = 1.3 * p->dx; p->skin = 0.3 * p->dx; p->c0 = 10 * sqrt(9.81 * 0.1);
-  p->gravity[dim - 1] = -9.81; p->visc = SPHDEM_VISC_MORRIS; p->mu = 1e-3;
-  scene_tank(s, p, 0.1, 0.05, 0.15, 0.1, 0.1, 3);
-}
-
 static double g_immersion = 0.0; /* immersion keyword of the momentum_exchange cases */
 static int g_wall_eps = 0;        /* wall_porosity fluid (1) in the momentum_exchange cases */
 
@@ -339,69 +326,6 @@ static void disabled_identical(int dim) {
          dim, nf[0]);
 }
 
-/* ---- packed bed at rest: how eps enters eqs 6-7 (exploration, not in the default run) -----------------------
- * KNOWN FAILURE with the defaults (pressure_form mass; see bed_floating for pressure_form volume), run with
- * SPHDEM_COUPLE_BED=1 or BED_ONLY=1 (the bed alone) (knobs BED_PFORM, BED_STEPS, BED_DELTA, BED_DRAG, BED_SUPERFICIAL,
- * BED_NOGRAINS, BED_WALLEPS, BED_EPSWALLS, BED_TRACE): over 1000 steps the fluid at the bed's corners with the
- * walls accelerates into the walls (vmax ~0.1 m/s vs 6e-3 without grains), with or without superficial density
- * and drag (commit 1df9a2f). With BED_EPSWALLS=1 (eps_walls, commit f552615) the bed's porosity
- * is uniform up to the walls (0.748 beside them, 0.749 inside), Archimedes 0.993, pressure error 5.9 %, but vmax
- * still grows about twofold per 100 steps (5.1e-3 at 100, 6.4e-2 at 600), also with BED_SUPERFICIAL=0 and
- * BED_DELTA=0.
- * Measured 2026-11-24, commit beec234 (knobs BED_DTF: time step in h / (1.2 c0), default 0.2; BED_MU: fluid viscosity; BED_HCF: hc / h;
- * BED_INSET / BED_LIFT: grains kept that far from the side walls / lifted off the floor), all with
- * BED_EPSWALLS=1, vmax after 600 steps (0.065 s):
- *   - half the time step, 1200 steps: vmax and ke the same to 4 digits at the same time: the growth is a
- *     property of the spatial discretisation, not of the time integration;
- *   - viscosity 1e-6 / 1e-3 / 1e-2 Pa s: 6.5e-2 / 6.4e-2 / 6.2e-2 (not the viscous terms);
- *   - a bed away from the side walls (inset 15 mm), lifted 20 mm, or both: 5.8e-2 / 5.8e-2 / 4.5e-2, fastest
- *     fluid at the bed's edges: not the walls; it starts where the porosity changes;
- *   - without the reaction (eq 33 skipped, a temporary switch): vmax stays 4e-3 to 1.2e-2, no growth (but the
- *     pressure is off by 14 %, as it must be without the reaction);
- *   - a pairwise reaction (each fluid particle gets back its own term of eqs 28 and 30, its own theta_a and
- *     v_a instead of the Shepard averages around the grain; same grain forces, same momentum balance; tried
- *     and not kept): 5.3e-2, so the reaction's second smoothing is not the cause;
- *   - hc = 0.6 / 0.8 / 1 / 1.5 / 2 h: 7.1e-3 (no growth, but Archimedes 0.92) / 3.3e-2 / 6.4e-2 / 8.0e-2 /
- *     8.8e-2.
- *   Hypothesis tested and not confirmed: that the scheme lacks a discrete energy balance once eps depends on
- *   position (the EOS P(rho_bar / eps(x)) changes a particle's internal energy as it moves through a porosity
- *   gradient, and no force does the matching work). An energy-consistent (variational) prototype was written
- *   and tried, then not kept. It used -sum_b m_b (eps_a P_a / rho_a^2 + eps_b P_b / rho_b^2) grad W plus
- *   V_a P_a grad eps_a (grad eps_a from eq 26) on the fluid, and the exact pairwise opposite
- *   V_j sum_a V_a P_a grad_a W_aj on the grains. The floating bed (inset 15 mm, lifted 20 mm) still grew:
- *   vmax 5.7e-2 after 600 steps. The bed on the floor got worse (1.1e-1, and Archimedes wrong: that form
- *   has no Shepard correction and its grain sum misses the walls).
- *   More knobs: BED_RELAX=N (the water alone first, N steps, velocities zeroed every 20), BED_DAMP=N (with the
- *   bed, N steps, velocities zeroed every 20; prints the drift and the fastest particles), BED_SHIFT=f and
- *   BED_JITTER=f (the grain lattice shifted by f dx, or each grain moved by up to +-f dx per axis).
- *   - The growth saturates. vmax is 0.10 / 0.12 / 0.09 m/s at 1000 / 1100 / 1500 steps, and ke levels off
- *     at 1.6e-4 J after ~1200 steps (0.13 s). That is 3e-4 of the water's rho g H V scale, and the weak
- *     viscosity does not take it out. So it is not a runaway.
- *   - The tank without grains also leaves its lattice, later: vmax 6e-3 at 1000 steps, 5.0e-2 at 1500
- *     (ke 5.6e-5 J). After BED_RELAX=2000 the water alone stays quiet for 1000 steps (ke <= 8.5e-7 J).
- *     With the bed, BED_RELAX=2000 changes nothing: 6.49e-2 at 600 steps. The bed drives the flow.
- *   - BED_DAMP shows that the bed has no rest state near the lattice. With velocities zeroed every 20
- *     steps, the largest acceleration stays at 0.48-0.69 m/s^2 and grows as the particles drift (max
- *     displacement 1.8e-5 m at 200 steps, 1.3e-4 m at 2000): a negative stiffness. The drifting particles are
- *     the two columns at each vertical edge of the tank inside the bed: the corner column (0.5 dx from both
- *     walls) moves up and the diagonal one (1.5 dx) moves down, over the whole bed height. The floating bed
- *     drifts the same way at its own vertical edges.
- *   - The test puts the grains on the fluid particles (both lattices at (i + 1/2) dx). Shifting them by
- *     dx/4 or dx/2, or jittering them by up to 0.3 dx, makes it worse: vmax 0.17 / 0.26 / 0.13 m/s at 1000
- *     steps, against 0.10.
- *   Cause (2026-12-01, commit 5c63aae): the mass form of eq 9 (m_b P_b / rho_b^2 with m_b = eps_b m_0) weights the pressure gradient
- *   with the neighbours' porosity (-<1/eps> grad P / rho instead of -grad P / (eps_a rho)), so the columns at the
- *   bed's edges do not balance (water weight + reaction). BED_PFORM=1 (keyword pressure_form volume,
- *   -V_a V_b (P_a + P_b) grad W) removes it wherever the bed's edges are in the water: BED_INSET=0.015 with or
- *   without BED_LIFT=0.02 gives vmax 5.5e-3 / ke 1.7e-7 J at 600 steps, BED_NOGRAINS=1 5.5e-3 / 9e-8 J (the default-run
- *   test bed_floating asserts it). Against the side walls (no inset) it stays 5.4e-2: there eq 26 (cut kernel) and
- *   eq 33 (shared among fewer particles) disagree. A porosity from eq 33's weights (V_j / sigma_j in eq 26; a
- *   prototype, not kept) made the side columns quiet (ke 1e-6 J) but the bottom-corner particles (three walls)
- *   ran into the corner and left the tank at ~1000 steps (2 m/s), also with sigma_j floored at 0.3 or 0.5.
- * Grains held fixed on a lattice in the lower half of a 3D tank (solid fraction ~0.26 in the bed). The fluid is
- * uploaded consistently with the superficial formulation: rho = eps rho_hydro, m = rho V_lattice (so m/rho is
- * the mixture volume of the lattice). Then the fluid must stay at rest, the pressure must stay hydrostatic in
- * the intrinsic density (P(rho/eps)), and each grain feels Archimedes' rho_f V g. */
 /* Keyword immersion: grains at rest in still water (3D tank, surface z = 0.1). A grain deep in the water (far from
  * walls, or beside a wall: the wall volume is not counted against it) feels bit-identically the force it feels
  * without the keyword; a grain just above the surface, touched by the top fluid layer, feels a share of it. */
@@ -431,20 +355,6 @@ static void immersion_forces(void) {
   TEST_ASSERT(fabs(f[1][8]) < 0.8 * fabs(f[0][8]) && f[0][8] * f[1][8] >= 0,
               "immersion 0.5: a grain above the surface feels a share of the force (%.3e of %.3e)", f[1][8], f[0][8]);
   scene_free(&s);
-}
-
-/* Grains on a simple-cubic lattice of spacing a = dx, radius 0.39 a, filling 0 < x < 0.1, 0 < y < 0.05,
- * 0 < z < 0.05 of the tank (solid fraction 4/3 pi 0.39^3 = 0.2485). Returns the count; arrays malloc'ed. */
-static int bed_grains(double a, double **gx, double **gv, double **gr) {
-  int n1 = (int)lround(0.1 / a), n2 = (int)lround(0.05 / a), nz = (int)lround(0.05 / a), ng = 0;
-  *gx = malloc(24 * (size_t)n1 * n2 * nz); *gv = calloc(3 * (size_t)n1 * n2 * nz, 8); *gr = malloc(8 * (size_t)n1 * n2 * nz);
-  for (int k = 0; k < nz; k++)
-    for (int j = 0; j < n2; j++)
-      for (int i = 0; i < n1; i++, ng++) {
-        (*gx)[3 * ng] = (i + 0.5) * a; (*gx)[3 * ng + 1] = (j + 0.5) * a; (*gx)[3 * ng + 2] = (k + 0.5) * a;
-        (*gr)[ng] = 0.39 * a;
-      }
-  return ng;
 }
 
 /* A coupled context on the tank scene with the grains, after one rate evaluation; eps (nf) gets eq 26. */
@@ -552,166 +462,7 @@ static void seed_porosity(void) {
   scene_free(&s);
 }
 
-/* The packed bed's scene: 0 = the env knobs (exploration); > 0 = the default-run case of bed_floating (below). */
-static int g_bed_case = 0, g_bed_pform = 0;
-static double g_bed_vmax, g_bed_perr, g_bed_buo;
-
-static void bed_at_rest(void) {
-  sphdem_params p;
-  scene s;
-  tank_scene(&p, &s, 3);
-  p.delta = getenv("BED_DELTA") ? atof(getenv("BED_DELTA")) : 0.1; p.delta_hydro = 1;
-  if (getenv("BED_MU")) p.mu = atof(getenv("BED_MU"));
-  sphdem_ctx c = make_ctx(&p);
-  sphdem_couple_params cp;
-  sphdem_couple_params_default(&cp);
-  cp.enabled = 1; cp.drag = getenv("BED_DRAG") ? atoi(getenv("BED_DRAG")) : SPHDEM_DRAG_ERGUN_WENYU; cp.mu = 1e-3;
-  if (getenv("BED_SUPERFICIAL")) cp.superficial = atoi(getenv("BED_SUPERFICIAL"));
-  cp.wall_porosity = getenv("BED_WALLEPS") ? atoi(getenv("BED_WALLEPS")) : 1; /* as recorded in the note above */
-  if (getenv("BED_EPSWALLS")) cp.eps_walls = atoi(getenv("BED_EPSWALLS"));
-  if (getenv("BED_HCF")) cp.hc = atof(getenv("BED_HCF")) * p.h;
-  cp.pressure_form = g_bed_case ? g_bed_pform : getenv("BED_PFORM") ? atoi(getenv("BED_PFORM")) : 0;
-  SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
-  /* grains: lattice spacing dx, radius 0.39 dx, in 0 < z < 0.05 (fluid depth 0.1) */
-  double *gx, *gv, *gr, r = 0.39 * p.dx;
-  int ng = bed_grains(p.dx, &gx, &gv, &gr);
-  if (getenv("BED_NOGRAINS")) ng = 0; /* exploration: the same tank without the bed */
-  if (getenv("BED_SHIFT")) /* exploration: the grain lattice shifted against the fluid lattice (fraction of dx) */
-    for (int j = 0; j < 3 * ng; j++) gx[j] += atof(getenv("BED_SHIFT")) * p.dx;
-  if (getenv("BED_JITTER")) { /* exploration: each grain moved by up to +-JITTER dx per axis */
-    srand(7);
-    for (int j = 0; j < 3 * ng; j++) gx[j] += atof(getenv("BED_JITTER")) * p.dx * (2.0 * rand() / RAND_MAX - 1.0);
-  }
-  if (g_bed_case || getenv("BED_INSET") || getenv("BED_LIFT")) { /* keep the grains away from the side walls / floor */
-    double in = getenv("BED_INSET") ? atof(getenv("BED_INSET")) : 0, lift = getenv("BED_LIFT") ? atof(getenv("BED_LIFT")) : 0;
-    if (g_bed_case) { in = 0.015; lift = 0.02; }
-    int k = 0;
-    for (int j = 0; j < ng; j++) {
-      double *q = gx + 3 * j;
-      if (q[0] < in || q[0] > 0.1 - in || q[1] < in || q[1] > 0.05 - in) continue;
-      gx[3 * k] = q[0]; gx[3 * k + 1] = q[1]; gx[3 * k + 2] = q[2] + lift; gr[k] = gr[j]; k++;
-    }
-    ng = k;
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_walls(c, s.nw, s.wx, s.wv, NULL, s.wmass));
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  if (getenv("BED_RELAX")) { /* exploration: the water alone first, its velocities zeroed every 20 steps */
-    int nrelax = atoi(getenv("BED_RELAX"));
-    double dtr = 0.2 * p.h / (1.2 * p.c0), *st = malloc(8 * SPHDEM_NSTATE * (size_t)s.nf);
-    SPHDEM_CHECK_RC(c, sphdem_set_grains(c, 0, gx, gv, gr, NULL));
-    SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-    for (int n = 1; n <= nrelax; n++) {
-      SPHDEM_CHECK_RC(c, scene_step(c, dtr));
-      if (n % 20 == 0 || n == nrelax) {
-        SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, s.x, s.v, s.rho, NULL, st));
-        memset(s.v, 0, 24 * (size_t)s.nf);
-        SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-        SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-      }
-    }
-    free(st);
-    printf("    relaxed the water alone for %d steps\n", nrelax);
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-  double *eps = malloc(8 * (size_t)s.nf), *pr = malloc(8 * (size_t)s.nf), *x = malloc(24 * (size_t)s.nf);
-  SPHDEM_CHECK_RC(c, sphdem_get_porosity(c, eps));
-  if (getenv("BED_TRACE")) { /* porosity in the bed by distance to the nearest side wall or the floor */
-    double sum[8] = {0}; int cnt[8] = {0};
-    for (int i = 0; i < s.nf; i++) {
-      const double *xi = s.x + 3 * i;
-      if (xi[2] > 0.04) continue;
-      double dmin = fmin(fmin(fmin(xi[0], 0.1 - xi[0]), fmin(xi[1], 0.05 - xi[1])), xi[2]);
-      int k = (int)(dmin / p.dx); if (k > 7) k = 7;
-      sum[k] += eps[i]; cnt[k]++;
-    }
-    for (int k = 0; k < 8; k++) if (cnt[k]) printf("    eps at %d-%d dx from a wall: %.4f (%d)\n", k, k + 1, sum[k] / cnt[k], cnt[k]);
-  }
-  double emin = 1;
-  for (int i = 0; i < s.nf; i++) {
-    double e = cp.superficial ? fmax(eps[i], cp.eps_min) : 1.0;
-    emin = fmin(emin, e);
-    s.rho[i] *= e;
-    s.mass[i] *= e;
-  }
-  SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-  SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-  double dt = (getenv("BED_DTF") ? atof(getenv("BED_DTF")) : 0.2) * p.h / (1.2 * p.c0), vscale = sqrt(9.81 * 0.1);
-  int nsteps = g_bed_case ? 400 : getenv("BED_STEPS") ? atoi(getenv("BED_STEPS")) : 300;
-  if (getenv("BED_DAMP")) { /* exploration: with the bed, velocities zeroed every 20 steps: is there a rest state? */
-    int nd = atoi(getenv("BED_DAMP"));
-    double *x0 = malloc(24 * (size_t)s.nf);
-    memcpy(x0, s.x, 24 * (size_t)s.nf);
-    for (int n = 1; n <= nd; n++) {
-      SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-      SPHDEM_CHECK_RC(c, scene_step(c, dt));
-      if (n % 20 == 0) {
-        sphdem_stats sd;
-        SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &sd));
-        SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, s.x, s.v, s.rho, NULL, NULL));
-        double dmax = 0;
-        for (int i = 0; i < 3 * s.nf; i++) dmax = fmax(dmax, fabs(s.x[i] - x0[i]));
-        if (n % 200 == 0) printf("    damped step %d: vmax before zeroing %.2e, amax %.2e, max displacement %.2e m\n", n, sd.vmax, sd.amax, dmax);
-        if (n == nd)
-          for (int i = 0; i < s.nf; i++) {
-            double sp = sqrt(s.v[3*i]*s.v[3*i] + s.v[3*i+1]*s.v[3*i+1] + s.v[3*i+2]*s.v[3*i+2]);
-            if (sp > 0.6 * sd.vmax)
-              printf("      fast: x %.4f %.4f %.4f v %+.2e %+.2e %+.2e moved %+.1e %+.1e %+.1e\n", s.x[3*i], s.x[3*i+1],
-                     s.x[3*i+2], s.v[3*i], s.v[3*i+1], s.v[3*i+2], s.x[3*i]-x0[3*i], s.x[3*i+1]-x0[3*i+1], s.x[3*i+2]-x0[3*i+2]);
-          }
-        memset(s.v, 0, 24 * (size_t)s.nf);
-        SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s.nf, s.tag, s.x, s.v, s.rho, s.mass, NULL));
-        SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-        SPHDEM_CHECK_RC(c, sphdem_compute_rates(c));
-      }
-    }
-    free(x0);
-  }
-  for (int n = 1; n <= nsteps; n++) {
-    SPHDEM_CHECK_RC(c, sphdem_set_grains(c, ng, gx, gv, gr, NULL));
-    SPHDEM_CHECK_RC(c, scene_step(c, dt));
-    if (getenv("BED_TRACE") && n % 100 == 0) {
-      sphdem_stats s1;
-      SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &s1));
-      printf("    step %d: vmax %.2e ke %.3e\n", n, s1.vmax, s1.ke);
-    }
-  }
-  sphdem_stats st;
-  SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &st));
-  SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, x, NULL, NULL, pr, NULL));
-  if (getenv("BED_TRACE")) {
-    double *vv = malloc(24 * (size_t)s.nf);
-    SPHDEM_CHECK_RC(c, sphdem_get_fluid(c, NULL, vv, NULL, NULL, NULL));
-    for (int i = 0; i < s.nf; i++) {
-      double sp = sqrt(vv[3*i]*vv[3*i] + vv[3*i+1]*vv[3*i+1] + vv[3*i+2]*vv[3*i+2]);
-      if (sp > 0.5 * st.vmax) printf("    fast: x %.4f %.4f %.4f |v| %.3e eps %.3f\n", x[3*i], x[3*i+1], x[3*i+2], sp, eps[i]);
-    }
-    free(vv);
-  }
-  double *f = malloc(24 * (size_t)ng), buo = 0, V = 4.0 / 3 * M_PI * r * r * r, perr = 0;
-  SPHDEM_CHECK_RC(c, sphdem_get_grain_forces(c, f, NULL, NULL, NULL));
-  int nin = 0;
-  for (int j = 0; j < ng; j++)
-    if (gx[3 * j + 2] < 0.035 && gx[3 * j] > 0.015 && gx[3 * j] < 0.085 && gx[3 * j + 1] > 0.015 && gx[3 * j + 1] < 0.035) {
-      buo += f[3 * j + 2] / (1000 * V * 9.81); nin++;
-    }
-  buo = nin ? buo / nin : 1.0;
-  for (int i = 0; i < s.nf; i++) perr = fmax(perr, fabs(pr[i] - 1000 * 9.81 * (0.1 - x[3 * i + 2])) / (1000 * 9.81 * 0.1));
-  printf("  3D packed bed at rest (min eps %.3f): after %d steps vmax %.2e m/s (%.2f%% of sqrt(gH)), max |P - rho0 g "
-         "(H - z)| %.2f%% of rho0 g H, interior grains feel %.4f rho_f V g (mean of %d)\n", emin, nsteps, st.vmax,
-         100 * st.vmax / vscale, 100 * perr, buo, nin);
-  g_bed_vmax = st.vmax; g_bed_perr = perr; g_bed_buo = buo;
-  if (!g_bed_case) {
-    TEST_ASSERT(st.vmax < 0.01 * vscale, "packed bed: the fluid stays at rest (vmax %.2e)", st.vmax);
-    TEST_ASSERT(perr < 0.05, "packed bed: pressure hydrostatic within 5%% of rho0 g H (%.2f%%)", 100 * perr);
-    TEST_ASSERT(fabs(buo - 1) < 0.02, "packed bed: grains feel Archimedes' force within 2%% (%.4f)", buo);
-  }
-  free(gx); free(gv); free(gr); free(eps); free(pr); free(x); free(f);
-  scene_free(&s);
-  sphdem_destroy(&c);
-}
-
-/* Keyword pressure_form volume: a packed bed at rest stays at rest. The bed of bed_at_rest kept 15 mm from the side
+/* Keyword pressure_form volume: a packed bed at rest stays at rest. The bed of couple_bed.h kept 15 mm from the side
  * walls and lifted 20 mm off the floor (its edges are all inside the water), 400 steps (0.043 s). With the mass
  * form of eq 9 the masses m = eps m_0 weight the pressure gradient with the neighbours' porosity, the columns at
  * the bed's vertical edges are out of balance, and the flow grows (measured 2.4e-2 m/s at 400 steps, printed, not
@@ -719,13 +470,14 @@ static void bed_at_rest(void) {
  * grains (5.3e-3 m/s at 400 steps, the fastest particles at the free surface in both). Bound: 1 % of sqrt(g H). */
 static void bed_floating(void) {
   double v[2], pe[2], bu[2], vscale = sqrt(9.81 * 0.1);
-  g_bed_case = 1;
   for (int f = 0; f <= 1; f++) {
-    g_bed_pform = f;
-    bed_at_rest();
-    v[f] = g_bed_vmax; pe[f] = g_bed_perr; bu[f] = g_bed_buo;
+    bed_opts o;
+    bed_result r;
+    bed_opts_default(&o);
+    o.inset = 0.015; o.lift = 0.02; o.steps = 400; o.pressure_form = f;
+    bed_run(&o, test_device(), &r);
+    v[f] = r.vmax; pe[f] = r.perr; bu[f] = r.buo;
   }
-  g_bed_case = 0;
   printf("  floating packed bed, 400 steps: pressure_form mass vmax %.2e m/s, volume vmax %.2e m/s (bound %.2e); "
          "volume: pressure error %.2f%% of rho0 g H, Archimedes %.4f\n", v[0], v[1], 0.01 * vscale, 100 * pe[1], bu[1]);
   TEST_ASSERT(v[1] < 0.01 * vscale, "pressure_form volume: the floating packed bed stays at rest (vmax %.2e)", v[1]);
@@ -826,7 +578,6 @@ static void huge_hc(void) {
 }
 
 int main(void) {
-  if (getenv("BED_ONLY")) { bed_at_rest(); return test_summary("couple"); } /* exploration: the packed bed alone */
   double ratios[] = {0.2, 0.5, 1.0, 2.0, 3.0};
   for (int dim = 2; dim <= 3; dim++)
     for (int per = 0; per <= 1; per++)
@@ -852,7 +603,6 @@ int main(void) {
   seed_porosity();
   for (int dim = 2; dim <= 3; dim++) disabled_identical(dim);
   bed_floating();
-  if (getenv("SPHDEM_COUPLE_BED")) bed_at_rest();
   argument_errors();
   huge_hc();
   return test_summary("couple");
