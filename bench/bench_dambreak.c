@@ -23,19 +23,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 #include "scene.h"
+#include "bench_util.h"
 #include "sphdem.h"
 
-static double wtime(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void usage(const char *prog) {
   fprintf(stderr,
@@ -93,37 +85,17 @@ int main(int argc, char **argv) {
   int res = 0, steps = 100, warmup = 5, threads = 0, dim = 2;
   int lig_split = 0, mpmode = 0;
   const char *devname = "cpu", *lig = NULL;
-  for (int i = 1; i < argc; i++) {
-    const char *k = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-    if (!strcmp(k, "-h") || !strcmp(k, "--help")) { usage(argv[0]); return 0; }
-    if (!v) { usage(argv[0]); return 2; }
-    if (!strcmp(k, "--n")) ntarget = atof(v);
-    else if (!strcmp(k, "--res")) res = atoi(v);
-    else if (!strcmp(k, "--steps")) steps = atoi(v);
-    else if (!strcmp(k, "--warmup")) warmup = atoi(v);
-    else if (!strcmp(k, "--device")) devname = v;
-    else if (!strcmp(k, "--threads")) threads = atoi(v);
-    else if (!strcmp(k, "--dim")) dim = atoi(v);
-    else if (!strcmp(k, "--width")) width = atof(v);
-    else if (!strcmp(k, "--skin")) skin_h = atof(v);
-    else if (!strcmp(k, "--tensile")) tensile = atof(v);
-    else if (!strcmp(k, "--alpha")) alpha = atof(v);
-    else if (!strcmp(k, "--write-liggghts")) lig = v;
-    else if (!strcmp(k, "--liggghts-split")) lig_split = atoi(v);
-    else if (!strcmp(k, "--mp")) mpmode = atoi(v);
-    else { usage(argv[0]); return 2; }
-    i++;
-  }
-  sphdem_device dev = !strcmp(devname, "gpu") ? SPHDEM_DEVICE_GPU
-                      : !strcmp(devname, "auto") ? SPHDEM_DEVICE_AUTO : SPHDEM_DEVICE_CPU;
-  if (strcmp(devname, "gpu") && strcmp(devname, "auto") && strcmp(devname, "cpu")) { usage(argv[0]); return 2; }
+  const bench_opt opts[] = {{"--n", 'd', &ntarget}, {"--res", 'i', &res}, {"--steps", 'i', &steps},
+                            {"--warmup", 'i', &warmup}, {"--device", 's', &devname}, {"--threads", 'i', &threads},
+                            {"--dim", 'i', &dim}, {"--width", 'd', &width}, {"--skin", 'd', &skin_h},
+                            {"--tensile", 'd', &tensile}, {"--alpha", 'd', &alpha}, {"--write-liggghts", 's', &lig},
+                            {"--liggghts-split", 'i', &lig_split}, {"--mp", 'i', &mpmode}};
+  int parsed = bench_parse(argc, argv, opts, (int)(sizeof opts / sizeof opts[0]));
+  if (parsed) { usage(argv[0]); return parsed == 1 ? 0 : 2; }
+  sphdem_device dev;
+  if (bench_device(devname, &dev)) { usage(argv[0]); return 2; }
   if ((dim != 2 && dim != 3) || steps < 1 || warmup < 0 || width <= 0) { usage(argv[0]); return 2; }
-#ifdef _OPENMP
-  if (threads > 0) omp_set_num_threads(threads);
-  threads = omp_get_max_threads();
-#else
-  threads = 1;
-#endif
+  threads = bench_threads(threads);
 
   /* fluid count: 2D res * 2res, 3D res * (width res) * 2res */
   if (res <= 0) res = dim == 2 ? (int)lround(sqrt(ntarget / 2.0)) : (int)lround(cbrt(ntarget / (2.0 * width)));

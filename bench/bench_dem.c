@@ -26,18 +26,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
+#include "bench_util.h"
 #include "sphdem.h"
 
-static double wtime(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static uint64_t rng_state = 88172645463325252ULL;
 static double urand(void) { /* xorshift64, uniform in (0, 1) */
@@ -61,10 +53,8 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--threads")) threads = atoi(v), k++;
     else if (!strcmp(a, "--spacing")) spacing = atof(v), k++;
     else if (!strcmp(a, "--shuffle")) shuffle = 1;
-    else if (!strcmp(a, "--device")) {
-      dev = !strcmp(v, "gpu") ? SPHDEM_DEVICE_GPU : !strcmp(v, "auto") ? SPHDEM_DEVICE_AUTO : SPHDEM_DEVICE_CPU;
-      k++;
-    } else if (!strcmp(a, "--algo")) algo = !strcmp(v, "pair") ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, k++;
+    else if (!strcmp(a, "--device")) bench_device(v, &dev), k++;
+    else if (!strcmp(a, "--algo")) algo = !strcmp(v, "pair") ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, k++;
     else if (!strcmp(a, "--model")) liggghts = !strcmp(v, "liggghts"), k++;
     else {
       fprintf(stderr, "usage: %s [--n N] [--steps S] [--warmup W] [--device cpu|gpu|auto] [--algo pair|particle] "
@@ -72,12 +62,7 @@ int main(int argc, char **argv) {
       return 2;
     }
   }
-#ifdef _OPENMP
-  if (threads > 0) omp_set_num_threads(threads);
-  threads = omp_get_max_threads();
-#else
-  threads = 1;
-#endif
+  threads = bench_threads(threads);
   const double d = 0.005, r = 0.5 * d, a = spacing * d, rho = 2500.0, dt = 2e-6, g = 9.81;
   int nx = (int)floor(pow(ntarget, 1.0 / 3.0) + 0.5), nz = (int)floor(ntarget / ((double)nx * nx) + 0.5);
   if (nx < 2) nx = 2;

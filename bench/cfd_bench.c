@@ -21,21 +21,27 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
+#include "bench_util.h"
 #include "sphdem.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
 
-static double wtime(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+
+/* half a velocity-Verlet kick: contact, drag and pressure-gradient forces, gravity -g along z; then, with move,
+ * the drift x += dt v */
+static void kick(int n, double *x, double *v, double *om, const double *f, const double *fd, const double *fp,
+                 const double *tq, double m, double I, double g, double dt, int move) {
+#pragma omp parallel for
+  for (int i = 0; i < n; i++)
+    for (int a = 0; a < 3; a++) {
+      double acc = (f[3 * i + a] + fd[3 * i + a] + fp[3 * i + a]) / m - (a == 2 ? g : 0.0);
+      v[3 * i + a] += 0.5 * dt * acc;
+      om[3 * i + a] += 0.5 * dt * tq[3 * i + a] / I;
+      if (move) x[3 * i + a] += dt * v[3 * i + a];
+    }
 }
 
 static void usage(const char *prog) {
@@ -51,30 +57,15 @@ int main(int argc, char **argv) {
   double ntarget = 1e5, U = 2.5;
   int steps = 20, warmup = 10, every = 10, threads = 0;
   const char *devname = "cpu";
-  for (int i = 1; i < argc; i++) {
-    const char *k = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-    if (!strcmp(k, "-h") || !strcmp(k, "--help")) { usage(argv[0]); return 0; }
-    if (!v) { usage(argv[0]); return 2; }
-    if (!strcmp(k, "--n")) ntarget = atof(v);
-    else if (!strcmp(k, "--steps")) steps = atoi(v);
-    else if (!strcmp(k, "--warmup")) warmup = atoi(v);
-    else if (!strcmp(k, "--every")) every = atoi(v);
-    else if (!strcmp(k, "--device")) devname = v;
-    else if (!strcmp(k, "--threads")) threads = atoi(v);
-    else if (!strcmp(k, "--u")) U = atof(v);
-    else { usage(argv[0]); return 2; }
-    i++;
-  }
-  if (strcmp(devname, "gpu") && strcmp(devname, "auto") && strcmp(devname, "cpu")) { usage(argv[0]); return 2; }
+  const bench_opt opts[] = {{"--n", 'd', &ntarget}, {"--steps", 'i', &steps}, {"--warmup", 'i', &warmup},
+                            {"--every", 'i', &every}, {"--device", 's', &devname}, {"--threads", 'i', &threads},
+                            {"--u", 'd', &U}};
+  int parsed = bench_parse(argc, argv, opts, (int)(sizeof opts / sizeof opts[0]));
+  if (parsed) { usage(argv[0]); return parsed == 1 ? 0 : 2; }
+  sphdem_device dev;
+  if (bench_device(devname, &dev)) { usage(argv[0]); return 2; }
   if (steps < 1 || warmup < 1 || every < 1 || ntarget < 8) { usage(argv[0]); return 2; }
-  sphdem_device dev = !strcmp(devname, "gpu") ? SPHDEM_DEVICE_GPU
-                      : !strcmp(devname, "auto") ? SPHDEM_DEVICE_AUTO : SPHDEM_DEVICE_CPU;
-#ifdef _OPENMP
-  if (threads > 0) omp_set_num_threads(threads);
-  threads = omp_get_max_threads();
-#else
-  threads = 1;
-#endif
+  threads = bench_threads(threads);
   const double d = 4e-3, r = 0.5 * d, rhop = 2500.0, g = 9.81, hcell = 12.5e-3;
   const double scale = cbrt(ntarget / 1e6);
   double box[3] = {0.5 * scale, 0.5 * scale, 1.2 * scale};
@@ -152,25 +143,12 @@ int main(int argc, char **argv) {
       if (rc) { fprintf(stderr, "gas: %s\n", sphdem_cfd_last_error(c)); break; }
     }
     double t1 = wtime();
-#pragma omp parallel for
-    for (int i = 0; i < n; i++)
-      for (int a = 0; a < 3; a++) {
-        double acc = (f[3 * i + a] + fd[3 * i + a] + fp[3 * i + a]) / m - (a == 2 ? g : 0.0);
-        v[3 * i + a] += 0.5 * dt * acc;
-        om[3 * i + a] += 0.5 * dt * tq[3 * i + a] / I;
-        x[3 * i + a] += dt * v[3 * i + a];
-      }
+    kick(n, x, v, om, f, fd, fp, tq, m, I, g, dt, 1);
     double t2 = wtime();
     rc = sphdem_dem_compute(dem, n, tag, x, v, om, rad, mass, NULL, dt, 1, f, tq, NULL);
     double t3 = wtime();
     if (rc) { fprintf(stderr, "dem: %s\n", sphdem_dem_last_error(dem)); break; }
-#pragma omp parallel for
-    for (int i = 0; i < n; i++)
-      for (int a = 0; a < 3; a++) {
-        double acc = (f[3 * i + a] + fd[3 * i + a] + fp[3 * i + a]) / m - (a == 2 ? g : 0.0);
-        v[3 * i + a] += 0.5 * dt * acc;
-        om[3 * i + a] += 0.5 * dt * tq[3 * i + a] / I;
-      }
+    kick(n, x, v, om, f, fd, fp, tq, m, I, g, dt, 0);
     double t4 = wtime();
     t_dem += t3 - t2;
     t_int += (t2 - t1) + (t4 - t3);

@@ -10,26 +10,22 @@ particle shifting), at 20, 40 and 80 particles across the two-phase Poiseuille c
 Runs `verify_mp_poiseuille accuracy 5.0` (tests/verification/test_mp_poiseuille.c), which writes
 mp_accuracy.csv; draws OUT/mp_accuracy.png (error against cost, one line per integrator and term set).
 """
-import argparse
 import csv
 import os
 import subprocess
-import sys
+
+import benchlib
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--build", default="build")
-    ap.add_argument("--out", default=os.path.join("bench", "out"))
+    ap = benchlib.parser(__doc__)
     ap.add_argument("--threads", default="2")
     ap.add_argument("--csv", help="plot an existing mp_accuracy.csv instead of running")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     path = a.csv
     if not path:
-        exe = os.path.abspath(os.path.join(a.build, "tests", "verify_mp_poiseuille"))
-        if not os.path.exists(exe):
-            sys.exit("no %s: build the project first" % exe)
+        exe = benchlib.test_exe(a.build, "verify_mp_poiseuille")
         subprocess.run([exe, "accuracy", "5.0"], cwd=a.out, check=True,
                        env=dict(os.environ, OMP_NUM_THREADS=a.threads))
         path = os.path.join(a.out, "mp_accuracy.csv")

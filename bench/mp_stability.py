@@ -18,11 +18,11 @@ variation of the nearest-neighbour distance), interface crossings (tank). c0 = 1
 
 Writes OUT/mp_stability.csv, OUT/mp_stability.md (the table) and OUT/mp_stability.png (chart).
 """
-import argparse
 import itertools
 import os
 import subprocess
-import sys
+
+import benchlib
 
 
 def run(exe, args, wd):
@@ -38,15 +38,11 @@ def run(exe, args, wd):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--build", default="build")
-    ap.add_argument("--out", default=os.path.join("bench", "out"))
+    ap = benchlib.parser(__doc__)
     ap.add_argument("--tend", default="0.5")
     ap.add_argument("--dx", default="0.04")
     a = ap.parse_args()
-    exe = os.path.abspath(os.path.join(a.build, "tests", "verify_static_tank"))
-    if not os.path.exists(exe):
-        sys.exit("no %s: build the project first (cmake --build %s)" % (exe, a.build))
+    exe = benchlib.test_exe(a.build, "verify_static_tank")
     os.makedirs(a.out, exist_ok=True)
     wd = os.path.abspath(os.path.join(a.out, "mp_stability_runs"))
     os.makedirs(wd, exist_ok=True)
