@@ -13,8 +13,13 @@ No experimental data of Sun et al. (2013) are in this repository; He 2018 Fig. 1
 Needs numpy and matplotlib (/usr/bin/python3 on Debian).
 """
 import argparse
+import os
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+import plotlib  # noqa: E402
 
 
 def read(path):
@@ -29,9 +34,7 @@ def main():
     ap.add_argument("-o", "--output", default="fronts.png")
     args = ap.parse_args()
     labels = args.labels or args.files
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = plotlib.pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for path, lab in zip(args.files, labels):
         a = read(path)
@@ -45,14 +48,9 @@ def main():
                       (a["t"][k], a["T"][k], 1e3 * a["x_water"][k], a["Z_water"][k], 1e3 * a["x_beads"][k],
                        a["Z_beads"][k]))
     ax.axhline(4.0, color="grey", lw=0.8, ls=":", label="far wall (x = 200 mm)")
-    ax.set_xlabel("T = t sqrt(2 g / a)")
-    ax.set_ylabel("Z = leading front x / a")
-    ax.set_title("two-phase dam break, a = 50 mm, gate lifted at 0.68 m/s")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(args.output, dpi=120)
-    print("wrote", args.output)
+    plotlib.axes(ax, "T = t sqrt(2 g / a)", "Z = leading front x / a",
+                 "two-phase dam break, a = 50 mm, gate lifted at 0.68 m/s")
+    plotlib.save(fig, args.output)
 
 
 if __name__ == "__main__":

@@ -15,9 +15,13 @@ Parameters default to those of in.settling (d 1 mm, rho_p 2500, water rho_f 1000
 Needs numpy and matplotlib (/usr/bin/python3 on Debian).
 """
 import argparse
+import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+import plotlib  # noqa: E402
 
 
 def ode(d, rhop, rhof, mu, g, tend, dt=1e-6):
@@ -70,9 +74,7 @@ def main():
     vt = v_ode[-1]
     print("Schiller-Naumann ODE: v(%.3f s) = %.5f m/s (Re %.1f)" % (tend, vt, args.rhof * args.d * vt / args.mu))
 
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = plotlib.pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
     ax1.plot(t_ode, v_ode, "k-", lw=2, label="Schiller-Naumann ODE")
     for a, lab in zip(runs, labels):
@@ -96,18 +98,10 @@ def main():
     ax2.axhline(args.rhof * np.pi / 6 * args.d ** 3 * args.g * 1e6, color="k", lw=0.8, ls=":",
                 label="buoyancy rho_f V g")
     ax2.axhline(w_net * 1e6, color="k", lw=0.8, ls="--", label="weight - buoyancy")
-    ax1.set_xlabel("t (s)")
-    ax1.set_ylabel("settling speed (m/s)")
-    ax1.set_title("sphere d = %g mm, rho_p = %g kg/m^3 in water" % (args.d * 1e3, args.rhop))
-    ax1.legend(fontsize=8)
-    ax1.grid(alpha=0.3)
-    ax2.set_xlabel("t (s)")
-    ax2.set_ylabel("upward fluid force on the sphere (uN)")
-    ax2.legend(fontsize=7)
-    ax2.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(args.output, dpi=120)
-    print("wrote", args.output)
+    plotlib.axes(ax1, "t (s)", "settling speed (m/s)",
+                 "sphere d = %g mm, rho_p = %g kg/m^3 in water" % (args.d * 1e3, args.rhop))
+    plotlib.axes(ax2, "t (s)", "upward fluid force on the sphere (uN)", fontsize=7)
+    plotlib.save(fig, args.output)
 
 
 if __name__ == "__main__":

@@ -5,14 +5,14 @@ Hertz-Mindlin and LIGGGHTS hertz models, e = 1 and 0.7, beside the rigid-body gr
 Psi2 = Psi1 - 7, the analytic transitions Psi* and the no-slip (sticking) slope.
 Usage: /usr/bin/python3 tests/verification/plot_dem_oblique.py [build-dir/tests/dem_oblique.csv] [out.png]"""
 import csv
+import os
 import sys
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+import plotlib  # noqa: E402
 
-src = sys.argv[1] if len(sys.argv) > 1 else "dem_oblique.csv"
-out = sys.argv[2] if len(sys.argv) > 2 else "examples/dem_drop/dem_oblique.png"
+plt = plotlib.pyplot()
+src, out = plotlib.src_out("dem_oblique.csv", "examples/dem_drop/dem_oblique.png")
 series = {}
 for r in csv.DictReader(open(src)):
     s = series.setdefault((r["model"], float(r["en_set"])), {"p1": [], "p2": [], "jt": []})
@@ -38,16 +38,7 @@ for m, c in (("hertz_mindlin", "C0"), ("liggghts_hertz", "C3")):
     ax.axvline(pstar[m], color=c, lw=0.8, alpha=0.6)
     bx.axvline(pstar[m], color=c, lw=0.8, alpha=0.6, label="Psi* %s = %.2f" % (m, pstar[m]))
 ax.axhline(0, color="grey", lw=0.5)
-ax.set_xlabel("Psi1 = 2 w_in / (mu (1+e) v_n)")
-ax.set_ylabel("Psi2 = 2 w_out / (mu (1+e) v_n)")
-ax.set_title("contact-point rebound (nu = 0.3, mu = 0.3, solid sphere)")
-ax.legend(fontsize=7)
-ax.grid(alpha=0.3)
-bx.set_xlabel("Psi1")
-bx.set_ylabel("J_t / (mu J_n)")
-bx.set_title("tangential impulse (1 = sliding throughout)")
-bx.legend(fontsize=7)
-bx.grid(alpha=0.3)
-fig.tight_layout()
-fig.savefig(out, dpi=110)
-print("wrote", out)
+plotlib.axes(ax, "Psi1 = 2 w_in / (mu (1+e) v_n)", "Psi2 = 2 w_out / (mu (1+e) v_n)",
+             "contact-point rebound (nu = 0.3, mu = 0.3, solid sphere)", fontsize=7)
+plotlib.axes(bx, "Psi1", "J_t / (mu J_n)", "tangential impulse (1 = sliding throughout)", fontsize=7)
+plotlib.save(fig, out, dpi=110)

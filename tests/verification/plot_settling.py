@@ -3,14 +3,14 @@
 (closed form of data/reference/closed_forms.md, "Single sphere settling").
 Usage: /usr/bin/python3 tests/verification/plot_settling.py [build-dir/tests/settling_v.csv] [out.png]"""
 import csv
+import os
 import sys
 
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+import plotlib  # noqa: E402
 
-src = sys.argv[1] if len(sys.argv) > 1 else "settling_v.csv"
-out = sys.argv[2] if len(sys.argv) > 2 else "settling.png"
+plt = plotlib.pyplot()
+src, out = plotlib.src_out("settling_v.csv", "settling.png")
 cases = {}
 for r in csv.DictReader(open(src)):
     c = cases.setdefault(int(r["case"]), {"d": float(r["d"]), "rho": float(r["rho_p"]), "t": [], "v": [], "ode": [], "u": []})
@@ -24,11 +24,6 @@ for k, c in sorted(cases.items()):
     line, = ax.plot(c["t"], c["v"], "-", lw=2, label=lab + " (SPH-DEM)")
     ax.plot(c["t"], c["ode"], "--", color=line.get_color(), lw=1, label="Schiller-Naumann ODE")
     ax.plot(c["t"], c["u"], ":", color=line.get_color(), lw=1)
-ax.set_xlabel("t after release (ms)")
-ax.set_ylabel("settling velocity (mm/s)")
-ax.set_title("Single sphere settling in water (dotted: fluid velocity at the grain)")
-ax.legend(fontsize=7, ncol=2)
-ax.grid(alpha=0.3)
-fig.tight_layout()
-fig.savefig(out, dpi=120)
-print("wrote", out)
+plotlib.axes(ax, "t after release (ms)", "settling velocity (mm/s)",
+             "Single sphere settling in water (dotted: fluid velocity at the grain)", fontsize=7, ncol=2)
+plotlib.save(fig, out)
