@@ -33,7 +33,8 @@ import sys
 import xml.etree.ElementTree as ET
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from engine_test import compare_cols, read_dump, run, thermo_rows  # noqa: E402  (the shared helpers)
+import engine_test as E  # noqa: E402  (the shared helpers)
+from engine_test import compare_cols, read_dump, run, thermo_rows  # noqa: E402
 
 # the engines differ in dump_modify format syntax
 DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
@@ -41,11 +42,7 @@ DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
 
 
 def must_run(cmd, workdir, script, timeout=120):
-    rc, out = run(cmd, workdir, script, timeout)
-    if rc != 0 or "ERROR" in out:
-        print("FAIL: run in %s exited %d:\n%s" % (workdir, rc, out[-3000:]))
-        sys.exit(1)
-    return out
+    return E.must_run(cmd, workdir, script, timeout=timeout, no_error=True)
 
 
 # ---- the scene: a gas column 3 x 3 x 10 mm, cells of 1 mm, grains of type 1 -------------------------------
@@ -448,25 +445,5 @@ def test_plugin(host, plugin, lmp):
     return 0 if same else 1
 
 
-def main(argv):
-    what = argv[1] if len(argv) > 1 else ""
-    if what == "badkw":
-        return test_badkw(argv[2], argv[3])
-    if what == "particle":
-        return test_particle(argv[2], argv[3])
-    if what == "restart":
-        return test_restart(argv[2], argv[3])
-    if what == "vtk":
-        return test_vtk(argv[2], argv[3])
-    if what == "ergun":
-        return test_ergun(argv[2], argv[3])
-    if what == "mpi":
-        return test_mpi(argv[2], argv[3], argv[4])
-    if what == "plugin":
-        return test_plugin(argv[2], argv[3], argv[4])
-    print(__doc__)
-    return 2
-
-
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(E.dispatch(sys.argv, globals(), __doc__))

@@ -39,6 +39,9 @@ import shutil
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import engine_test as E  # noqa: E402  (the run helper, the command line)
+
 HEAD = """units si
 atom_style sphere
 boundary {boundary}
@@ -183,17 +186,7 @@ def script(scene, style, args):
 
 
 def run(cmd, workdir, text, timeout=120):
-    os.makedirs(workdir, exist_ok=True)
-    with open(os.path.join(workdir, "in.test"), "w") as f:
-        f.write(text)
-    env = dict(os.environ)
-    env.setdefault("OMP_NUM_THREADS", "1")
-    try:
-        p = subprocess.run(cmd + ["-in", "in.test", "-log", "log.test"], cwd=workdir, env=env,
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return 124, "timed out"
-    return p.returncode, p.stdout.decode(errors="replace")
+    return E.run(cmd, workdir, text, timeout=timeout)
 
 
 def load_dump(path):
@@ -795,35 +788,16 @@ POUR_SCENES = {
 }
 
 
+# the command line: mode -> function of the executable (and the arguments after it)
+MODES = {
+    "restart_liggghts": restart_liggghts, "restart": restart, "pile": pile, "same": same,
+    "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
+    "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
+    "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
+    "example": example, "errors": errors,
+}
+MODES.update({mode: (lambda lig, scene=scene: pour_liggghts(lig, scene=scene)) for mode, scene in POUR_SCENES.items()})
+
+
 if __name__ == "__main__":
-    mode = sys.argv[1]
-    if mode == "restart_liggghts":
-        sys.exit(0 if restart_liggghts(sys.argv[2]) else 1)
-    if mode == "restart":
-        sys.exit(0 if restart(sys.argv[2]) else 1)
-    if mode == "pile":
-        sys.exit(0 if pile(sys.argv[2]) else 1)
-    if mode == "same":
-        sys.exit(0 if same(sys.argv[2]) else 1)
-    if mode == "same_liggghts":
-        sys.exit(0 if same(sys.argv[2], liggghts=True) else 1)
-    if mode == "pour_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2]) else 1)
-    if mode in POUR_SCENES:
-        sys.exit(0 if pour_liggghts(sys.argv[2], scene=POUR_SCENES[mode]) else 1)
-    if mode == "mesh_liggghts":
-        sys.exit(0 if pour_liggghts(sys.argv[2], n=1500, mesh=True) else 1)
-    if mode == "refused_liggghts":
-        sys.exit(0 if refused_liggghts(sys.argv[2]) else 1)
-    if mode == "pour_lammps":
-        sys.exit(0 if pour_lammps(sys.argv[2]) else 1)
-    if mode == "rigid_lammps":
-        sys.exit(0 if rigid_lammps(sys.argv[2]) else 1)
-    if mode == "errors_liggghts":
-        sys.exit(0 if errors_liggghts(sys.argv[2]) else 1)
-    if mode == "example":
-        sys.exit(0 if example(sys.argv[2], sys.argv[3], sys.argv[4] if len(sys.argv) > 4 else "lammps") else 1)
-    if mode == "errors":
-        sys.exit(0 if errors(sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None) else 1)
-    print(__doc__)
-    sys.exit(2)
+    sys.exit(E.dispatch(sys.argv, MODES, __doc__, prefix=""))

@@ -15,7 +15,8 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from engine_test import compare_cols, read_dump, run  # noqa: E402  (the shared helpers)
+import engine_test as E  # noqa: E402  (the shared helpers)
+from engine_test import compare_cols, must_run, read_dump, refused, run, verdict  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
@@ -64,22 +65,8 @@ def scene(engine, extra="", steps=STEPS):
             "run %d\n" % steps)
 
 
-def must_run(cmd, wd, script, timeout=240):
-    rc, out = run(cmd, wd, script, timeout=timeout)
-    if rc != 0:
-        print("FAIL: run in %s exited %d:\n%s" % (wd, rc, out[-3000:]))
-        sys.exit(1)
-    return out
-
-
 def final(wd):
     return read_dump(os.path.join(wd, "final.%d" % STEPS))
-
-
-def verdict(worst, tol, what):
-    ok = worst <= tol
-    print("%s %s: max relative difference %.3e (bound %.0e)" % ("PASS" if ok else "FAIL", what, worst, tol))
-    return 0 if ok else 1
 
 
 def moved(rows):
@@ -110,17 +97,8 @@ def test_badkw(exe, engine):
         (fixline + "", None),  # placeholder replaced below
     ]
     cases[-1] = (fixline.replace("diffusion renorm 0.1", "eos ideal"), "eos must be tait or linear (got 'ideal')")
-    fails = 0
-    for i, (line, want) in enumerate(cases):
-        script = base.replace(fixline, line)
-        rc, out = run([exe], "mp_badkw_%s/%d" % (engine, i), script, timeout=60)
-        crashed = rc < 0 or rc in (134, 136, 139) or "Segmentation" in out
-        ok = rc != 0 and want in out and not crashed
-        print("%s case %d -> exit %d, %s" % ("PASS" if ok else "FAIL", i, rc,
-                                             "message found" if want in out else "MISSING: " + want))
-        if not ok:
-            print(out[-1500:])
-            fails += 1
+    fails = sum(not refused(exe, "mp_badkw_%s/%d" % (engine, i), "case %d" % i, base.replace(fixline, line), want,
+                            crash_codes=(134, 136, 139)) for i, (line, want) in enumerate(cases))
     return 1 if fails else 0
 
 
@@ -188,19 +166,5 @@ def test_poiseuille(exe, engine):
     return 1 if fails else 0
 
 
-def main(argv):
-    what = argv[1]
-    if what == "badkw":
-        return test_badkw(argv[2], argv[3])
-    if what == "restart":
-        return test_restart(argv[2], argv[3])
-    if what == "poiseuille":
-        return test_poiseuille(argv[2], argv[3])
-    if what == "same":
-        return test_same(argv[2], argv[3])
-    print(__doc__)
-    return 2
-
-
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(E.dispatch(sys.argv, globals(), __doc__))
