@@ -6,25 +6,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cfd_bodies.h"
 
-int sphdem_cfd_fail(struct sphdem_cfd_s *m, int code, const char *fmt, ...) {
-  if (m) {
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(m->err, sizeof m->err, fmt, ap);
-    va_end(ap);
-  }
-  return code;
-}
-
-static double now(void) {
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
+SPHDEM_RT_FAIL_FN(sphdem_cfd_fail, struct sphdem_cfd_s)
 
 double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho_g, double mu_g) {
   return cfd_drag_K(drag, eps, slip, d, rho_g, mu_g);
@@ -152,22 +137,23 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
 #define GRAIN3_ARRAYS(X) X(gx) X(gv) X(gfd) X(gfp) X(gfb)
 #define GRAIN1_ARRAYS(X) X(grad) X(gK)
 
+/* n zeroed doubles on the device */
 static int dalloc(struct sphdem_cfd_s *m, double **ptr, int64_t n) {
   void *q = NULL;
-  int rc = m->ops->alloc(m, &q, sizeof(double) * (size_t)(n > 0 ? n : 1));
+  int rc = rt_alloc(&m->rt, &q, sizeof(double) * (size_t)n);
   if (rc) return rc;
   *ptr = (double *)q;
-  m->bytes += sizeof(double) * (size_t)n;
-  return m->ops->memset0(m, q, sizeof(double) * (size_t)(n > 0 ? n : 1));
+  return rt_zero(&m->rt, q, sizeof(double) * (size_t)(n > 0 ? n : 1));
 }
 
 static void free_grains(struct sphdem_cfd_s *m) {
   cfd_dev *D = &m->D;
-#define F_(a) if (D->a) { m->ops->free(m, D->a); D->a = NULL; }
-  GRAIN3_ARRAYS(F_)
-  GRAIN1_ARRAYS(F_)
-#undef F_
-  m->bytes -= sizeof(double) * (size_t)m->cap_n * 17;
+#define F3_(a) rt_free(&m->rt, (void **)&D->a, 3 * sizeof(double) * (size_t)m->cap_n);
+#define F1_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)m->cap_n);
+  GRAIN3_ARRAYS(F3_)
+  GRAIN1_ARRAYS(F1_)
+#undef F3_
+#undef F1_
   m->cap_n = 0;
 }
 
@@ -196,11 +182,13 @@ int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device
   if (!m) BAD("cannot allocate the gas-grid context");
   const cfd_ops *ops = &sphdem_cfd_cpu_ops;
   m->backend = SPHDEM_DEVICE_CPU;
+  sphdem_rt_init(&m->rt, SPHDEM_DEVICE_CPU);
   if (dev == SPHDEM_DEVICE_GPU || dev == SPHDEM_DEVICE_AUTO) {
 #ifdef SPHDEM_WITH_CUDA
     if (sphdem_gpu_available()) {
       ops = &sphdem_cfd_cuda_ops;
       m->backend = SPHDEM_DEVICE_GPU;
+      sphdem_rt_init(&m->rt, SPHDEM_DEVICE_GPU);
     }
 #endif
     if (dev == SPHDEM_DEVICE_GPU && m->backend != SPHDEM_DEVICE_GPU) {
@@ -240,7 +228,7 @@ int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device
     if (!rc) rc = dalloc(m, &L->t, L->ncell);
   }
   if (rc) {
-    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
     sphdem_cfd_destroy(&m);
     return rc;
   }
@@ -251,11 +239,11 @@ int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device
     BAD("cannot allocate %lld host doubles", (long long)D->ncell);
   }
   for (int64_t i = 0; i < D->ncell; i++) one[i] = 1.0;
-  rc = m->ops->h2d(m, D->eps, one, sizeof(double) * (size_t)D->ncell);
-  if (!rc) rc = m->ops->h2d(m, D->eps_old, one, sizeof(double) * (size_t)D->ncell);
+  rc = rt_h2d(&m->rt, D->eps, one, sizeof(double) * (size_t)D->ncell);
+  if (!rc) rc = rt_h2d(&m->rt, D->eps_old, one, sizeof(double) * (size_t)D->ncell);
   free(one);
   if (rc) {
-    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
     sphdem_cfd_destroy(&m);
     return rc;
   }
@@ -269,18 +257,16 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   if (!c || !*c) return SPHDEM_OK;
   struct sphdem_cfd_s *m = *c;
   cfd_dev *D = &m->D;
-#define F_(a) if (D->a) m->ops->free(m, D->a);
+#define F_(a) rt_free(&m->rt, (void **)&D->a, 0);
   CELL_ARRAYS(F_)
   FACE_ARRAYS(F_)
   GRAIN3_ARRAYS(F_)
   GRAIN1_ARRAYS(F_)
 #undef F_
   for (int l = 1; l < D->nlev; l++) {
-    if (D->L[l].af) m->ops->free(m, D->L[l].af);
-    if (D->L[l].diag) m->ops->free(m, D->L[l].diag);
-    if (D->L[l].r) m->ops->free(m, D->L[l].r);
-    if (D->L[l].x) m->ops->free(m, D->L[l].x);
-    if (D->L[l].t) m->ops->free(m, D->L[l].t);
+    cfd_level *L = &D->L[l];
+    void **lv[] = {(void **)&L->af, (void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
+    for (int k = 0; k < 5; k++) rt_free(&m->rt, lv[k], 0);
   }
   if (m->ops->release) m->ops->release(m);
   free(m);
@@ -288,13 +274,13 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   return SPHDEM_OK;
 }
 
-const char *sphdem_cfd_last_error(sphdem_cfd c) { return c ? c->err : "no gas-grid context"; }
+const char *sphdem_cfd_last_error(sphdem_cfd c) { return c ? c->rt.err : "no gas-grid context"; }
 int sphdem_cfd_backend(sphdem_cfd c) { return c ? c->backend : SPHDEM_DEVICE_CPU; }
-size_t sphdem_cfd_device_bytes(sphdem_cfd c) { return c ? c->bytes : 0; }
+size_t sphdem_cfd_device_bytes(sphdem_cfd c) { return c ? c->rt.bytes : 0; }
 
 int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p) {
   if (!c) return SPHDEM_ERR_ARG;
-  int rc = sphdem_cfd_params_check(p, c->err, sizeof c->err);
+  int rc = sphdem_cfd_params_check(p, c->rt.err, sizeof c->rt.err);
   if (rc) return rc;
   for (int d = 0; d < 3; d++)
     if (p->nc[d] != c->D.P.nc[d] || p->boxlo[d] != c->D.P.boxlo[d] || p->boxhi[d] != c->D.P.boxhi[d])
@@ -368,7 +354,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   if ((rc = o->reduce(m, CFD_R_bb, n, &bb))) return rc;
   if (!(bb > 0.0)) { /* nothing drives the flow: p = 0 solves it */
     *res = 0.0;
-    return o->memset0(m, D->p, sizeof(double) * (size_t)n);
+    return rt_zero(&m->rt, D->p, sizeof(double) * (size_t)n);
   }
   double bn = sqrt(bb);
   D->mvx = D->p;
@@ -419,44 +405,44 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
   for (int i = 0; i < n; i++)
     if (!(radius[i] > 0.0) || !isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
       return sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[i]);
-  double t0 = now();
+  double t0 = rt_now();
   if ((rc = grow_grains(m, n))) return rc;
   D->n = n;
   D->dt = dt;
   if (n) {
-    if ((rc = o->h2d(m, D->gx, x, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = o->h2d(m, D->gv, v, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = o->h2d(m, D->grad, radius, sizeof(double) * (size_t)n)))
+    if ((rc = rt_h2d(&m->rt, D->gx, x, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = rt_h2d(&m->rt, D->gv, v, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = rt_h2d(&m->rt, D->grad, radius, sizeof(double) * (size_t)n)))
       return rc;
   }
-  double t1 = now();
+  double t1 = rt_now();
   m->timers[SPHDEM_CFD_T_TRANSFER] += t1 - t0;
   /* voidage: the previous one becomes eps_old */
-  if ((rc = o->d2d(m, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell))) return rc;
-  if ((rc = o->memset0(m, D->sol, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = rt_d2d(&m->rt, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = rt_zero(&m->rt, D->sol, sizeof(double) * (size_t)D->ncell))) return rc;
   if (n && (rc = o->run(m, CFD_K_void_scatter, n))) return rc;
   if ((rc = o->run(m, CFD_K_void_finish, D->ncell))) return rc;
-  if ((rc = o->memset0(m, D->K, sizeof(double) * (size_t)D->nface)) ||
-      (rc = o->memset0(m, D->Kv, sizeof(double) * (size_t)D->nface)))
+  if ((rc = rt_zero(&m->rt, D->K, sizeof(double) * (size_t)D->nface)) ||
+      (rc = rt_zero(&m->rt, D->Kv, sizeof(double) * (size_t)D->nface)))
     return rc;
   if (n && (rc = o->run(m, CFD_K_drag, n))) return rc;
-  double t2 = now();
+  double t2 = rt_now();
   m->timers[SPHDEM_CFD_T_COUPLE] += t2 - t1;
   if ((rc = o->run(m, CFD_K_predict, D->nface))) return rc;
   if ((rc = o->run(m, CFD_K_rhs, D->ncell))) return rc;
-  double t3 = now();
+  double t3 = rt_now();
   m->timers[SPHDEM_CFD_T_PREDICT] += t3 - t2;
   int iters = 0;
   double res = 0.0;
   rc = pressure_solve(m, &iters, &res);
   m->st.iters = iters;
   m->st.residual = res;
-  double t4 = now();
+  double t4 = rt_now();
   m->timers[SPHDEM_CFD_T_SOLVE] += t4 - t3;
   if (rc) return rc;
   if ((rc = o->run(m, CFD_K_correct, D->nface))) return rc;
   if (n && (rc = o->run(m, CFD_K_forces, n))) return rc;
-  double t5 = now();
+  double t5 = rt_now();
   m->timers[SPHDEM_CFD_T_CORRECT] += t5 - t4;
   /* statistics of the new field */
   double u2, cfl, mass, negeps, epssum, fg[3], fb[3], pf, pl;
@@ -468,7 +454,7 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
       (rc = o->reduce(m, CFD_R_fbndy, D->nface, &fb[1])) || (rc = o->reduce(m, CFD_R_fbndz, D->nface, &fb[2])) ||
       (rc = o->reduce(m, CFD_R_pfirst, D->ncell, &pf)) || (rc = o->reduce(m, CFD_R_plast, D->ncell, &pl)))
     return rc;
-  double t6 = now();
+  double t6 = rt_now();
   m->timers[SPHDEM_CFD_T_CORRECT] += t6 - t5;
   sphdem_cfd_stats *S = &m->st;
   S->nsteps++;
@@ -495,8 +481,8 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
       if (!hb) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
     }
     double *hfd = fdrag ? fdrag : hb, *hfp = fpg ? fpg : hb + 3 * (size_t)n;
-    if ((rc = o->d2h(m, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = o->d2h(m, hfp, D->gfp, sizeof(double) * 3 * (size_t)n))) {
+    if ((rc = rt_d2h(&m->rt, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) ||
+        (rc = rt_d2h(&m->rt, hfp, D->gfp, sizeof(double) * 3 * (size_t)n))) {
       free(hb);
       return rc;
     }
@@ -507,7 +493,7 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
       }
     free(hb);
   }
-  m->timers[SPHDEM_CFD_T_TRANSFER] += now() - t6;
+  m->timers[SPHDEM_CFD_T_TRANSFER] += rt_now() - t6;
   if (!isfinite(S->umax) || !isfinite(S->dp))
     return sphdem_cfd_fail(c, SPHDEM_ERR_NAN,
                            "gas field is not finite after step %lld; likely cause: a gas step far beyond the "
@@ -544,16 +530,16 @@ int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u) {
     /* the raw voidage before the floor */
     double *sol = (double *)malloc(nb);
     if (!sol) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
-    rc = c->ops->d2h(c, sol, D->eps, nb);
+    rc = rt_d2h(&c->rt, sol, D->eps, nb);
     if (!rc) memcpy(eps, sol, nb);
     free(sol);
     if (rc) return rc;
   }
-  if (p && (rc = c->ops->d2h(c, p, D->p, nb))) return rc;
+  if (p && (rc = rt_d2h(&c->rt, p, D->p, nb))) return rc;
   if (u) {
     double *uf = (double *)malloc(sizeof(double) * (size_t)D->nface);
     if (!uf) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
-    if ((rc = c->ops->d2h(c, uf, D->u, sizeof(double) * (size_t)D->nface))) {
+    if ((rc = rt_d2h(&c->rt, uf, D->u, sizeof(double) * (size_t)D->nface))) {
       free(uf);
       return rc;
     }
@@ -580,18 +566,18 @@ int sphdem_cfd_get_state(sphdem_cfd c, double *state) {
   if (!c || !state) return SPHDEM_ERR_ARG;
   cfd_dev *D = &c->D;
   int rc;
-  if ((rc = c->ops->d2h(c, state, D->u, sizeof(double) * (size_t)D->nface))) return rc;
-  if ((rc = c->ops->d2h(c, state + D->nface, D->p, sizeof(double) * (size_t)D->ncell))) return rc;
-  return c->ops->d2h(c, state + D->nface + D->ncell, D->eps, sizeof(double) * (size_t)D->ncell);
+  if ((rc = rt_d2h(&c->rt, state, D->u, sizeof(double) * (size_t)D->nface))) return rc;
+  if ((rc = rt_d2h(&c->rt, state + D->nface, D->p, sizeof(double) * (size_t)D->ncell))) return rc;
+  return rt_d2h(&c->rt, state + D->nface + D->ncell, D->eps, sizeof(double) * (size_t)D->ncell);
 }
 
 int sphdem_cfd_set_state(sphdem_cfd c, const double *state) {
   if (!c || !state) return SPHDEM_ERR_ARG;
   cfd_dev *D = &c->D;
   int rc;
-  if ((rc = c->ops->h2d(c, D->u, state, sizeof(double) * (size_t)D->nface))) return rc;
-  if ((rc = c->ops->h2d(c, D->p, state + D->nface, sizeof(double) * (size_t)D->ncell))) return rc;
-  if ((rc = c->ops->h2d(c, D->eps, state + D->nface + D->ncell, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = rt_h2d(&c->rt, D->u, state, sizeof(double) * (size_t)D->nface))) return rc;
+  if ((rc = rt_h2d(&c->rt, D->p, state + D->nface, sizeof(double) * (size_t)D->ncell))) return rc;
+  if ((rc = rt_h2d(&c->rt, D->eps, state + D->nface + D->ncell, sizeof(double) * (size_t)D->ncell))) return rc;
   D->first = 0;
   return SPHDEM_OK;
 }
@@ -606,9 +592,9 @@ int sphdem_cfd_set_velocity(sphdem_cfd c, const double u[3]) {
     int d = cfd_face_decode(D, f, ix);
     uf[f] = u[d];
   }
-  int rc = c->ops->h2d(c, D->u, uf, sizeof(double) * (size_t)D->nface);
+  int rc = rt_h2d(&c->rt, D->u, uf, sizeof(double) * (size_t)D->nface);
   free(uf);
-  if (!rc) rc = c->ops->memset0(c, D->p, sizeof(double) * (size_t)D->ncell);
+  if (!rc) rc = rt_zero(&c->rt, D->p, sizeof(double) * (size_t)D->ncell);
   return rc;
 }
 

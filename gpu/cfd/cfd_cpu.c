@@ -7,23 +7,6 @@
 /* below this many elements a loop runs on one thread (fork/join costs more than the work) */
 #define CFD_OMP_MIN 4096
 
-static int c_alloc(struct sphdem_cfd_s *m, void **ptr, size_t bytes) {
-  *ptr = malloc(bytes ? bytes : 1);
-  if (!*ptr) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes", bytes);
-  return SPHDEM_OK;
-}
-static void c_free(struct sphdem_cfd_s *m, void *ptr) { (void)m; free(ptr); }
-static int c_copy(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes) {
-  (void)m;
-  if (bytes) memmove(dst, src, bytes);
-  return SPHDEM_OK;
-}
-static int c_memset0(struct sphdem_cfd_s *m, void *ptr, size_t bytes) {
-  (void)m;
-  if (bytes) memset(ptr, 0, bytes);
-  return SPHDEM_OK;
-}
-
 static int c_run(struct sphdem_cfd_s *m, int kid, int64_t n) {
   const cfd_dev *D = &m->D;
   switch (kid) {
@@ -64,4 +47,4 @@ static int c_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
   return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
 }
 
-const cfd_ops sphdem_cfd_cpu_ops = {"cpu", c_alloc, c_free, c_copy, c_copy, c_memset0, c_copy, c_run, c_reduce, NULL};
+const cfd_ops sphdem_cfd_cpu_ops = {"cpu", c_run, c_reduce, NULL};

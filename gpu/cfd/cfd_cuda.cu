@@ -3,16 +3,12 @@
 #include <stdlib.h>
 
 #include "cfd_bodies.h"
+#include "cuda_check.h"
 
 #define CFD_BLOCK 256
 #define CFD_RED_BLOCKS 1024
 
 static inline unsigned nblk(int64_t n) { return (unsigned)((n + CFD_BLOCK - 1) / CFD_BLOCK); }
-
-static int ccheck(struct sphdem_cfd_s *m, cudaError_t e, const char *what) {
-  if (e == cudaSuccess) return SPHDEM_OK;
-  return sphdem_cfd_fail(m, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
-}
 
 #define SPHDEM_CFD_KERNEL_(name)                                                                      \
   __global__ void k_cfd_##name(cfd_dev D, int64_t n) {                                                \
@@ -51,39 +47,13 @@ typedef struct {
   double *hpart; /* pinned host copy */
 } cfd_cuda_data;
 
-static int g_alloc(struct sphdem_cfd_s *m, void **ptr, size_t bytes) {
-  cudaError_t e = cudaMalloc(ptr, bytes ? bytes : 8);
-  if (e != cudaSuccess) {
-    *ptr = NULL;
-    return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of GPU memory (%s)", bytes,
-                           cudaGetErrorString(e));
-  }
-  return SPHDEM_OK;
-}
-static void g_free(struct sphdem_cfd_s *m, void *ptr) {
-  (void)m;
-  cudaFree(ptr);
-}
-static int g_h2d(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes) {
-  return bytes ? ccheck(m, cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "host-to-device copy") : 0;
-}
-static int g_d2h(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes) {
-  return bytes ? ccheck(m, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "device-to-host copy") : 0;
-}
-static int g_d2d(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes) {
-  return bytes ? ccheck(m, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToDevice), "device copy") : 0;
-}
-static int g_memset0(struct sphdem_cfd_s *m, void *ptr, size_t bytes) {
-  return bytes ? ccheck(m, cudaMemset(ptr, 0, bytes), "device memset") : 0;
-}
-
 static int g_run(struct sphdem_cfd_s *m, int kid, int64_t n) {
   if (n <= 0) return SPHDEM_OK;
   switch (kid) {
 #define SPHDEM_CFD_LAUNCH_(name)                                                                      \
   case CFD_K_##name:                                                                                  \
     k_cfd_##name<<<nblk(n), CFD_BLOCK>>>(m->D, n);                                                    \
-    return ccheck(m, cudaGetLastError(), "kernel " #name);
+    return rt_cuda_check(&m->rt, cudaGetLastError(), "kernel " #name);
     SPHDEM_CFD_KERNELS(SPHDEM_CFD_LAUNCH_)
 #undef SPHDEM_CFD_LAUNCH_
   }
@@ -103,8 +73,8 @@ static int g_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
     cd = (cfd_cuda_data *)calloc(1, sizeof *cd);
     if (!cd) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the reduction buffers");
     m->backend_data = cd;
-    if ((rc = ccheck(m, cudaMalloc((void **)&cd->dpart, sizeof(double) * CFD_RED_BLOCKS), "reduction buffer")) ||
-        (rc = ccheck(m, cudaMallocHost((void **)&cd->hpart, sizeof(double) * CFD_RED_BLOCKS), "pinned buffer")))
+    if ((rc = rt_cuda_check(&m->rt, cudaMalloc((void **)&cd->dpart, sizeof(double) * CFD_RED_BLOCKS), "reduction buffer")) ||
+        (rc = rt_cuda_check(&m->rt, cudaMallocHost((void **)&cd->hpart, sizeof(double) * CFD_RED_BLOCKS), "pinned buffer")))
       return rc;
   }
   int op = g_red_op[rid];
@@ -124,8 +94,8 @@ static int g_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
     default:
       return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
   }
-  if ((rc = ccheck(m, cudaGetLastError(), "reduction kernel"))) return rc;
-  if ((rc = ccheck(m, cudaMemcpy(cd->hpart, cd->dpart, sizeof(double) * nb, cudaMemcpyDeviceToHost),
+  if ((rc = rt_cuda_check(&m->rt, cudaGetLastError(), "reduction kernel"))) return rc;
+  if ((rc = rt_cuda_check(&m->rt, cudaMemcpy(cd->hpart, cd->dpart, sizeof(double) * nb, cudaMemcpyDeviceToHost),
                    "reduction copy")))
     return rc;
   double acc = op ? -HUGE_VAL : 0.0;
@@ -143,4 +113,4 @@ static void g_release(struct sphdem_cfd_s *m) {
   m->backend_data = NULL;
 }
 
-extern "C" const cfd_ops sphdem_cfd_cuda_ops = {"cuda", g_alloc, g_free, g_h2d, g_d2h, g_memset0, g_d2d, g_run, g_reduce, g_release};
+extern "C" const cfd_ops sphdem_cfd_cuda_ops = {"cuda", g_run, g_reduce, g_release};

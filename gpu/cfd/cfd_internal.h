@@ -96,15 +96,10 @@ enum {
   CFD_NREDUCTIONS
 };
 
+/* Backend passes (memory operations are in the runtime, m->rt). */
 struct sphdem_cfd_s;
 typedef struct {
   const char *name;
-  int (*alloc)(struct sphdem_cfd_s *m, void **ptr, size_t bytes);
-  void (*free)(struct sphdem_cfd_s *m, void *ptr);
-  int (*h2d)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
-  int (*d2h)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
-  int (*memset0)(struct sphdem_cfd_s *m, void *ptr, size_t bytes);
-  int (*d2d)(struct sphdem_cfd_s *m, void *dst, const void *src, size_t bytes);
   /* run loop kid over [0, n) */
   int (*run)(struct sphdem_cfd_s *m, int kid, int64_t n);
   /* reduction rid over [0, n) into *out (sum or max as its table entry says) */
@@ -115,10 +110,9 @@ typedef struct {
 
 struct sphdem_cfd_s {
   cfd_dev D;
+  sphdem_rt rt; /* memory, device bytes held, error text */
   const cfd_ops *ops;
   int backend;
-  char err[1024];
-  size_t bytes;
   int64_t cap_n;
   double timers[SPHDEM_CFD_NTIMERS];
   sphdem_cfd_stats st;

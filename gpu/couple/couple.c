@@ -82,31 +82,17 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
 
 /* ---- memory ------------------------------------------------------------------------------------ */
 
-static int calloc_dev(struct sphdem_ctx_s *c, void **p, size_t bytes) {
-  if (bytes == 0) bytes = 8;
-  int rc = c->ops->alloc(c, p, bytes);
-  if (rc == SPHDEM_OK) c->bytes += bytes;
-  return rc;
-}
-
-static void free_dev(struct sphdem_ctx_s *c, void **p, size_t bytes) {
-  if (!*p) return;
-  c->ops->free(c, *p);
-  c->bytes -= bytes ? bytes : 8;
-  *p = NULL;
-}
-
 static void free_grains(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   size_t n = (size_t)c->cap_g;
   if (!n) return;
   void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
                   (void **)&D->gfpg, (void **)&D->gtq};
-  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) free_dev(c, p24[k], 24 * n);
-  free_dev(c, (void **)&D->grad, 8 * n);
-  free_dev(c, (void **)&D->grain_shepard, 8 * n);
-  free_dev(c, (void **)&D->gtag, 8 * n);
-  free_dev(c, (void **)&D->gcell, 4 * n);
+  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) sphdem_dfree(c, p24[k], 24 * n);
+  sphdem_dfree(c, (void **)&D->grad, 8 * n);
+  sphdem_dfree(c, (void **)&D->grain_shepard, 8 * n);
+  sphdem_dfree(c, (void **)&D->gtag, 8 * n);
+  sphdem_dfree(c, (void **)&D->gcell, 4 * n);
   c->cap_g = 0;
 }
 
@@ -117,36 +103,36 @@ static int ensure_grains(struct sphdem_ctx_s *c, int64_t n) {
   size_t m = (size_t)(n > 0 ? n : 1);
   void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
                   (void **)&D->gfpg, (void **)&D->gtq};
-  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(calloc_dev(c, p24[k], 24 * m));
-  TRYC(calloc_dev(c, (void **)&D->grad, 8 * m));
-  TRYC(calloc_dev(c, (void **)&D->grain_shepard, 8 * m));
-  TRYC(calloc_dev(c, (void **)&D->gtag, 8 * m));
-  TRYC(calloc_dev(c, (void **)&D->gcell, 4 * m));
+  for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(sphdem_dalloc(c, p24[k], 24 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->grad, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->grain_shepard, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->gtag, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->gcell, 4 * m));
   c->cap_g = (int64_t)m;
   return sphdem_ensure_scratch(c, (int64_t)m);
 }
 
 static int ensure_grain_cells(struct sphdem_ctx_s *c, int64_t n) {
   if (n <= c->cap_gcells) return SPHDEM_OK;
-  free_dev(c, (void **)&c->D.gcstart, 4 * (size_t)c->cap_gcells);
-  free_dev(c, (void **)&c->D.gcend, 4 * (size_t)c->cap_gcells);
+  sphdem_dfree(c, (void **)&c->D.gcstart, 4 * (size_t)c->cap_gcells);
+  sphdem_dfree(c, (void **)&c->D.gcend, 4 * (size_t)c->cap_gcells);
   c->cap_gcells = 0;
-  TRYC(calloc_dev(c, (void **)&c->D.gcstart, 4 * (size_t)n));
-  TRYC(calloc_dev(c, (void **)&c->D.gcend, 4 * (size_t)n));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.gcstart, 4 * (size_t)n));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.gcend, 4 * (size_t)n));
   c->cap_gcells = n;
   return SPHDEM_OK;
 }
 
 static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
   if (n <= c->cap_cf && c->cap_cf > 0) return SPHDEM_OK;
-  free_dev(c, (void **)&c->D.eps, 8 * (size_t)c->cap_cf);
-  free_dev(c, (void **)&c->D.fr, 24 * (size_t)c->cap_cf);
+  sphdem_dfree(c, (void **)&c->D.eps, 8 * (size_t)c->cap_cf);
+  sphdem_dfree(c, (void **)&c->D.fr, 24 * (size_t)c->cap_cf);
   c->cap_cf = 0;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRYC(calloc_dev(c, (void **)&c->D.eps, 8 * m));
-  TRYC(calloc_dev(c, (void **)&c->D.fr, 24 * m));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.eps, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.fr, 24 * m));
   c->cap_cf = (int64_t)m;
-  return c->ops->memset0(c, c->D.fr, 24 * m); /* read by the wall pass before the first reaction pass */
+  return rt_zero(&c->rt, c->D.fr, 24 * m); /* read by the wall pass before the first reaction pass */
 }
 
 /* The fluid set was rebuilt (set_fluid with new particles): the porosity array must cover it before any
@@ -159,22 +145,22 @@ int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
   double *ones = (double *)malloc(8 * (size_t)D->nf);
   if (!ones) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate %lld doubles", (long long)D->nf);
   for (int64_t i = 0; i < D->nf; i++) ones[i] = 1.0;
-  int rc = c->ops->h2d(c, D->eps, ones, 8 * (size_t)D->nf);
+  int rc = rt_h2d(&c->rt, D->eps, ones, 8 * (size_t)D->nf);
   free(ones);
-  if (!rc) rc = c->ops->memset0(c, D->fr, 24 * (size_t)D->nf); /* grain forces are kept (until compute_rates) */
+  if (!rc) rc = rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf); /* grain forces are kept (until compute_rates) */
   return rc;
 }
 
 void sphdem_couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
+  sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
   c->cap_cw = 0;
   free_grains(c);
-  free_dev(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
-  free_dev(c, (void **)&D->gcend, 4 * (size_t)c->cap_gcells);
+  sphdem_dfree(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
+  sphdem_dfree(c, (void **)&D->gcend, 4 * (size_t)c->cap_gcells);
   c->cap_gcells = 0;
-  free_dev(c, (void **)&D->eps, 8 * (size_t)c->cap_cf);
-  free_dev(c, (void **)&D->fr, 24 * (size_t)c->cap_cf);
+  sphdem_dfree(c, (void **)&D->eps, 8 * (size_t)c->cap_cf);
+  sphdem_dfree(c, (void **)&D->fr, 24 * (size_t)c->cap_cf);
   c->cap_cf = 0;
   free(c->hgf);
   c->hgf = NULL;
@@ -250,14 +236,14 @@ int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, con
     int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
     if (!tag) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_grains: cannot allocate %d tags", n);
     for (int i = 0; i < n; i++) tag[i] = i + 1;
-    int rc = c->ops->h2d(c, D->gtag, tag, 8 * (size_t)n);
+    int rc = rt_h2d(&c->rt, D->gtag, tag, 8 * (size_t)n);
     free(tag);
     TRYC(rc);
-    TRYC(c->ops->h2d(c, D->gx, x, 24 * (size_t)n));
-    TRYC(c->ops->h2d(c, D->gv, v, 24 * (size_t)n));
-    TRYC(c->ops->h2d(c, D->grad, radius, 8 * (size_t)n));
-    if (omega) TRYC(c->ops->h2d(c, D->gom, omega, 24 * (size_t)n));
-    else TRYC(c->ops->memset0(c, D->gom, 24 * (size_t)n));
+    TRYC(rt_h2d(&c->rt, D->gx, x, 24 * (size_t)n));
+    TRYC(rt_h2d(&c->rt, D->gv, v, 24 * (size_t)n));
+    TRYC(rt_h2d(&c->rt, D->grad, radius, 8 * (size_t)n));
+    if (omega) TRYC(rt_h2d(&c->rt, D->gom, omega, 24 * (size_t)n));
+    else TRYC(rt_zero(&c->rt, D->gom, 24 * (size_t)n));
   }
   /* bounding box and largest diameter for the grain grid (host loop over the host arrays) */
   c->gdmax = 0.0;
@@ -322,8 +308,8 @@ static int sort_grains(struct sphdem_ctx_s *c) {
     for (int k = 0; k < 5; k++) TRYC(c->ops->gather(c, arr[k], eb[k], n));
     TRYC(c->ops->cell_ranges(c, SPHDEM_SET_GRAIN));
   } else {
-    TRYC(c->ops->memset0(c, D->gcstart, 4 * (size_t)D->gncells));
-    TRYC(c->ops->memset0(c, D->gcend, 4 * (size_t)D->gncells));
+    TRYC(rt_zero(&c->rt, D->gcstart, 4 * (size_t)D->gncells));
+    TRYC(rt_zero(&c->rt, D->gcend, 4 * (size_t)D->gncells));
   }
   c->grains_dirty = 0;
   return SPHDEM_OK;
@@ -344,18 +330,18 @@ int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   TRYC(ensure_couple_fluid(c, D->nf));
   /* wall porosity (wall_porosity 1), written by the wall-state pass */
   if (D->couple_eos && c->cp.wall_porosity && (D->nw > c->cap_cw || !D->wall_porosity)) {
-    free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
+    sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
-    TRYC(calloc_dev(c, (void **)&D->wall_porosity, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
+    TRYC(sphdem_dalloc(c, (void **)&D->wall_porosity, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
     c->cap_cw = D->nw > 0 ? D->nw : 1;
   } else if ((!D->couple_eos || !c->cp.wall_porosity) && D->wall_porosity) {
-    free_dev(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
+    sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
     c->cap_cw = 0;
   }
   if (c->grains_dirty || D->gncells == 0) TRYC(sort_grains(c));
   set_layers(D);
   TRYC(c->ops->couple_porosity(c));
-  TRYC(c->ops->sync(c));
+  TRYC(rt_sync(&c->rt));
   return SPHDEM_OK;
 }
 
@@ -364,12 +350,12 @@ int sphdem_couple_finish(struct sphdem_ctx_s *c) {
   int64_t n = D->ng;
   if (n > 0) {
     TRYC(c->ops->couple_grains(c));
-    TRYC(c->ops->sync(c));
+    TRYC(rt_sync(&c->rt));
     TRYC(c->ops->couple_reaction(c));
   } else {
-    TRYC(c->ops->memset0(c, D->fr, 24 * (size_t)D->nf));
+    TRYC(rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf));
   }
-  TRYC(c->ops->sync(c));
+  TRYC(rt_sync(&c->rt));
   /* grain forces to host memory, in upload order */
   if (12 * n > c->cap_hgf) {
     free(c->hgf);
@@ -381,10 +367,10 @@ int sphdem_couple_finish(struct sphdem_ctx_s *c) {
     int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
     double *buf = (double *)malloc(24 * (size_t)n);
     int rc = tag && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
-    if (!rc) rc = c->ops->d2h(c, tag, D->gtag, 8 * (size_t)n);
+    if (!rc) rc = rt_d2h(&c->rt, tag, D->gtag, 8 * (size_t)n);
     const double *src[4] = {D->gf, D->gfd, D->gfpg, D->gtq};
     for (int k = 0; !rc && k < 4; k++) {
-      rc = c->ops->d2h(c, buf, src[k], 24 * (size_t)n);
+      rc = rt_d2h(&c->rt, buf, src[k], 24 * (size_t)n);
       for (int64_t s = 0; !rc && s < n; s++)
         for (int d = 0; d < 3; d++) c->hgf[3 * (k * n + (tag[s] - 1)) + d] = buf[3 * s + d];
     }
@@ -417,13 +403,13 @@ static int download_fluid_coupling(struct sphdem_ctx_s *c, double *eps, double *
   int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
   double *buf = (double *)malloc(24 * (size_t)n);
   int rc = ui && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
-  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc && eps) {
-    rc = c->ops->d2h(c, buf, D->eps, 8 * (size_t)n);
+    rc = rt_d2h(&c->rt, buf, D->eps, 8 * (size_t)n);
     for (int64_t s = 0; !rc && s < n; s++) eps[ui[s]] = buf[s];
   }
   if (!rc && fr) {
-    rc = c->ops->d2h(c, buf, D->fr, 24 * (size_t)n);
+    rc = rt_d2h(&c->rt, buf, D->fr, 24 * (size_t)n);
     for (int64_t s = 0; !rc && s < n; s++)
       for (int d = 0; d < 3; d++) fr[3 * (int64_t)ui[s] + d] = buf[3 * s + d];
   }
@@ -458,10 +444,10 @@ int sphdem_couple_seed_porosity(sphdem_ctx c, int n, const double *eps) {
   int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
   double *buf = (double *)malloc(8 * (size_t)n);
   int rc = ui && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
-  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc) {
     for (int s = 0; s < n; s++) buf[s] = eps[ui[s]]; /* device slot s holds upload index ui[s] */
-    rc = c->ops->h2d(c, D->eps, buf, 8 * (size_t)n);
+    rc = rt_h2d(&c->rt, D->eps, buf, 8 * (size_t)n);
   }
   free(ui);
   free(buf);
@@ -529,14 +515,14 @@ int64_t sphdem_debug_couple_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs
   int64_t caps[2] = {cap, cap};
   int rc = H.x && H.gx && H.cstart && H.cend && H.gcstart && H.gcend && ui && gt && lst[0] && lst[1]
                ? SPHDEM_OK : SPHDEM_ERR_ALLOC;
-  if (!rc) rc = c->ops->d2h(c, H.x, D->x, 24 * (size_t)nf);
-  if (!rc) rc = c->ops->d2h(c, H.gx, D->gx, 24 * (size_t)ng);
-  if (!rc) rc = c->ops->d2h(c, H.cstart, D->cstart, 4 * (size_t)D->ncells);
-  if (!rc) rc = c->ops->d2h(c, H.cend, D->cend, 4 * (size_t)D->ncells);
-  if (!rc) rc = c->ops->d2h(c, H.gcstart, D->gcstart, 4 * (size_t)D->gncells);
-  if (!rc) rc = c->ops->d2h(c, H.gcend, D->gcend, 4 * (size_t)D->gncells);
-  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)nf);
-  if (!rc) rc = c->ops->d2h(c, gt, D->gtag, 8 * (size_t)ng);
+  if (!rc) rc = rt_d2h(&c->rt, H.x, D->x, 24 * (size_t)nf);
+  if (!rc) rc = rt_d2h(&c->rt, H.gx, D->gx, 24 * (size_t)ng);
+  if (!rc) rc = rt_d2h(&c->rt, H.cstart, D->cstart, 4 * (size_t)D->ncells);
+  if (!rc) rc = rt_d2h(&c->rt, H.cend, D->cend, 4 * (size_t)D->ncells);
+  if (!rc) rc = rt_d2h(&c->rt, H.gcstart, D->gcstart, 4 * (size_t)D->gncells);
+  if (!rc) rc = rt_d2h(&c->rt, H.gcend, D->gcend, 4 * (size_t)D->gncells);
+  if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)nf);
+  if (!rc) rc = rt_d2h(&c->rt, gt, D->gtag, 8 * (size_t)ng);
   for (int dir = 0; dir < 2 && !rc; dir++) {
     int64_t nsrc = dir == 0 ? nf : ng;
     for (int64_t i = 0; i < nsrc && !rc; i++) {

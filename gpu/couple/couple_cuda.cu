@@ -2,6 +2,7 @@
 #include <cuda_runtime.h>
 
 #include "couple_bodies.h"
+#include "cuda_check.h"
 #include "sph_internal.h"
 
 #define SPHDEM_CBLOCK 128
@@ -23,30 +24,24 @@ __global__ void k_couple_reaction(sphdem_dev D) {
   if (i < D.nf) couple_reaction_body(&D, i);
 }
 
-static int launched(struct sphdem_ctx_s *c, const char *what) {
-  cudaError_t e = cudaGetLastError();
-  if (e == cudaSuccess) return SPHDEM_OK;
-  return sphdem_fail(c, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
-}
-
 extern "C" {
 
 int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c) {
   if (c->D.nf == 0) return SPHDEM_OK;
   k_couple_porosity<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
-  return launched(c, "coupling porosity kernel");
+  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling porosity kernel");
 }
 
 int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c) {
   if (c->D.ng == 0) return SPHDEM_OK;
   k_couple_grains<<<cblocks(c->D.ng), SPHDEM_CBLOCK>>>(c->D);
-  return launched(c, "coupling grain force kernel");
+  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling grain force kernel");
 }
 
 int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c) {
   if (c->D.nf == 0) return SPHDEM_OK;
   k_couple_reaction<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
-  return launched(c, "coupling reaction kernel");
+  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling reaction kernel");
 }
 
 }

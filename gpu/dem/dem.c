@@ -8,30 +8,11 @@
 
 #include "dem_internal.h"
 
-#if defined(__unix__) || defined(__APPLE__)
-#include <time.h>
-static double dem_now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-#else
-static double dem_now(void) { return 0.0; }
-#endif
-
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
 
-int sphdem_dem_fail(struct sphdem_dem_s *m, int code, const char *fmt, ...) {
-  if (m) {
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(m->err, sizeof m->err, fmt, ap);
-    va_end(ap);
-  }
-  return code;
-}
+SPHDEM_RT_FAIL_FN(sphdem_dem_fail, struct sphdem_dem_s)
 
 void sphdem_dem_params_default(sphdem_dem_params *p) {
   memset(p, 0, sizeof *p);
@@ -156,13 +137,15 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   }
   m->ops = &sphdem_dem_cpu_ops;
   m->backend = SPHDEM_DEVICE_CPU;
+  sphdem_rt_init(&m->rt, SPHDEM_DEVICE_CPU);
   m->zero_copy = 1;
   if (dev != SPHDEM_DEVICE_CPU) {
 #ifdef SPHDEM_WITH_CUDA
     char why[256];
-    if (sphdem_cuda_probe(why, sizeof why) == SPHDEM_OK) {
+    if (sphdem_rt_gpu_probe(why, sizeof why) == SPHDEM_OK) {
       m->ops = &sphdem_dem_cuda_ops;
       m->backend = SPHDEM_DEVICE_GPU;
+      sphdem_rt_init(&m->rt, SPHDEM_DEVICE_GPU);
       m->zero_copy = 0;
     } else if (dev == SPHDEM_DEVICE_GPU) {
       if (msg && msglen) snprintf(msg, msglen, "GPU requested but none is usable: %s", why);
@@ -180,9 +163,9 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   derive(&m->D, p);
   m->need_build = 1;
   /* virial, a device counter, the coincident-pair slot */
-  rc = m->ops->alloc(m, (void **)&m->D.vir, SPHDEM_DEM_VIR_DOUBLES * sizeof(double));
+  rc = rt_alloc(&m->rt, (void **)&m->D.vir, SPHDEM_DEM_VIR_DOUBLES * sizeof(double));
   if (rc) {
-    if (msg && msglen) snprintf(msg, msglen, "%s", m->err);
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
     free(m);
     return rc;
   }
@@ -199,8 +182,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
                   D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat,
                   D->rin, D->rout, D->roll_old};
-  for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++)
-    if (arrs[k]) m->ops->free(m, arrs[k]);
+  for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) rt_free(&m->rt, &arrs[k], 0);
   free(m->hx0);
   free(m->htag);
   free(m->cpu_pfb);
@@ -209,12 +191,12 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   return SPHDEM_OK;
 }
 
-const char *sphdem_dem_last_error(sphdem_dem m) { return m ? m->err : "no DEM context"; }
+const char *sphdem_dem_last_error(sphdem_dem m) { return m ? m->rt.err : "no DEM context"; }
 int sphdem_dem_backend(sphdem_dem m) { return m ? m->backend : SPHDEM_DEVICE_CPU; }
 
 int sphdem_dem_set_params(sphdem_dem m, const sphdem_dem_params *p) {
   if (!m) return SPHDEM_ERR_ARG;
-  int rc = sphdem_dem_params_check(p, m->err, sizeof m->err);
+  int rc = sphdem_dem_params_check(p, m->rt.err, sizeof m->rt.err);
   if (rc) return rc;
   derive(&m->D, p);
   m->need_build = 1;
@@ -272,11 +254,11 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
                  mat->mu_r ? mat->mu_r[k] : 0.0, mat->ced ? mat->ced[k] : 0.0);
       h[k].rvd = mat->rvd ? mat->rvd[k] : 0.0;
     }
-  if (D->mat) m->ops->free(m, D->mat);
+  rt_free(&m->rt, (void **)&D->mat, 0);
   D->mat = NULL;
   D->nmat = 0;
-  int rc = m->ops->alloc(m, (void **)&D->mat, sizeof(dem_mat) * (size_t)n * (size_t)n);
-  if (!rc) rc = m->ops->h2d(m, D->mat, h, sizeof(dem_mat) * (size_t)n * (size_t)n);
+  int rc = rt_alloc(&m->rt, (void **)&D->mat, sizeof(dem_mat) * (size_t)n * (size_t)n);
+  if (!rc) rc = rt_h2d(&m->rt, D->mat, h, sizeof(dem_mat) * (size_t)n * (size_t)n);
   free(h);
   if (rc) return rc;
   D->nmat = n;
@@ -310,9 +292,8 @@ int sphdem_dem_request_build(sphdem_dem m) {
 /* (Re)allocate a device array for at least need elements; contents are not kept. */
 static int grow(struct sphdem_dem_s *m, void **ptr, size_t elem, int64_t need, int64_t cap_new) {
   (void)need;
-  if (*ptr) m->ops->free(m, *ptr);
-  *ptr = NULL;
-  return m->ops->alloc(m, ptr, elem * (size_t)(cap_new > 0 ? cap_new : 1));
+  rt_free(&m->rt, ptr, 0);
+  return rt_alloc(&m->rt, ptr, elem * (size_t)(cap_new > 0 ? cap_new : 1));
 }
 
 static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
@@ -406,8 +387,8 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     m->cap_pold = cap;
   }
   if (npold && !m->seeded) {
-    TRY(m->ops->d2d(m, D->key_old, D->key, sizeof(uint64_t) * npold));
-    TRY(m->ops->d2d(m, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
+    TRY(rt_d2d(&m->rt, D->key_old, D->key, sizeof(uint64_t) * npold));
+    TRY(rt_d2d(&m->rt, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
   }
   /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
   const int roll = D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0;
@@ -418,7 +399,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
       TRY(grow(m, (void **)&D->roll_old, sizeof(double) * 3, npold, cap));
       m->cap_rold = cap;
     }
-    TRY(m->ops->d2d(m, D->roll_old, D->rin, sizeof(double) * 3 * npold));
+    TRY(rt_d2d(&m->rt, D->roll_old, D->rin, sizeof(double) * 3 * npold));
   }
   D->np_old = npold;
   m->seeded = 0;
@@ -445,9 +426,8 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     m->cap_roll = cap;
   }
   if (!roll && D->rin) { /* rolling model switched off: no rolling history */
-    m->ops->free(m, D->rin);
-    m->ops->free(m, D->rout);
-    D->rin = D->rout = NULL;
+    rt_free(&m->rt, (void **)&D->rin, 0);
+    rt_free(&m->rt, (void **)&D->rout, 0);
     m->cap_roll = 0;
   }
   D->np = np;
@@ -472,7 +452,7 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   if (n > 0 && (!tag || !x || !v || !omega || !radius || !mass || !f || !torque))
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag, x, v, omega, radius, mass, f, torque: all needed (one is NULL)");
   if (!(dt >= 0.0) || !isfinite(dt)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "dt: must be finite and >= 0 (got %g)", dt);
-  double t0 = dem_now(), t1;
+  double t0 = rt_now(), t1;
   double rmax = 0.0;
   for (int i = 0; i < n; i++) {
     if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
@@ -505,7 +485,7 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
     }
   }
   D->n = n;
-  t1 = dem_now();
+  t1 = rt_now();
   m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
   t0 = t1;
   if (n) {
@@ -513,40 +493,40 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
       D->x = (double *)x, D->v = (double *)v, D->om = (double *)omega;
       D->rad = (double *)radius, D->mass = (double *)mass, D->f = f, D->tq = torque;
     } else {
-      TRY(m->ops->h2d(m, D->x, x, sizeof(double) * 3 * n));
-      TRY(m->ops->h2d(m, D->v, v, sizeof(double) * 3 * n));
-      TRY(m->ops->h2d(m, D->om, omega, sizeof(double) * 3 * n));
-      TRY(m->ops->h2d(m, D->rad, radius, sizeof(double) * n));
-      TRY(m->ops->h2d(m, D->mass, mass, sizeof(double) * n));
+      TRY(rt_h2d(&m->rt, D->x, x, sizeof(double) * 3 * n));
+      TRY(rt_h2d(&m->rt, D->v, v, sizeof(double) * 3 * n));
+      TRY(rt_h2d(&m->rt, D->om, omega, sizeof(double) * 3 * n));
+      TRY(rt_h2d(&m->rt, D->rad, radius, sizeof(double) * n));
+      TRY(rt_h2d(&m->rt, D->mass, mass, sizeof(double) * n));
     }
-    if (flags) TRY(m->ops->h2d(m, D->flags, flags, sizeof(int32_t) * n));
-    else TRY(m->ops->memset0(m, D->flags, sizeof(int32_t) * n));
+    if (flags) TRY(rt_h2d(&m->rt, D->flags, flags, sizeof(int32_t) * n));
+    else TRY(rt_zero(&m->rt, D->flags, sizeof(int32_t) * n));
     if (new_tags) {
-      TRY(m->ops->h2d(m, D->tag, tag, sizeof(int64_t) * n));
+      TRY(rt_h2d(&m->rt, D->tag, tag, sizeof(int64_t) * n));
       memcpy(m->htag, tag, sizeof(int64_t) * n);
     }
   }
   m->tags_valid = 1;
-  t1 = dem_now();
+  t1 = rt_now();
   m->t[SPHDEM_DEM_T_UPLOAD] += t1 - t0;
   t0 = t1;
   if (m->need_build) {
     TRY(build(m, n, x, 2.0 * rmax));
-    t1 = dem_now();
+    t1 = rt_now();
     m->t[SPHDEM_DEM_T_DETECT] += t1 - t0;
     t0 = t1;
   }
   D->dt = dt;
   D->update = update_history ? 1 : 0;
   D->want_virial = virial != NULL;
-  if (virial) TRY(m->ops->memset0(m, D->vir, 6 * sizeof(double)));
+  if (virial) TRY(rt_zero(&m->rt, D->vir, 6 * sizeof(double)));
   int64_t ntouch = 0;
   if (n) {
     uint64_t *slot = (uint64_t *)(D->vir + SPHDEM_DEM_VIR_COINCIDENT);
-    TRY(m->ops->memset0(m, slot, sizeof(uint64_t)));
+    TRY(rt_zero(&m->rt, slot, sizeof(uint64_t)));
     TRY(m->ops->forces(m, &ntouch));
     uint64_t code = 0;
-    TRY(m->ops->d2h(m, &code, slot, sizeof code));
+    TRY(rt_d2h(&m->rt, &code, slot, sizeof code));
     if (code) { /* a pair whose centres coincide has no contact normal (the force would be 0/0) */
       int64_t a = (int64_t)(code >> 32) - 1, b = (int64_t)(code & 0xffffffffu);
       if (a >= 0 && a < n && b >= 0 && b < n)
@@ -566,17 +546,17 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
     D->rin = D->rout;
     D->rout = t;
   }
-  t1 = dem_now();
+  t1 = rt_now();
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
   t0 = t1;
   if (n) {
     if (!m->zero_copy) {
-      TRY(m->ops->d2h(m, f, D->f, sizeof(double) * 3 * n));
-      TRY(m->ops->d2h(m, torque, D->tq, sizeof(double) * 3 * n));
+      TRY(rt_d2h(&m->rt, f, D->f, sizeof(double) * 3 * n));
+      TRY(rt_d2h(&m->rt, torque, D->tq, sizeof(double) * 3 * n));
     }
   }
-  if (virial) TRY(m->ops->d2h(m, virial, D->vir, 6 * sizeof(double)));
-  m->t[SPHDEM_DEM_T_DOWNLOAD] += dem_now() - t0;
+  if (virial) TRY(rt_d2h(&m->rt, virial, D->vir, 6 * sizeof(double)));
+  m->t[SPHDEM_DEM_T_DOWNLOAD] += rt_now() - t0;
   m->ncalls++;
   return SPHDEM_OK;
 }
@@ -607,8 +587,8 @@ int64_t sphdem_dem_debug_pairs(sphdem_dem m, int64_t *pairs, int64_t maxpairs) {
   if (k <= 0) return np;
   int32_t *a = (int32_t *)malloc(sizeof(int32_t) * np), *b = (int32_t *)malloc(sizeof(int32_t) * np);
   if (!a || !b) { free(a); free(b); return -SPHDEM_ERR_ALLOC; }
-  int rc = m->ops->d2h(m, a, m->D.pa, sizeof(int32_t) * np);
-  if (!rc) rc = m->ops->d2h(m, b, m->D.pb, sizeof(int32_t) * np);
+  int rc = rt_d2h(&m->rt, a, m->D.pa, sizeof(int32_t) * np);
+  if (!rc) rc = rt_d2h(&m->rt, b, m->D.pb, sizeof(int32_t) * np);
   for (int64_t p = 0; !rc && p < k; p++) { pairs[2 * p] = a[p]; pairs[2 * p + 1] = b[p]; }
   free(a);
   free(b);
@@ -622,8 +602,8 @@ int sphdem_dem_debug_history(sphdem_dem m, int64_t ta, int64_t tb, double hist[4
   if (np == 0) return SPHDEM_ERR_ARG;
   uint64_t *keys = (uint64_t *)malloc(sizeof(uint64_t) * np);
   double *h = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * np);
-  int rc = (!keys || !h) ? SPHDEM_ERR_ALLOC : m->ops->d2h(m, keys, m->D.key, sizeof(uint64_t) * np);
-  if (!rc) rc = m->ops->d2h(m, h, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * np);
+  int rc = (!keys || !h) ? SPHDEM_ERR_ALLOC : rt_d2h(&m->rt, keys, m->D.key, sizeof(uint64_t) * np);
+  if (!rc) rc = rt_d2h(&m->rt, h, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * np);
   int found = 0;
   for (int64_t p = 0; !rc && p < np; p++)
     if (keys[p] == k) {
@@ -645,8 +625,8 @@ int64_t sphdem_dem_get_history(sphdem_dem m, uint64_t *keys, double *hist, int64
   if (!m || max < 0 || (max > 0 && (!keys || !hist))) return -SPHDEM_ERR_ARG;
   int64_t np = m->nbuilds ? m->D.np : 0, k = np < max ? np : max;
   if (k > 0) {
-    int rc = m->ops->d2h(m, keys, m->D.key, sizeof(uint64_t) * k);
-    if (!rc) rc = m->ops->d2h(m, hist, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * k);
+    int rc = rt_d2h(&m->rt, keys, m->D.key, sizeof(uint64_t) * k);
+    if (!rc) rc = rt_d2h(&m->rt, hist, m->D.hin, sizeof(double) * SPHDEM_DEM_NHIST * k);
     if (rc) return -rc;
   }
   return np;
@@ -681,8 +661,8 @@ int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const 
     for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hs[SPHDEM_DEM_NHIST * i + q] = hist[SPHDEM_DEM_NHIST * idx[i].i + q];
   }
   int rc = dup ? sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: a pair key appears twice") : SPHDEM_OK;
-  if (!rc && n) rc = m->ops->h2d(m, D->key_old, ks, sizeof(uint64_t) * (size_t)n);
-  if (!rc && n) rc = m->ops->h2d(m, D->hist_old, hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)n);
+  if (!rc && n) rc = rt_h2d(&m->rt, D->key_old, ks, sizeof(uint64_t) * (size_t)n);
+  if (!rc && n) rc = rt_h2d(&m->rt, D->hist_old, hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)n);
   free(idx); free(ks); free(hs);
   if (rc) return rc;
   D->np_old = n;

@@ -11,23 +11,6 @@
  * costs more than the work (and much more when the cores are shared). */
 #define DEM_OMP_MIN 2048
 
-static int c_alloc(struct sphdem_dem_s *m, void **ptr, size_t bytes) {
-  *ptr = malloc(bytes ? bytes : 1);
-  if (!*ptr) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes", bytes);
-  return SPHDEM_OK;
-}
-static void c_free(struct sphdem_dem_s *m, void *ptr) { (void)m; free(ptr); }
-static int c_copy(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes) {
-  (void)m;
-  if (bytes) memmove(dst, src, bytes);
-  return SPHDEM_OK;
-}
-static int c_memset0(struct sphdem_dem_s *m, void *ptr, size_t bytes) {
-  (void)m;
-  if (bytes) memset(ptr, 0, bytes);
-  return SPHDEM_OK;
-}
-
 /* Stable counting sort of the grains by cell (the same order as the GPU's stable radix sort). */
 static int c_cells(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
@@ -194,5 +177,5 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
 }
 
 const dem_ops sphdem_dem_cpu_ops = {
-  "cpu", c_alloc, c_free, c_copy, c_copy, c_memset0, c_copy, c_cells, c_count, c_fill, c_csr, c_forces,
+  "cpu", c_cells, c_count, c_fill, c_csr, c_forces,
 };

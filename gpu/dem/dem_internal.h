@@ -73,15 +73,10 @@ typedef struct {
 } dem_dev;
 
 struct sphdem_dem_s;
-/* Backend operations; each returns SPHDEM_OK or a code with the message set. */
+/* Backend passes (memory operations are in the runtime, m->rt); each returns SPHDEM_OK or a code with the
+ * message set. */
 typedef struct {
   const char *name;
-  int (*alloc)(struct sphdem_dem_s *m, void **ptr, size_t bytes);
-  void (*free)(struct sphdem_dem_s *m, void *ptr);
-  int (*h2d)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
-  int (*d2h)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
-  int (*memset0)(struct sphdem_dem_s *m, void *ptr, size_t bytes);
-  int (*d2d)(struct sphdem_dem_s *m, void *dst, const void *src, size_t bytes);
   /* cells of the grains, sidx stably sorted by cell, cell ranges */
   int (*cells)(struct sphdem_dem_s *m);
   /* count candidate pairs per sorted slot, exclusive scan; *np gets the total */
@@ -96,9 +91,9 @@ typedef struct {
 
 struct sphdem_dem_s {
   dem_dev D;
+  sphdem_rt rt;                /* memory and error text (no device byte count is reported for the DEM: frees pass 0) */
   const dem_ops *ops;
   int backend;
-  char err[1024];
   int64_t cap_n, cap_p, cap_pold, cap_cells;
   int need_build;
   int build_requested;         /* sphdem_dem_request_build since the last build */

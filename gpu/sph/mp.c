@@ -124,9 +124,9 @@ static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
   TRYM(sphdem_dalloc(c, (void **)&D->lam, 8 * m));
   TRYM(sphdem_dalloc(c, (void **)&D->dus, 24 * m));
   c->cap_mp = (int64_t)m;
-  TRYM(c->ops->memset0(c, D->ph, 4 * m));
-  TRYM(c->ops->memset0(c, D->mu_p, 8 * m));
-  TRYM(c->ops->memset0(c, D->dus, 24 * m));
+  TRYM(rt_zero(&c->rt, D->ph, 4 * m));
+  TRYM(rt_zero(&c->rt, D->mu_p, 8 * m));
+  TRYM(rt_zero(&c->rt, D->dus, 24 * m));
   return SPHDEM_OK;
 }
 
@@ -136,7 +136,7 @@ int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
   TRYM(ensure_mp(c, D->nf));
   c->mp_ready = 0;
   /* a rebuilt fluid starts in phase 0 until sphdem_set_fluid_phase */
-  if (D->nf > 0) TRYM(c->ops->memset0(c, D->ph, 4 * (size_t)D->nf));
+  if (D->nf > 0) TRYM(rt_zero(&c->rt, D->ph, 4 * (size_t)D->nf));
   return SPHDEM_OK;
 }
 
@@ -157,7 +157,7 @@ int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m) {
   sphdem_rederive(c);
   if (!was_on) {
     TRYM(ensure_mp(c, D->nf));
-    if (D->nf > 0) TRYM(c->ops->memset0(c, D->ph, 4 * (size_t)D->nf));
+    if (D->nf > 0) TRYM(rt_zero(&c->rt, D->ph, 4 * (size_t)D->nf));
     c->mp_ready = 0;
   }
   return SPHDEM_OK;
@@ -185,10 +185,10 @@ int sphdem_set_fluid_phase(sphdem_ctx c, int n, const int *phase) {
   TRYM(ensure_mp(c, n));
   int32_t *ui = (int32_t *)malloc(4 * (size_t)n), *hp = (int32_t *)malloc(4 * (size_t)n);
   int rc = ui && hp ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_fluid_phase: cannot allocate %d entries", n);
-  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc) {
     for (int s = 0; s < n; s++) hp[s] = phase[ui[s]];
-    rc = c->ops->h2d(c, D->ph, hp, 4 * (size_t)n);
+    rc = rt_h2d(&c->rt, D->ph, hp, 4 * (size_t)n);
   }
   free(ui);
   free(hp);
@@ -207,10 +207,10 @@ int sphdem_mp_prepare(struct sphdem_ctx_s *c) {
     for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
   }
   TRYM(c->ops->mp_pass(c, 1));
-  TRYM(c->ops->sync(c));
+  TRYM(rt_sync(&c->rt));
   if (D->M.shifting) {
     TRYM(c->ops->mp_pass(c, 2));
-    TRYM(c->ops->sync(c));
+    TRYM(rt_sync(&c->rt));
   }
   c->mp_ready = 1;
   return SPHDEM_OK;
@@ -227,13 +227,13 @@ int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda,
   double *h = (double *)malloc(24 * (size_t)n);
   int rc = ui && h ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "mp_get_fields: cannot allocate %lld entries",
                                              (long long)n);
-  if (!rc) rc = c->ops->sync(c);
-  if (!rc) rc = c->ops->d2h(c, ui, D->uidx, 4 * (size_t)n);
+  if (!rc) rc = rt_sync(&c->rt);
+  if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   struct { double *dst; const double *src; int nc; } f[] = {{mu, D->mu_p, 1}, {gdot, D->gdot, 1},
                                                             {lambda, D->lam, 1}, {shift, D->dus, 3}};
   for (int k = 0; k < 4 && !rc; k++) {
     if (!f[k].dst) continue;
-    rc = c->ops->d2h(c, h, f[k].src, 8 * (size_t)f[k].nc * (size_t)n);
+    rc = rt_d2h(&c->rt, h, f[k].src, 8 * (size_t)f[k].nc * (size_t)n);
     for (int64_t s = 0; s < n && !rc; s++)
       for (int d = 0; d < f[k].nc; d++) f[k].dst[(int64_t)ui[s] * f[k].nc + d] = h[f[k].nc * s + d];
   }

@@ -6,26 +6,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "sph_bodies.h"
 #include "sph_internal.h"
 
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-
-int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...) {
-  if (c) {
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(c->err, sizeof c->err, fmt, ap);
-    va_end(ap);
-  }
-  return code;
-}
+SPHDEM_RT_FAIL_FN(sphdem_fail, struct sphdem_ctx_s)
 
 const char *sphdem_strerror(int code) {
   switch (code) {
@@ -36,11 +21,11 @@ const char *sphdem_strerror(int code) {
   return "unknown sphdem error code";
 }
 
-const char *sphdem_last_error(sphdem_ctx c) { return c ? c->err : "no context"; }
+const char *sphdem_last_error(sphdem_ctx c) { return c ? c->rt.err : "no context"; }
 int sphdem_backend(sphdem_ctx c) { return c ? c->backend : SPHDEM_DEVICE_CPU; }
 const char *sphdem_backend_note(sphdem_ctx c) { return c ? c->note : ""; }
 int64_t sphdem_nsorts(sphdem_ctx c) { return c ? c->nsorts : 0; }
-size_t sphdem_device_bytes(sphdem_ctx c) { return c ? c->bytes : 0; }
+size_t sphdem_device_bytes(sphdem_ctx c) { return c ? c->rt.bytes : 0; }
 
 void sphdem_timers(sphdem_ctx c, double t[SPHDEM_NTIMERS]) {
   for (int k = 0; k < SPHDEM_NTIMERS; k++) t[k] = c ? c->timers[k] : 0.0;
@@ -50,12 +35,8 @@ void sphdem_timers_reset(sphdem_ctx c) {
 }
 
 int sphdem_gpu_available(void) {
-#ifdef SPHDEM_WITH_CUDA
   char msg[256];
-  return sphdem_cuda_probe(msg, sizeof msg) == SPHDEM_OK;
-#else
-  return 0;
-#endif
+  return sphdem_rt_gpu_probe(msg, sizeof msg) == SPHDEM_OK;
 }
 
 /* ---- parameters ------------------------------------------------------------------------------ */
@@ -175,23 +156,10 @@ int sphdem_get_params(sphdem_ctx c, sphdem_params *p) {
 
 /* ---- memory ------------------------------------------------------------------------------------ */
 
-static int dalloc(sphdem_ctx c, void **ptr, size_t bytes) {
-  if (bytes == 0) bytes = 8;
-  int rc = c->ops->alloc(c, ptr, bytes);
-  if (rc == SPHDEM_OK) c->bytes += bytes;
-  return rc;
-}
+int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { return rt_alloc(&c->rt, ptr, bytes); }
+void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { rt_free(&c->rt, ptr, bytes ? bytes : 8); }
 
-int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { return dalloc(c, ptr, bytes); }
-
-void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
-  if (!*ptr) return;
-  c->ops->free(c, *ptr);
-  c->bytes -= bytes ? bytes : 8;
-  *ptr = NULL;
-}
-
-#define DFREE(cx, p_, nb_) do { if (p_) { (cx)->ops->free((cx), (p_)); (cx)->bytes -= (nb_); (p_) = NULL; } } while (0)
+#define DFREE(cx, p_, nb_) rt_free(&(cx)->rt, (void **)&(p_), (nb_))
 
 static void free_fluid(sphdem_ctx c) {
   sphdem_dev *D = &c->D;
@@ -234,9 +202,9 @@ static int ensure_scratch(sphdem_ctx c, int64_t n) {
   if (n <= c->cap_scratch) return SPHDEM_OK;
   free_scratch(c);
   size_t m = (size_t)n;
-  TRY(dalloc(c, (void **)&c->perm, 4 * m));
-  TRY(dalloc(c, (void **)&c->scratch_d, 24 * m));
-  TRY(dalloc(c, (void **)&c->scratch_i, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&c->perm, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&c->scratch_d, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&c->scratch_i, 8 * m));
   c->cap_scratch = n;
   return SPHDEM_OK;
 }
@@ -248,14 +216,14 @@ static int ensure_fluid(sphdem_ctx c, int64_t n) {
   free_fluid(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRY(dalloc(c, (void **)&D->x, 24 * m)); TRY(dalloc(c, (void **)&D->v, 24 * m));
-  TRY(dalloc(c, (void **)&D->rho, 8 * m)); TRY(dalloc(c, (void **)&D->mass, 8 * m));
-  TRY(dalloc(c, (void **)&D->drho, 8 * m)); TRY(dalloc(c, (void **)&D->a, 24 * m));
-  TRY(dalloc(c, (void **)&D->u, 24 * m)); TRY(dalloc(c, (void **)&D->p, 8 * m));
-  TRY(dalloc(c, (void **)&D->x0, 24 * m)); TRY(dalloc(c, (void **)&D->tag, 8 * m));
-  TRY(dalloc(c, (void **)&D->rhop, 8 * m)); TRY(dalloc(c, (void **)&D->ve, 24 * m));
-  TRY(dalloc(c, (void **)&D->pr2, 8 * m));
-  TRY(dalloc(c, (void **)&D->uidx, 4 * m)); TRY(dalloc(c, (void **)&D->cell, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->x, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->v, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->rho, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->mass, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->drho, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->a, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->u, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->p, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->x0, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->tag, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->rhop, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->ve, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->pr2, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->uidx, 4 * m)); TRY(sphdem_dalloc(c, (void **)&D->cell, 4 * m));
   c->cap_f = (int64_t)m;
   return ensure_scratch(c, (int64_t)m);
 }
@@ -265,11 +233,11 @@ static int ensure_walls(sphdem_ctx c, int64_t n) {
   free_walls(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRY(dalloc(c, (void **)&D->wx, 24 * m)); TRY(dalloc(c, (void **)&D->wv, 24 * m));
-  TRY(dalloc(c, (void **)&D->wa, 24 * m)); TRY(dalloc(c, (void **)&D->wmass, 8 * m));
-  TRY(dalloc(c, (void **)&D->wp, 8 * m)); TRY(dalloc(c, (void **)&D->wrho, 8 * m));
-  TRY(dalloc(c, (void **)&D->wvx, 24 * m)); TRY(dalloc(c, (void **)&D->wtag, 8 * m));
-  TRY(dalloc(c, (void **)&D->wcell, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wx, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wv, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wa, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wmass, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wp, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->wrho, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wvx, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wtag, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wcell, 4 * m));
   c->cap_w = (int64_t)m;
   return ensure_scratch(c, (int64_t)m);
 }
@@ -278,8 +246,8 @@ static int ensure_cells(sphdem_ctx c, int64_t n) {
   if (n <= c->cap_cells) return SPHDEM_OK;
   free_cells(c);
   size_t m = (size_t)n;
-  TRY(dalloc(c, (void **)&c->D.cstart, 4 * m)); TRY(dalloc(c, (void **)&c->D.cend, 4 * m));
-  TRY(dalloc(c, (void **)&c->D.wcstart, 4 * m)); TRY(dalloc(c, (void **)&c->D.wcend, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&c->D.cstart, 4 * m)); TRY(sphdem_dalloc(c, (void **)&c->D.cend, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&c->D.wcstart, 4 * m)); TRY(sphdem_dalloc(c, (void **)&c->D.wcend, 4 * m));
   c->cap_cells = n;
   return SPHDEM_OK;
 }
@@ -324,13 +292,15 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
   derive(&c->D);
   c->ops = &sphdem_cpu_ops;
   c->backend = SPHDEM_DEVICE_CPU;
+  sphdem_rt_init(&c->rt, SPHDEM_DEVICE_CPU);
   if (dev != SPHDEM_DEVICE_CPU) {
 #ifdef SPHDEM_WITH_CUDA
-    int rc = sphdem_cuda_probe(m, sizeof m);
+    int rc = sphdem_rt_gpu_probe(m, sizeof m);
     if (rc == SPHDEM_OK) rc = sphdem_cuda_init(c);
     if (rc == SPHDEM_OK) {
       c->ops = &sphdem_cuda_ops;
       c->backend = SPHDEM_DEVICE_GPU;
+      sphdem_rt_init(&c->rt, SPHDEM_DEVICE_GPU);
       snprintf(c->note, sizeof c->note, "%s", m);
     } else if (dev == SPHDEM_DEVICE_GPU) {
       if (msg && msglen) snprintf(msg, msglen, "device gpu requested but no GPU is usable: %s", m);
@@ -371,7 +341,7 @@ static int ensure_ksum(sphdem_ctx c) {
   }
   if (!on || D->ksum) return SPHDEM_OK;
   size_t m = (size_t)(D->nf > 0 ? D->nf : 1);
-  TRY(dalloc(c, (void **)&D->ksum, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->ksum, 8 * m));
   c->cap_ks = (int64_t)m;
   return SPHDEM_OK;
 }
@@ -403,9 +373,9 @@ int sphdem_destroy(sphdem_ctx *pc) {
 /* ---- grid and sorting ------------------------------------------------------------------------------ */
 
 static int timed_reduce(sphdem_ctx c, int set, sphdem_red *r) {
-  double t0 = now();
+  double t0 = rt_now();
   int rc = c->ops->reduce(c, set, r);
-  c->timers[SPHDEM_T_REDUCE] += now() - t0;
+  c->timers[SPHDEM_T_REDUCE] += rt_now() - t0;
   return rc;
 }
 
@@ -470,7 +440,7 @@ static int sort_set(sphdem_ctx c, int set) {
     void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx};
     int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
     for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
-    TRY(c->ops->d2d(c, D->x0, D->x, 24 * (size_t)n));
+    TRY(rt_d2d(&c->rt, D->x0, D->x, 24 * (size_t)n));
     /* coupling: the porosity follows its particles (read by get_porosity, probe and get_fluid's pressure) */
     if (D->eps && c->cap_cf >= n) TRY(c->ops->gather(c, D->eps, 8, n));
     if (D->fr && c->cap_cf >= n) TRY(c->ops->gather(c, D->fr, 24, n)); /* last reaction, read by the wall pass */
@@ -494,12 +464,12 @@ static int sort_set(sphdem_ctx c, int set) {
 }
 
 static int sort_all(sphdem_ctx c) {
-  double t0 = now();
+  double t0 = rt_now();
   TRY(build_grid(c));
   TRY(sort_set(c, SPHDEM_SET_FLUID));
   TRY(sort_set(c, SPHDEM_SET_WALL));
-  TRY(c->ops->sync(c));
-  c->timers[SPHDEM_T_SORT] += now() - t0;
+  TRY(rt_sync(&c->rt));
+  c->timers[SPHDEM_T_SORT] += rt_now() - t0;
   c->need_sort = 0;
   c->need_wall_sort = 0;
   c->host_tags_valid = 0;
@@ -509,8 +479,8 @@ static int sort_all(sphdem_ctx c) {
 
 /* ---- upload / download ----------------------------------------------------------------------------- */
 
-static int up(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return c->ops->h2d(c, dst, src, bytes); }
-static int down(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return c->ops->d2h(c, dst, src, bytes); }
+static int up(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return rt_h2d(&c->rt, dst, src, bytes); }
+static int down(sphdem_ctx c, void *dst, const void *src, size_t bytes) { return rt_d2h(&c->rt, dst, src, bytes); }
 
 /* Upload the per-particle state (drho, a, u) from the caller layout through staging; order[s] is the
  * caller index of device slot s (NULL = identity). state NULL means zero. */
@@ -589,7 +559,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
                          "both must be > 0", (long long)i, (long long)(tag ? tag[i] : i + 1), mass[i], rho[i]);
   }
   TRY(check_positions(c, "set_fluid", n, tag, x));
-  double t0 = now();
+  double t0 = rt_now();
   sphdem_dev *D = &c->D;
   TRY(ensure_host(c, n));
   int32_t *order = NULL;
@@ -616,7 +586,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
     TRY(upload_state(c, n, order, state));
   }
   c->have_rates = state != NULL;
-  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   if (!order) {
     c->need_sort = 1;
   } else {
@@ -636,7 +606,7 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
     if (!(mass[i] > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_walls: wall particle %lld has mass %g; must be > 0",
                                            (long long)i, mass[i]);
   TRY(check_positions(c, "set_walls", n, NULL, x));
-  double t0 = now();
+  double t0 = rt_now();
   sphdem_dev *D = &c->D;
   TRY(ensure_walls(c, n));
   TRY(ensure_host(c, n));
@@ -648,13 +618,13 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
       const double *src = part == 0 ? v : a;
       double *dst = part == 0 ? D->wv : D->wa;
       if (src) TRY(up(c, dst, src, 24 * (size_t)n));
-      else TRY(c->ops->memset0(c, dst, 24 * (size_t)n));
+      else TRY(rt_zero(&c->rt, dst, 24 * (size_t)n));
     }
     for (int64_t i = 0; i < n; i++) c->htag[i] = i + 1;
     TRY(up(c, D->wtag, c->htag, 8 * (size_t)n));
     c->host_tags_valid = 0;
   }
-  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   c->need_wall_sort = 1;
   D->wmls = 0; /* Adami walls until sphdem_set_wall_mirror */
   return SPHDEM_OK;
@@ -671,8 +641,8 @@ int sphdem_set_wall_mirror(sphdem_ctx c, int n, const double *xi) {
     DFREE(c, D->wxi, 24 * (size_t)c->cap_wm);
     DFREE(c, D->wmu, 8 * (size_t)c->cap_wm);
     c->cap_wm = 0;
-    TRY(dalloc(c, (void **)&D->wxi, 24 * (size_t)n));
-    TRY(dalloc(c, (void **)&D->wmu, 8 * (size_t)n));
+    TRY(sphdem_dalloc(c, (void **)&D->wxi, 24 * (size_t)n));
+    TRY(sphdem_dalloc(c, (void **)&D->wmu, 8 * (size_t)n));
     c->cap_wm = n;
   }
   /* device order: wall tags are the caller index + 1 */
@@ -682,7 +652,7 @@ int sphdem_set_wall_mirror(sphdem_ctx c, int n, const double *xi) {
   for (int64_t s = 0; s < n; s++)
     for (int d = 0; d < 3; d++) c->hbuf[3 * s + d] = xi[3 * (c->htag[s] - 1) + d];
   TRY(up(c, D->wxi, c->hbuf, 24 * (size_t)n));
-  TRY(c->ops->memset0(c, D->wmu, 8 * (size_t)n));
+  TRY(rt_zero(&c->rt, D->wmu, 8 * (size_t)n));
   D->wmls = 1;
   return SPHDEM_OK;
 }
@@ -692,9 +662,9 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   sphdem_dev *D = &c->D;
   int64_t n = D->nf;
   if (n == 0) return SPHDEM_OK;
-  double t0 = now();
+  double t0 = rt_now();
   TRY(ensure_host(c, n));
-  TRY(c->ops->sync(c));
+  TRY(rt_sync(&c->rt));
   TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
   const int32_t *ui = c->huidx;
   double *h = c->hbuf;
@@ -729,7 +699,7 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
       for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
     }
   }
-  c->timers[SPHDEM_T_TRANSFER] += now() - t0;
+  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   return SPHDEM_OK;
 }
 
@@ -739,10 +709,10 @@ int sphdem_kick(sphdem_ctx c, double dth) {
   if (!c) return SPHDEM_ERR_ARG;
   if (c->D.nf == 0) return SPHDEM_OK;
   if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "kick before the rates were computed (call sphdem_compute_rates first)");
-  double t0 = now();
+  double t0 = rt_now();
   TRY(c->ops->kick(c, dth));
-  TRY(c->ops->sync(c));
-  c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+  TRY(rt_sync(&c->rt));
+  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
   /* first half kick of a step: the next rates predict rho and v by dth; second one closes the step */
   c->half_kicked = !c->half_kicked;
   c->D.pred_dth = c->half_kicked ? dth : 0.0;
@@ -753,10 +723,10 @@ int sphdem_drift(sphdem_ctx c, double dt) {
   if (!c) return SPHDEM_ERR_ARG;
   if (c->D.nf == 0) return SPHDEM_OK;
   if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "drift before the rates were computed (call sphdem_compute_rates first)");
-  double t0 = now();
+  double t0 = rt_now();
   TRY(c->ops->drift(c, dt));
-  TRY(c->ops->sync(c));
-  c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+  TRY(rt_sync(&c->rt));
+  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
   /* displacement since the last sort decides the next resort (He 2018 §2.4.2) */
   sphdem_red r;
   TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
@@ -770,33 +740,33 @@ int sphdem_compute_rates(sphdem_ctx c) {
   if (D->nf == 0) { c->have_rates = 1; return SPHDEM_OK; }
   if (c->need_sort) TRY(sort_all(c));
   else if (c->need_wall_sort && D->nw > 0) {
-    double t0 = now();
+    double t0 = rt_now();
     TRY(sort_set(c, SPHDEM_SET_WALL));
-    TRY(c->ops->sync(c));
-    c->timers[SPHDEM_T_SORT] += now() - t0;
+    TRY(rt_sync(&c->rt));
+    c->timers[SPHDEM_T_SORT] += rt_now() - t0;
     c->need_wall_sort = 0;
   }
   if (!c->half_kicked) c->D.pred_dth = 0.0;
-  double t0 = now(), tc = 0.0;
+  double t0 = rt_now(), tc = 0.0;
   /* SPH-DEM coupling (couple.c): grain sort and porosity before the EOS (timed as SPHDEM_T_COUPLE) */
   if (D->couple) {
     TRY(sphdem_couple_prepare(c));
-    tc = now() - t0;
+    tc = rt_now() - t0;
   }
   TRY(ensure_ksum(c));
   D->ks_ok = D->ksum != NULL;
   TRY(c->ops->pressure(c));
-  TRY(c->ops->sync(c));
-  double t1 = now();
-  if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(c->ops->sync(c)); }
-  double t2 = now();
+  TRY(rt_sync(&c->rt));
+  double t1 = rt_now();
+  if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
+  double t2 = rt_now();
   if (D->mp) TRY(sphdem_mp_prepare(c)); /* renormalisation, viscosity, shifting (mp.c) */
   TRY(c->ops->rates(c));
-  TRY(c->ops->sync(c));
-  double t3 = now(), tf = 0.0;
+  TRY(rt_sync(&c->rt));
+  double t3 = rt_now(), tf = 0.0;
   if (D->couple) {
     TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
-    tf = now() - t3;
+    tf = rt_now() - t3;
   }
   c->timers[SPHDEM_T_WALL] += t2 - t1;
   c->timers[SPHDEM_T_RATES] += (t1 - t0 - tc) + (t3 - t2);
@@ -818,9 +788,9 @@ static int ensure_rk(sphdem_ctx c, int64_t n) {
   free_rk(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRY(dalloc(c, (void **)&D->rk_x0, 24 * m)); TRY(dalloc(c, (void **)&D->rk_v0, 24 * m));
-  TRY(dalloc(c, (void **)&D->rk_rho0, 8 * m)); TRY(dalloc(c, (void **)&D->rk_dx, 24 * m));
-  TRY(dalloc(c, (void **)&D->rk_dv, 24 * m)); TRY(dalloc(c, (void **)&D->rk_drho, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->rk_x0, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_v0, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->rk_rho0, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_dx, 24 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->rk_dv, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_drho, 8 * m));
   c->cap_rk = (int64_t)m;
   return SPHDEM_OK;
 }
@@ -846,11 +816,11 @@ int sphdem_step_rk4(sphdem_ctx c, double dt) {
   const double wk[4] = {dt / 6.0, dt / 3.0, dt / 3.0, dt / 6.0}, cst[3] = {0.5 * dt, 0.5 * dt, dt};
   for (int s = 0; s < 4; s++) {
     TRY(sphdem_compute_rates(c));
-    double t0 = now();
+    double t0 = rt_now();
     if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
     TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
-    TRY(c->ops->sync(c));
-    c->timers[SPHDEM_T_INTEGRATE] += now() - t0;
+    TRY(rt_sync(&c->rt));
+    c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
     TRY(rk_moved(c));
   }
   return SPHDEM_OK;
@@ -950,11 +920,11 @@ int sphdem_probe(sphdem_ctx c, int npts, const double *pts, double *out) {
   if (c->need_sort) TRY(sort_all(c));
   double *dp = NULL, *dout = NULL;
   size_t bp = 24 * (size_t)npts, bo = 8 * SPHDEM_NPROBE * (size_t)npts;
-  int rc = dalloc(c, (void **)&dp, bp);
-  if (!rc) rc = dalloc(c, (void **)&dout, bo);
+  int rc = sphdem_dalloc(c, (void **)&dp, bp);
+  if (!rc) rc = sphdem_dalloc(c, (void **)&dout, bo);
   if (!rc) rc = up(c, dp, pts, bp);
   if (!rc) rc = c->ops->probe(c, npts, dp, dout);
-  if (!rc) rc = c->ops->sync(c);
+  if (!rc) rc = rt_sync(&c->rt);
   if (!rc) rc = down(c, out, dout, bo);
   DFREE(c, dp, bp);
   DFREE(c, dout, bo);
@@ -1013,7 +983,7 @@ int sphdem_check_spacing(sphdem_ctx c, double rmin, double out[8]) {
   if (c->need_sort) TRY(sort_all(c));
   else if (c->need_wall_sort && nw > 0) {
     TRY(sort_set(c, SPHDEM_SET_WALL));
-    TRY(c->ops->sync(c));
+    TRY(rt_sync(&c->rt));
     c->need_wall_sort = 0;
   }
   sphdem_dev H = *D;
@@ -1081,7 +1051,7 @@ int sphdem_get_wall_state(sphdem_ctx c, double *p, double *rho) {
   int64_t *t = (int64_t *)malloc(8 * (size_t)n);
   int rc = h && t ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_wall_state: cannot allocate %lld values",
                                             (long long)n);
-  if (!rc) rc = c->ops->sync(c);
+  if (!rc) rc = rt_sync(&c->rt);
   if (!rc) rc = down(c, t, D->wtag, 8 * (size_t)n);
   for (int k = 0; !rc && k < 2; k++) {
     double *dst = k == 0 ? p : rho;

@@ -12,20 +12,6 @@
 
 #define TRY_CPU(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
 
-static int cpu_alloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
-  *ptr = malloc(bytes);
-  if (!*ptr) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of host memory", bytes);
-  return SPHDEM_OK;
-}
-static void cpu_free(struct sphdem_ctx_s *c, void *ptr) { (void)c; free(ptr); }
-static int cpu_copy(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
-  (void)c;
-  if (bytes) memmove(dst, src, bytes);
-  return SPHDEM_OK;
-}
-static int cpu_memset0(struct sphdem_ctx_s *c, void *ptr, size_t bytes) { (void)c; memset(ptr, 0, bytes); return SPHDEM_OK; }
-static int cpu_sync(struct sphdem_ctx_s *c) { (void)c; return SPHDEM_OK; }
-
 /* Counting sort by cell (stable in the old order), then insertion sort by tag inside each cell:
  * the same (cell, tag) order as the CUDA radix sort of sort_key(). */
 static int cpu_sort_perm(struct sphdem_ctx_s *c, int set) {
@@ -105,7 +91,7 @@ static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_
   int64_t m = n + n / 4 + 16;
   void *q = realloc(*p, (size_t)m * eb);
   if (!q) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate a neighbour list of %lld entries", (long long)m);
-  c->bytes += (size_t)(m - *cap) * eb;
+  c->rt.bytes += (size_t)(m - *cap) * eb;
   *p = q;
   *cap = m;
   return SPHDEM_OK;
@@ -310,12 +296,6 @@ static int cpu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, do
 
 const sphdem_ops sphdem_cpu_ops = {
   .name = "cpu",
-  .alloc = cpu_alloc,
-  .free = cpu_free,
-  .h2d = cpu_copy,
-  .d2h = cpu_copy,
-  .memset0 = cpu_memset0,
-  .d2d = cpu_copy,
   .sort_perm = cpu_sort_perm,
   .gather = cpu_gather,
   .cell_ranges = cpu_cell_ranges,
@@ -325,7 +305,6 @@ const sphdem_ops sphdem_cpu_ops = {
   .kick = cpu_kick,
   .drift = cpu_drift,
   .reduce = cpu_reduce,
-  .sync = cpu_sync,
   .probe = cpu_probe,
   .couple_porosity = sphdem_cpu_couple_porosity,
   .couple_grains = sphdem_cpu_couple_grains,

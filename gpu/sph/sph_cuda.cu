@@ -6,6 +6,7 @@
 #include <thrust/sort.h>
 #include <stdio.h>
 
+#include "cuda_check.h"
 #include "mp_bodies.h"
 #include "sph_bodies.h"
 #include "sph_internal.h"
@@ -14,13 +15,6 @@
 #define SPHDEM_RED_BLOCKS 512
 
 static inline unsigned nblocks(int64_t n) { return (unsigned)((n + SPHDEM_BLOCK - 1) / SPHDEM_BLOCK); }
-
-static int cuda_check(struct sphdem_ctx_s *c, cudaError_t e, const char *what) {
-  if (e == cudaSuccess) return SPHDEM_OK;
-  return sphdem_fail(c, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
-}
-#define CK(c, call, what) do { int rc_ = cuda_check(c, (call), what); if (rc_) return rc_; } while (0)
-#define LAUNCHED(c, what) CK(c, cudaGetLastError(), what)
 
 /* ---- kernels: one thread per particle, bodies shared with the CPU loops --------------------------- */
 
@@ -129,112 +123,82 @@ typedef struct {
   sphdem_red hred[SPHDEM_RED_BLOCKS];
 } cuda_data;
 
-static int cu_alloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) {
-  cudaError_t e = cudaMalloc(ptr, bytes);
-  if (e != cudaSuccess) {
-    *ptr = NULL;
-    return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes of GPU memory (%s)", bytes, cudaGetErrorString(e));
-  }
-  return SPHDEM_OK;
-}
-static void cu_free(struct sphdem_ctx_s *c, void *ptr) { (void)c; cudaFree(ptr); }
-static int cu_h2d(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
-  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "host-to-device copy");
-  return SPHDEM_OK;
-}
-static int cu_d2h(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
-  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "device-to-host copy");
-  return SPHDEM_OK;
-}
-static int cu_d2d(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes) {
-  CK(c, cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToDevice), "device copy");
-  return SPHDEM_OK;
-}
-static int cu_memset0(struct sphdem_ctx_s *c, void *ptr, size_t bytes) {
-  CK(c, cudaMemset(ptr, 0, bytes), "memset");
-  return SPHDEM_OK;
-}
-static int cu_sync(struct sphdem_ctx_s *c) {
-  CK(c, cudaDeviceSynchronize(), "kernel execution");
-  return SPHDEM_OK;
-}
-
 static int cu_sort_perm(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
   int64_t n = set_count(D, set);
   uint64_t *key = (uint64_t *)c->scratch_i;
   k_cell<<<nblocks(n), SPHDEM_BLOCK>>>(*D, set, key, c->perm);
-  LAUNCHED(c, "cell index kernel");
+  RT_LAUNCHED(&c->rt, "cell index kernel");
   thrust::sort_by_key(thrust::device, thrust::device_ptr<uint64_t>(key), thrust::device_ptr<uint64_t>(key + n),
                       thrust::device_ptr<int32_t>(c->perm));
-  LAUNCHED(c, "radix sort");
+  RT_LAUNCHED(&c->rt, "radix sort");
   k_cell_from_key<<<nblocks(n), SPHDEM_BLOCK>>>(key, set_cell(D, set), n);
-  LAUNCHED(c, "cell extraction kernel");
+  RT_LAUNCHED(&c->rt, "cell extraction kernel");
   return SPHDEM_OK;
 }
 
 static int cu_gather(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t n) {
   k_gather<<<nblocks(n), SPHDEM_BLOCK>>>((uint32_t *)c->scratch_d, (const uint32_t *)arr, c->perm, elem_bytes / 4, n);
-  LAUNCHED(c, "gather kernel");
-  return cu_d2d(c, arr, c->scratch_d, (size_t)elem_bytes * (size_t)n);
+  RT_LAUNCHED(&c->rt, "gather kernel");
+  return rt_d2d(&c->rt, arr, c->scratch_d, (size_t)elem_bytes * (size_t)n);
 }
 
 static int cu_cell_ranges(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
   int64_t n = set_count(D, set);
   int32_t *cs = set_cstart(D, set), *ce = set_cend(D, set);
-  CK(c, cudaMemset(cs, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
-  CK(c, cudaMemset(ce, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
+  RT_CK(&c->rt, cudaMemset(cs, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
+  RT_CK(&c->rt, cudaMemset(ce, 0, sizeof(int32_t) * (size_t)set_ncells(D, set)), "memset");
   k_cell_ranges<<<nblocks(n), SPHDEM_BLOCK>>>(set_cell(D, set), n, cs, ce);
-  LAUNCHED(c, "cell range kernel");
+  RT_LAUNCHED(&c->rt, "cell range kernel");
   return SPHDEM_OK;
 }
 
 static int cu_pressure(struct sphdem_ctx_s *c) {
   if (c->D.ksum) {
     k_ksum<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-    LAUNCHED(c, "kernel-sum kernel");
+    RT_LAUNCHED(&c->rt, "kernel-sum kernel");
   }
   k_pressure<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  LAUNCHED(c, "pressure kernel");
+  RT_LAUNCHED(&c->rt, "pressure kernel");
   return SPHDEM_OK;
 }
 static int cu_wall_state(struct sphdem_ctx_s *c) {
   k_wall_state<<<nblocks(c->D.nw), SPHDEM_BLOCK>>>(c->D);
-  LAUNCHED(c, "wall state kernel");
+  RT_LAUNCHED(&c->rt, "wall state kernel");
   return SPHDEM_OK;
 }
 static int cu_mp_pass(struct sphdem_ctx_s *c, int pass) {
   if (pass == 1) k_mp_grad<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
   else k_mp_shift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  LAUNCHED(c, "multiphase pass kernel");
+  RT_LAUNCHED(&c->rt, "multiphase pass kernel");
   return SPHDEM_OK;
 }
 
 static int cu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
   k_rk<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, mode, wk, cst);
-  LAUNCHED(c, "Runge-Kutta stage kernel");
+  RT_LAUNCHED(&c->rt, "Runge-Kutta stage kernel");
   return SPHDEM_OK;
 }
 
 static int cu_rates(struct sphdem_ctx_s *c) {
   if (c->D.mp) {
     k_mp_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-    LAUNCHED(c, "multiphase rates kernel");
+    RT_LAUNCHED(&c->rt, "multiphase rates kernel");
     return SPHDEM_OK;
   }
   k_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  LAUNCHED(c, "rates kernel");
+  RT_LAUNCHED(&c->rt, "rates kernel");
   return SPHDEM_OK;
 }
 static int cu_kick(struct sphdem_ctx_s *c, double dth) {
   k_kick<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dth);
-  LAUNCHED(c, "kick kernel");
+  RT_LAUNCHED(&c->rt, "kick kernel");
   return SPHDEM_OK;
 }
 static int cu_drift(struct sphdem_ctx_s *c, double dt) {
   k_drift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dt);
-  LAUNCHED(c, "drift kernel");
+  RT_LAUNCHED(&c->rt, "drift kernel");
   return SPHDEM_OK;
 }
 
@@ -246,42 +210,25 @@ static int cu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   unsigned nb = nblocks(n);
   if (nb > SPHDEM_RED_BLOCKS) nb = SPHDEM_RED_BLOCKS;
   k_reduce<<<nb, SPHDEM_BLOCK>>>(c->D, set, cd->dred);
-  LAUNCHED(c, "reduction kernel");
-  CK(c, cudaMemcpy(cd->hred, cd->dred, nb * sizeof(sphdem_red), cudaMemcpyDeviceToHost), "reduction copy");
+  RT_LAUNCHED(&c->rt, "reduction kernel");
+  RT_CK(&c->rt, cudaMemcpy(cd->hred, cd->dred, nb * sizeof(sphdem_red), cudaMemcpyDeviceToHost), "reduction copy");
   for (unsigned b = 0; b < nb; b++) red_combine(out, &cd->hred[b]);
   return SPHDEM_OK;
 }
 
 static int cu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, double *out) {
   k_probe<<<nblocks(npts), SPHDEM_BLOCK>>>(c->D, pts, out, npts);
-  LAUNCHED(c, "probe kernel");
+  RT_LAUNCHED(&c->rt, "probe kernel");
   return SPHDEM_OK;
 }
 
 extern "C" {
 
 const sphdem_ops sphdem_cuda_ops = {
-  "cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_memset0, cu_d2d, cu_sort_perm, cu_gather, cu_cell_ranges,
-  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_sync, cu_probe,
+  "cuda", cu_sort_perm, cu_gather, cu_cell_ranges,
+  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_probe,
   sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction, cu_mp_pass, cu_rk,
 };
-
-/* 0 if a CUDA device is usable; msg gets the device name or the reason it is not. */
-int sphdem_cuda_probe(char *msg, size_t msglen) {
-  int n = 0;
-  cudaError_t e = cudaGetDeviceCount(&n);
-  if (e != cudaSuccess) {
-    snprintf(msg, msglen, "cudaGetDeviceCount: %s", cudaGetErrorString(e));
-    cudaGetLastError();
-    return SPHDEM_ERR_NO_GPU;
-  }
-  if (n == 0) { snprintf(msg, msglen, "no CUDA device found"); return SPHDEM_ERR_NO_GPU; }
-  cudaDeviceProp prop;
-  if (cudaGetDeviceProperties(&prop, 0) != cudaSuccess) { snprintf(msg, msglen, "cannot query device 0"); return SPHDEM_ERR_NO_GPU; }
-  snprintf(msg, msglen, "GPU 0: %s (sm_%d%d, %.1f GiB)", prop.name, prop.major, prop.minor,
-           prop.totalGlobalMem / 1073741824.0);
-  return SPHDEM_OK;
-}
 
 int sphdem_cuda_init(struct sphdem_ctx_s *c) {
   cuda_data *cd = (cuda_data *)calloc(1, sizeof(cuda_data));

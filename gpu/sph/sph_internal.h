@@ -2,6 +2,7 @@
 #ifndef SPHDEM_INTERNAL_H
 #define SPHDEM_INTERNAL_H
 
+#include "runtime.h"
 #include "sphdem.h"
 
 #ifdef __CUDACC__
@@ -108,16 +109,11 @@ typedef struct {
 /* Which arrays a sort permutes. */
 enum { SPHDEM_SET_FLUID = 0, SPHDEM_SET_WALL = 1, SPHDEM_SET_GRAIN = 2 };
 
-/* Backend operations. Each returns SPHDEM_OK or an error code (message set in ctx). */
+/* Backend passes (memory operations are in the runtime, c->rt). Each returns SPHDEM_OK or an error code
+ * (message set in ctx). */
 struct sphdem_ctx_s;
 typedef struct {
   const char *name;
-  int (*alloc)(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
-  void (*free)(struct sphdem_ctx_s *c, void *ptr);
-  int (*h2d)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
-  int (*d2h)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
-  int (*memset0)(struct sphdem_ctx_s *c, void *ptr, size_t bytes);
-  int (*d2d)(struct sphdem_ctx_s *c, void *dst, const void *src, size_t bytes);
   /* cell of each particle of the set, then c->perm (new slot -> old slot) ordering by (cell, tag);
    * leaves the cell array permuted (sorted) */
   int (*sort_perm)(struct sphdem_ctx_s *c, int set);
@@ -131,7 +127,6 @@ typedef struct {
   int (*kick)(struct sphdem_ctx_s *c, double dth);
   int (*drift)(struct sphdem_ctx_s *c, double dt);
   int (*reduce)(struct sphdem_ctx_s *c, int set, sphdem_red *out);
-  int (*sync)(struct sphdem_ctx_s *c);
   int (*probe)(struct sphdem_ctx_s *c, int64_t npts, const double *dpts, double *dout);
   /* SPH-DEM coupling passes (couple_bodies.h): porosity at fluid particles (eq 26); fluid force on
    * grains (eqs 27-32); reaction on the fluid (eq 33) */
@@ -147,11 +142,10 @@ typedef struct {
 
 struct sphdem_ctx_s {
   sphdem_dev D;
+  sphdem_rt rt;                 /* memory, device bytes held, error text */
   const sphdem_ops *ops;
   int backend;                  /* SPHDEM_DEVICE_CPU / _GPU */
   char note[600];
-  char err[1024];
-  size_t bytes;                 /* device bytes held */
   int64_t cap_f, cap_w;         /* allocated capacities */
   int64_t cap_cells;
   int need_sort, need_wall_sort;
@@ -209,7 +203,7 @@ extern "C" {
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
 /* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph.c). */
 int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
-/* Device memory counted in c->bytes (sph.c); dfree takes the bytes allocated and clears *ptr. */
+/* Device memory counted in c->rt.bytes (sph.c); dfree takes the bytes allocated and clears *ptr. */
 int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 /* Derived constants again after a parameter change (sph.c). */
@@ -237,7 +231,6 @@ extern const sphdem_ops sphdem_cuda_ops;
 int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c);
 int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c);
 int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c);
-int sphdem_cuda_probe(char *msg, size_t msglen);
 int sphdem_cuda_init(struct sphdem_ctx_s *c);
 void sphdem_cuda_fini(struct sphdem_ctx_s *c);
 #endif

@@ -1,0 +1,18 @@
+/* cuda_check.h - the one CUDA error check of the backends: a failed call or launch sets the context's error
+ * text ("CUDA error in <what>: <reason>") and returns SPHDEM_ERR_CUDA (not public). */
+#ifndef SPHDEM_CUDA_CHECK_H
+#define SPHDEM_CUDA_CHECK_H
+
+#include <cuda_runtime.h>
+
+#include "runtime.h"
+
+static inline int rt_cuda_check(sphdem_rt *rt, cudaError_t e, const char *what) {
+  if (e == cudaSuccess) return SPHDEM_OK;
+  return sphdem_rt_fail(rt, SPHDEM_ERR_CUDA, "CUDA error in %s: %s", what, cudaGetErrorString(e));
+}
+/* return from the calling function on a failed call / kernel launch */
+#define RT_CK(rt, call, what) do { int rc_ = rt_cuda_check((rt), (call), (what)); if (rc_) return rc_; } while (0)
+#define RT_LAUNCHED(rt, what) RT_CK(rt, cudaGetLastError(), what)
+
+#endif
