@@ -1,6 +1,6 @@
 /* test_poiseuille.c - plane Poiseuille start-up (Morris, Fox & Zhu 1997): Morris viscosity (He 2018
  * eq 10) with no-slip Adami walls (eq 13) against the series solution of data/reference/closed_forms.md.
- * Usage: verify_poiseuille [RES]; HDX = h/dx (default 1.5; 1.3 gives ~3 % at steady state). */
+ * Usage: verify_poiseuille [RES]; h/dx 1.5 (1.3 gives ~3 % at steady state). */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"
@@ -21,7 +21,7 @@ int main(int argc, char **argv) {
   double L = 1e-3, nu = 1e-6, rho0 = 1000, F = 1e-4, umax = F * L * L / (8 * nu);
   sphdem_params p;
   sphdem_params_default(&p);
-  p.dim = 2; p.dx = L / res; p.h = (getenv("HDX") ? atof(getenv("HDX")) : 1.5) * p.dx; p.rho0 = rho0; p.c0 = 10 * umax * 10;
+  p.dim = 2; p.dx = L / res; p.h = 1.5 * p.dx; p.rho0 = rho0; p.c0 = 10 * umax * 10;
   p.gravity[0] = F; p.skin = 0.3 * p.dx;
   p.visc = SPHDEM_VISC_MORRIS; p.mu = nu * rho0;
   double Lx = 20 * p.dx;

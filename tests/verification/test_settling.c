@@ -9,10 +9,8 @@
  * damping; the grain is then released at rest at 0.6 of the depth.
  * Writes settling_v.csv (case, t, v_sim, v_ode, u_fluid = -v_z of the fluid at the grain, probed); plot:
  * plot_settling.py beside this file.
- * Usage: verify_settling [T_END after release, default 0.04 s]. Exploration knobs (defaults are the tested
- * case): HDX = h/dx (1.3), NX, NZ = fluid block in particles (8, 10), NRELAX = relaxation steps (650),
- * DELTA = delta-SPH coefficient (0.1), SUPERFICIAL = 0/1 (1), SETTLING_FIXED = 1 holds the grain at rest,
- * SETTLING_DSCALE scales the diameters, SETTLING_TRACE = 1 prints the relaxation. */
+ * Usage: verify_settling [T_END after release, default 0.04 s]. Scene: h/dx 1.3, fluid block 8 x 8 x 10
+ * particles, 650 relaxation steps, superficial formulation on (the default). */
 #include <math.h>
 #include "scene.h"
 #include "testlib.h"
@@ -38,15 +36,15 @@ static double terminal(double d, double rhop) {
 }
 
 int main(int argc, char **argv) {
-  double h = 0.002, dx = h / (getenv("HDX") ? atof(getenv("HDX")) : 1.3);
-  int nx = getenv("NX") ? atoi(getenv("NX")) : 8, nz = getenv("NZ") ? atoi(getenv("NZ")) : 10;
+  double h = 0.002, dx = h / 1.3;
+  int nx = 8, nz = 10;
   double W = nx * dx, H = nz * dx;
   sphdem_params p;
   sphdem_params_default(&p);
   p.dim = 3; p.dx = dx; p.h = h; p.rho0 = rhof; p.c0 = 10 * sqrt(g * H);
   p.gravity[2] = -g; p.skin = 0.3 * dx;
   p.visc = SPHDEM_VISC_MORRIS; p.mu = muf;
-  p.delta = getenv("DELTA") ? atof(getenv("DELTA")) : 0.1; p.delta_hydro = 1;
+  p.delta = 0.1; p.delta_hydro = 1;
   for (int d = 0; d < 3; d++) { p.boxlo[d] = -4 * dx; p.boxhi[d] = (d == 2 ? 2 * H : W) + 4 * dx; }
   scene s;
   scene_tank(&s, &p, W, W, H + 2 * dx, W, H, 3);
@@ -54,8 +52,6 @@ int main(int argc, char **argv) {
   sphdem_couple_params cp;
   sphdem_couple_params_default(&cp);
   cp.enabled = 1; cp.drag = SPHDEM_DRAG_SCHILLER_NAUMANN; cp.mu = muf;
-  if (getenv("SUPERFICIAL")) cp.superficial = atoi(getenv("SUPERFICIAL"));
-  int fixed = getenv("SETTLING_FIXED") != NULL;
 
   /* relax the fluid to rest, coupling on, no grain: kinetic damping (velocities zeroed whenever the kinetic
    * energy passes a maximum), then free steps */
@@ -65,18 +61,12 @@ int main(int argc, char **argv) {
   int nf = s.nf;
   double *x = malloc(24 * (size_t)nf), *v = malloc(24 * (size_t)nf), *rho = malloc(8 * (size_t)nf);
   double *st = malloc(8 * SPHDEM_NSTATE * (size_t)nf);
-  int nrelax = getenv("NRELAX") ? atoi(getenv("NRELAX")) : 650, nfree = 30;
+  int nrelax = 650, nfree = 30;
   double ke_prev = 0;
   for (int n = 1; n <= nrelax; n++) {
     SPHDEM_CHECK_RC(c, scene_step(c, dt));
     sphdem_stats rs;
     SPHDEM_CHECK_RC(c, sphdem_stats_get(c, dt, &rs));
-    if (getenv("SETTLING_TRACE") && n % 20 == 0) {
-      double pt[3] = {0.5 * W, 0.5 * W, 0.6 * H}, pr[SPHDEM_NPROBE];
-      SPHDEM_CHECK_RC(c, sphdem_probe(c, 1, pt, pr));
-      printf("    relax %d: ke %.3e vmax %.2e, fluid velocity at the release point %.2e %.2e %.2e\n", n, rs.ke, rs.vmax,
-             pr[2], pr[3], pr[4]);
-    }
     int peak = rs.ke < ke_prev;
     ke_prev = rs.ke;
     if (peak && n <= nrelax - nfree) {
@@ -101,7 +91,7 @@ int main(int argc, char **argv) {
   fprintf(out, "case,d,rho_p,t,v_sim,v_ode,u_fluid\n");
   double worst = 0;
   for (int k = 0; k < 4; k++) {
-    double d = dcase[k] * (getenv("SETTLING_DSCALE") ? atof(getenv("SETTLING_DSCALE")) : 1.0), rp = rcase[k], r = 0.5 * d, V = M_PI * d * d * d / 6, m = rp * V;
+    double d = dcase[k], rp = rcase[k], r = 0.5 * d, V = M_PI * d * d * d / 6, m = rp * V;
     c = scene_start(&p, &s, test_device());
     SPHDEM_CHECK_RC(c, sphdem_couple_set(c, &cp));
     SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, nf, s.tag, x, v, rho, s.mass, st));
@@ -115,7 +105,6 @@ int main(int argc, char **argv) {
     for (int n = 1; n <= nsteps; n++) {
       /* grain: velocity Verlet, forces at the half-step velocity as for the fluid */
       for (int e = 0; e < 3; e++) gv[e] += 0.5 * dt * (f[e] / m + p.gravity[e]);
-      if (fixed) gv[0] = gv[1] = gv[2] = 0;
       for (int e = 0; e < 3; e++) gx[e] += dt * gv[e];
       SPHDEM_CHECK_RC(c, sphdem_kick(c, 0.5 * dt));
       SPHDEM_CHECK_RC(c, sphdem_drift(c, dt));
