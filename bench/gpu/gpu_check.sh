@@ -3,8 +3,13 @@
 # on the CUDA backend, the CPU-vs-CUDA twin tests under compute-sanitizer memcheck and racecheck, the 3D
 # dam-break, CFD and DEM benchmarks, and (with the packed engines) the coupled drum benchmark.
 #   usage: bench/gpu/gpu_check.sh BIN_DIR OUT_DIR [bench sizes...]
-# BIN_DIR holds the test binaries and bench_dambreak (built with -DSPHDEM_CUDA=ON), OUT_DIR gets one log per
-# step (OUT_DIR/logs.tgz). Each step has its own time limit; a failing step does not stop the others.
+# BIN_DIR holds the test binaries and bench_dambreak (built with -DSPHDEM_CUDA=ON): either a build's tests/ folder
+# (BUILD/tests, with its CTestTestfile.cmake) or the copy that pack_engines.sh makes (.gpubin/). OUT_DIR gets one
+# log per step (OUT_DIR/logs.tgz). Each step has its own time limit; a failing step does not stop the others.
+# The part "tests" is `ctest -L gpu -LE twin` in a build's tests/ folder (the gpu_<name> registrations of
+# tests/CMakeLists.txt: every unit and verification test on the CUDA backend; the twins have their own part);
+# in a .gpubin/ copy it runs each unit_*/verify_* binary with SPHDEM_TEST_DEVICE=gpu. SPHDEM_REQUIRE_GPU=1 is set:
+# a test that finds no usable GPU fails here instead of skipping.
 # Environment:
 #   GPU_CHECK_PARTS     which parts, in this order (default: "twins tests bench cfd dem drum"); the twins come
 #                       first because they are what a short GPU run must not miss
@@ -19,7 +24,8 @@ DEADLINE=${GPU_CHECK_DEADLINE:-540}
 ENG=${GPU_CHECK_ENGINES:-$(dirname "$BIN")/.englibs}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 export PATH=$PATH:/usr/local/cuda/bin
-export SPHDEM_REFERENCE_DIR=${SPHDEM_REFERENCE_DIR:-$BIN/reference}
+[ -d "$BIN/reference" ] && export SPHDEM_REFERENCE_DIR=${SPHDEM_REFERENCE_DIR:-$BIN/reference}
+export SPHDEM_REQUIRE_GPU=1
 mkdir -p "$OUT"; LOGS=$OUT; OUT=$OUT/logs; mkdir -p "$OUT"
 T0=$(date +%s)
 step() { # name limit command...
@@ -43,9 +49,15 @@ for part in $PARTS; do
       (cd "$OUT" && step "racecheck_$n" 150 compute-sanitizer --tool racecheck "$t")
     done ;;
   tests)
-    for t in "$BIN"/unit_* "$BIN"/verify_*; do
-      (cd "$OUT" && step "$(basename "$t")" 300 env SPHDEM_TEST_DEVICE=gpu "$t")
-    done ;;
+    if [ -f "$BIN/CTestTestfile.cmake" ]; then
+      step ctest_gpu "$DEADLINE" ctest --test-dir "$BIN" -L gpu -LE twin --output-on-failure --timeout 300 \
+        -j "${GPU_CHECK_JOBS:-4}"
+      grep -E "tests passed|Failed|\*\*\*" "$OUT/ctest_gpu.log" 2>/dev/null
+    else
+      for t in "$BIN"/unit_* "$BIN"/verify_*; do
+        (cd "$OUT" && step "$(basename "$t")" 300 env SPHDEM_TEST_DEVICE=gpu "$t")
+      done
+    fi ;;
   bench)
     for n in $SIZES; do
       step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20

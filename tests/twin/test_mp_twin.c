@@ -55,8 +55,7 @@ int main(void) {
   /* SPHDEM_TWIN_SELF=1: both runs on the CPU (a smoke test of the scene where no GPU exists) */
   int self = getenv("SPHDEM_TWIN_SELF") != NULL;
   if (!self && !sphdem_gpu_available()) {
-    printf("no usable GPU: twin test skipped\n");
-    return 77;
+    return test_skip("no usable GPU: twin test");
   }
   for (int dim = 2; dim <= 3; dim++) {
     enum { NMAX = 20000 };

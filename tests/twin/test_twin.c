@@ -104,8 +104,7 @@ int main(void) {
   int self = getenv("SPHDEM_TWIN_SELFTEST") != NULL;
   sphdem_device other = self ? SPHDEM_DEVICE_CPU : SPHDEM_DEVICE_GPU;
   if (!self && !sphdem_gpu_available()) {
-    printf("twin: no usable GPU (or built without CUDA): skipped\n");
-    return 77;
+    return test_skip("twin: no usable GPU (or built without CUDA)");
   }
   for (int dim = 2; dim <= 3; dim++) {
     static double xc[3 * 200000], xg[3 * 200000];

@@ -3,18 +3,8 @@
  * conservation and Newton's third law with moving grains (both voidage methods), solid volume kept by
  * the voidage, buoyancy of grains at rest (model A), plane Poiseuille flow between no-slip walls. */
 #include <math.h>
-#include <stdint.h>
+#define TEST_RNG_SEED 0x2545F4914F6CDD1Dull
 #include "testlib.h"
-
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
-static uint64_t rs = 0x2545F4914F6CDD1Dull;
-static double urand(void) {
-  rs ^= rs << 13; rs ^= rs >> 7; rs ^= rs << 17;
-  return (double)(rs >> 11) / 9007199254740992.0;
-}
 
 /* column nx x ny x nz of cells h, inflow along axis a from its low side, outlet at its high side, slip elsewhere */
 static void column(sphdem_cfd_params *p, int a, int nx, int ny, int nz, double h, double U) {
@@ -93,6 +83,19 @@ static void test_drag(void) {
 }
 
 /* empty column: one step gives the inflow everywhere and hydrostatic pressure */
+/* a gas context on the backend under test after nsteps steps of dt without grains (create and steps asserted);
+ * NULL where the create failed */
+static sphdem_cfd gas_alone(const sphdem_cfd_params *p, int nsteps, double dt) {
+  sphdem_cfd c;
+  char msg[512];
+  int rc = sphdem_cfd_create(&c, p, test_device(), msg, sizeof msg);
+  TEST_ASSERT(rc == SPHDEM_OK, "create: %s", msg);
+  if (rc) return NULL;
+  for (int s = 0; s < nsteps && !rc; s++) rc = sphdem_cfd_step(c, dt, 0, NULL, NULL, NULL, NULL, NULL);
+  TEST_ASSERT(rc == SPHDEM_OK, "steps: %s", sphdem_cfd_last_error(c));
+  return c;
+}
+
 static void test_empty(int a) {
   sphdem_cfd_params p;
   int nc[3] = {3, 4, 5};
@@ -101,13 +104,8 @@ static void test_empty(int a) {
   column(&p, a, nc[0], nc[1], nc[2], h, U);
   for (int d = 0; d < 3; d++) p.gravity[d] = 0;
   p.gravity[a] = -9.81;
-  sphdem_cfd c;
-  char msg[512];
-  int rc = sphdem_cfd_create(&c, &p, test_device(), msg, sizeof msg);
-  TEST_ASSERT(rc == SPHDEM_OK, "create: %s", msg);
-  if (rc) return;
-  for (int s = 0; s < 3 && !rc; s++) rc = sphdem_cfd_step(c, 1e-3, 0, NULL, NULL, NULL, NULL, NULL);
-  TEST_ASSERT(rc == SPHDEM_OK, "step: %s", sphdem_cfd_last_error(c));
+  sphdem_cfd c = gas_alone(&p, 3, 1e-3);
+  if (!c) return;
   int64_t n = (int64_t)nc[0] * nc[1] * nc[2];
   double *pp = malloc(sizeof(double) * n), *u = malloc(sizeof(double) * 3 * n), *eps = malloc(sizeof(double) * n);
   sphdem_cfd_get_fields(c, eps, pp, u);
@@ -242,13 +240,8 @@ static void test_poiseuille(void) {
   p.rho_g = 1.0;
   p.mu_g = 1e-4;
   p.gravity[2] = 0;
-  sphdem_cfd c;
-  char msg[512];
-  int rc = sphdem_cfd_create(&c, &p, test_device(), msg, sizeof msg);
-  TEST_ASSERT(rc == SPHDEM_OK, "create: %s", msg);
-  if (rc) return;
-  for (int s = 0; s < 3000 && !rc; s++) rc = sphdem_cfd_step(c, 4e-4, 0, NULL, NULL, NULL, NULL, NULL);
-  TEST_ASSERT(rc == SPHDEM_OK, "steps: %s", sphdem_cfd_last_error(c));
+  sphdem_cfd c = gas_alone(&p, 3000, 4e-4);
+  if (!c) return;
   int64_t n = (int64_t)nx * 48;
   double *u = malloc(sizeof(double) * 3 * n);
   sphdem_cfd_get_fields(c, NULL, NULL, u);
@@ -264,7 +257,7 @@ static void test_poiseuille(void) {
   printf("  Poiseuille: L2 error of the profile %.3g %%\n", 100 * l2);
   TEST_ASSERT(l2 < 0.01, "Poiseuille profile L2 error %.3g (bound 1 %%)", l2);
   /* a gas step beyond the viscous limit is refused with a message */
-  rc = sphdem_cfd_step(c, 0.002, 0, NULL, NULL, NULL, NULL, NULL);
+  int rc = sphdem_cfd_step(c, 0.002, 0, NULL, NULL, NULL, NULL, NULL);
   TEST_ASSERT(rc == SPHDEM_ERR_UNSTABLE && strstr(sphdem_cfd_last_error(c), "viscous"), "viscous limit: %s",
               sphdem_cfd_last_error(c));
   free(u);

@@ -2,14 +2,8 @@
  * grains with a spout patch, smooth voidage, Gidaspow drag), step by step: fields and grain forces.
  * Exits 77 (skipped) where no GPU is usable. */
 #include <math.h>
-#include <stdint.h>
+#define TEST_RNG_SEED 0x9E3779B97F4A7C15ull
 #include "testlib.h"
-
-static uint64_t rs = 0x9E3779B97F4A7C15ull;
-static double urand(void) {
-  rs ^= rs << 13; rs ^= rs >> 7; rs ^= rs << 17;
-  return (double)(rs >> 11) / 9007199254740992.0;
-}
 
 static double reldiff(const double *a, const double *b, int64_t n) {
   double m = 0, s = 0;
@@ -22,8 +16,7 @@ static double reldiff(const double *a, const double *b, int64_t n) {
 
 int main(void) {
   if (!sphdem_gpu_available()) {
-    printf("no usable GPU (or built without CUDA): skipped\n");
-    return 77;
+    return test_skip("no usable GPU (or built without CUDA)");
   }
   sphdem_cfd_params p;
   sphdem_cfd_params_default(&p);

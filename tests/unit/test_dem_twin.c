@@ -3,23 +3,12 @@
  * periodic axes and walls). Exits 77
  * (skipped) where no GPU is usable. The trajectory is advanced with the CPU forces and fed to both. */
 #include <math.h>
-#include <stdint.h>
+#define TEST_RNG_SEED 0x9E3779B97F4A7C15ull
 #include "testlib.h"
-
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
-static uint64_t rs = 0x9E3779B97F4A7C15ull;
-static double urand(void) {
-  rs ^= rs << 13; rs ^= rs >> 7; rs ^= rs << 17;
-  return (double)(rs >> 11) / 9007199254740992.0;
-}
 
 int main(void) {
   if (!sphdem_gpu_available()) {
-    printf("no usable GPU (or built without CUDA): skipped\n");
-    return 77;
+    return test_skip("no usable GPU (or built without CUDA)");
   }
   const int n = 2000;
   double L[3] = {2.0, 1.5, 2.0};

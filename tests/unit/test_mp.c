@@ -39,7 +39,7 @@ static sphdem_ctx lattice(int dim, int n, double dx, double gd, const sphdem_mp_
       }
   sphdem_ctx c;
   char msg[256];
-  if (sphdem_create(&c, &p, SPHDEM_DEVICE_CPU, msg, sizeof msg)) { fprintf(stderr, "%s\n", msg); exit(1); }
+  if (sphdem_create(&c, &p, test_device(), msg, sizeof msg)) { fprintf(stderr, "%s\n", msg); exit(1); }
   SPHDEM_CHECK_RC(c, sphdem_mp_set(c, m));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid(c, s->nf, s->tag, s->x, s->v, s->rho, s->mass, NULL));
   SPHDEM_CHECK_RC(c, sphdem_set_fluid_phase(c, s->nf, *ph));

@@ -28,23 +28,16 @@
  *     planes' share is printed: ~3 % of the weight still rests on the floor at 1.5 U_mf).
  *     MEASURED (cores 998388c and 49151ed alike; 1 thread, 44-50 s for (a) + (b) on the shared machine): U_mf 0.5325 vs
  *     Ergun 0.5084 m/s (+4.8 %), plateau -4.65 % (close to the bound: the floor share and the slug oscillation,
- *     momentum balance 0.97-1.01 over the windows, are that size; ERGUN_MG=1 gives -4.89 % and U_mf +4.2 %, a
- *     chaotic trajectory's spread; ERGUN_SMOOTH=1 gives -5.79 % (fails) and +5.8 %). With 1000 grains (8-cell
+ *     momentum balance 0.97-1.01 over the windows, are that size; the multigrid solver gave -4.89 % and U_mf +4.2 %, a
+ *     chaotic trajectory's spread; the smooth voidage -5.79 % (fails) and +5.8 %). With 1000 grains (8-cell
  *     bed, 0.45 s stages) it was U_mf +1.9 %, plateau -8.6 % (floor share 4-6 %). Why grains stay on the floor
  *     at 1.5 U_mf is not shown: the edge faces of (a) are a candidate, but a floor half a cell higher
- *     (ERGUN_ZFLOOR=2.5, 2000 grains, 0.6 s stages, U 0.9) left 4.0 % on it vs 2.8 %. At 1.1 m/s this 6 d
+ *     (2.5 cells, 2000 grains, 0.6 s stages, U 0.9) left 4.0 % on it vs 2.8 %. At 1.1 m/s this 6 d
  *     column slugs and the plug is held against the lid (lid force ~ 1.8 W).
- * Writes cfd_ergun.csv; plot: plot_cfd_ergun.py beside this file. Knobs (env, the defaults are the tested case):
- * ERGUN_ONLY_B, ERGUN_N, ERGUN_NCX, ERGUN_H, ERGUN_NZ, ERGUN_ZFLOOR (cells), ERGUN_KN, ERGUN_DT, ERGUN_EVERY,
- * ERGUN_SKIN (d), ERGUN_SMOOTH, ERGUN_MG (multigrid instead of the line preconditioner), ERGUN_TSETTLE,
- * ERGUN_TFIXED, ERGUN_TFLUID. */
+ * Writes cfd_ergun.csv; plot: plot_cfd_ergun.py beside this file. */
 #include <math.h>
 #include <time.h>
 #include "testlib.h"
-
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
 
 static const double g = 9.81, rhog = 1.2, mug = 1.8e-5;
 
@@ -99,7 +92,7 @@ static double fixed_bed(int voidage, int nbed, int assert_total, FILE *csv) {
     char msg[256];
     sphdem_cfd c;
     int rc = sphdem_cfd_create(&c, &p, test_device(), msg, sizeof msg);
-    if (rc == SPHDEM_ERR_NO_GPU) exit(77);
+    if (rc == SPHDEM_ERR_NO_GPU) exit(test_skip("no usable GPU"));
     TEST_ASSERT(rc == 0, "create: %s", msg);
     if (rc) break;
     double dt = 1e-3, dpold = 0, dP = 0;
@@ -142,7 +135,6 @@ static double wtime(void) {
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
-static double envd(const char *k, double def) { const char *e = getenv(k); return e ? atof(e) : def; }
 
 /* Ergun U for which the gradient equals (1 - eps)(rho_p - rho_g) g (bisection) */
 static double ergun_umf(double eps, double d, double rhop) {
@@ -157,15 +149,15 @@ typedef struct {
 
 static int mobile_bed(FILE *csv) {
   const double d = 1e-3, rhop = 2500.0, r = 0.5 * d;
-  const int n = (int)envd("ERGUN_N", 2000), ncx = (int)envd("ERGUN_NCX", 2), voidage = (int)envd("ERGUN_SMOOTH", 0);
-  const double h = envd("ERGUN_H", 3e-3), L = ncx * h;
-  const int nz = (int)envd("ERGUN_NZ", 40);
-  const double zfloor = envd("ERGUN_ZFLOOR", 2.0) * h, Z = nz * h;
-  const double kn = envd("ERGUN_KN", 10.0), dt = envd("ERGUN_DT", 5e-5);
-  const int every = (int)envd("ERGUN_EVERY", 5);
+  const int n = 2000, ncx = 2;
+  const double h = 3e-3, L = ncx * h;
+  const int nz = 40;
+  const double zfloor = 2.0 * h, Z = nz * h;
+  const double kn = 10.0, dt = 5e-5;
+  const int every = 5;
   /* stage lengths: the gas follows a fixed bed at once, a fluidized bed needs time to expand (its momentum balance
    * drag + pressure-gradient force + floor = weight holds only on average over its slugging) */
-  const double tsettle = envd("ERGUN_TSETTLE", 0.25), tfixed = envd("ERGUN_TFIXED", 0.1), tfluid = envd("ERGUN_TFLUID", 0.6);
+  const double tsettle = 0.25, tfixed = 0.1, tfluid = 0.6;
   const double mg = rhop * M_PI / 6 * d * d * d, A = L * L, W = n * mg * g * (1 - rhog / rhop) / A;
   /* the sweep: three fixed-bed velocities and two above U_mf (Ergun ~ 0.56 m/s at eps 0.40); at 1.1 m/s this
    * narrow column slugs: a plug of grains is held against the lid (lid force ~ -1.8 W), so the plateau is read at
@@ -176,13 +168,13 @@ static int mobile_bed(FILE *csv) {
   sphdem_dem_params dp;
   sphdem_dem_params_default(&dp);
   dp.model = SPHDEM_DEM_HOOKE; dp.kn = kn; dp.kt = 2.0 / 7.0 * kn; dp.en = 0.6; dp.mu = 0.3;
-  dp.skin = envd("ERGUN_SKIN", 0.3) * d;
+  dp.skin = 0.3 * d;
   for (int a = 0; a < 3; a++) { dp.boxlo[a] = 0; dp.boxhi[a] = a == 2 ? Z : L; }
   dp.periodic[0] = dp.periodic[1] = 1;
   char msg[256];
   sphdem_dem dem;
   int rc = sphdem_dem_create(&dem, &dp, test_device(), msg, sizeof msg);
-  if (rc == SPHDEM_ERR_NO_GPU) exit(77);
+  if (rc == SPHDEM_ERR_NO_GPU) exit(test_skip("no usable GPU"));
   TEST_ASSERT(rc == 0, "dem create: %s", msg);
   if (rc) return rc;
   sphdem_dem_wall walls[2] = {{{0, 0, zfloor}, {0, 0, 1}}, {{0, 0, Z}, {0, 0, -1}}};
@@ -196,10 +188,10 @@ static int mobile_bed(FILE *csv) {
   p.rho_g = rhog; p.mu_g = mug; p.gravity[2] = -g;
   for (int q = 0; q < 4; q++) p.bc[q] = SPHDEM_CFD_SLIP;
   p.bc[4] = SPHDEM_CFD_INLET; p.bc[5] = SPHDEM_CFD_OUTLET;
-  p.voidage = voidage ? SPHDEM_CFD_VOID_SMOOTH : SPHDEM_CFD_VOID_CENTROID;
+  p.voidage = SPHDEM_CFD_VOID_CENTROID;
   p.inlet_u[4] = 0.0;
   /* line preconditioner: on this 2 x 2 x 40 column the gas took 11.5 s per 7000 steps with it, 41.1 s with mg */
-  p.solver = envd("ERGUN_MG", 0) ? SPHDEM_CFD_SOLVER_MG : SPHDEM_CFD_SOLVER_LINE;
+  p.solver = SPHDEM_CFD_SOLVER_LINE;
   sphdem_cfd c;
   rc = sphdem_cfd_create(&c, &p, test_device(), msg, sizeof msg);
   TEST_ASSERT(rc == 0, "cfd create: %s", msg);
@@ -355,7 +347,7 @@ int main(int argc, char **argv) {
   (void)argc; (void)argv;
   FILE *csv = fopen("cfd_ergun.csv", "w");
   if (csv) fprintf(csv, "case,U,dP_sim,dP_ref,extra\n");
-  if (!getenv("ERGUN_ONLY_B")) {
+  {
     double e8c = fixed_bed(SPHDEM_CFD_VOID_CENTROID, 8, 0, csv);
     double e8s = fixed_bed(SPHDEM_CFD_VOID_SMOOTH, 8, 0, csv);
     double e16c = fixed_bed(SPHDEM_CFD_VOID_CENTROID, 16, 1, csv); /* the 5 % bound of the issue */

@@ -11,10 +11,6 @@
 #include <math.h>
 #include "testlib.h"
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 typedef struct { double g, r, y0, m, k, eta, t1, v1, tau, vr, w, zw, wd; } drop_ref;
 
 /* overlap delta(tau) during contact: delta'' + (eta/m) delta' + (k/m) delta = g, delta(0) = 0, delta'(0) = v1 */
@@ -67,12 +63,9 @@ static drop_run run_drop(const drop_ref *R, int algo, double dt, double tend, co
   p.algo = algo;
   p.kn = R->k; p.kt = 0; p.en = 0.9; p.mu = 0;
   p.skin = 0.02;
-  char msg[256];
   sphdem_dem dem;
-  out.rc = sphdem_dem_create(&dem, &p, test_device(), msg, sizeof msg);
-  if (out.rc) { printf("create: %s\n", msg); return out; }
-  sphdem_dem_wall wall = {{0, 0, 0}, {0, 1, 0}};
-  out.rc = sphdem_dem_set_walls(dem, 1, &wall);
+  out.rc = test_dem_on_floor(&p, &dem);
+  if (!dem) return out;
   int64_t tag = 1;
   double x[3] = {0, R->y0, 0}, v[3] = {0, 0, 0}, om[3] = {0, 0, 0}, rad = R->r, mass = R->m, f[3], tq[3];
   double t = 0, tin = -1, tout = -1, tapex = R->t1 + R->tau + R->vr / g;
@@ -121,7 +114,7 @@ int main(void) {
 
   for (int algo = 0; algo < 2; algo++) {
     drop_run a = run_drop(&R, algo, dt, tend, algo == 0 ? "dem_drop.csv" : NULL);
-    if (a.rc == SPHDEM_ERR_NO_GPU) return 77;
+    if (a.rc == SPHDEM_ERR_NO_GPU) return test_skip("no usable GPU");
     TEST_ASSERT(a.rc == SPHDEM_OK, "run failed");
     printf("algo %d: height error max %.4f %% up to the rebound apex, %.4f %% up to the second impact (at t = %.4f s); "
            "contact %.5f s vs %.5f (diff %.2f dt); rebound %.5f vs %.5f m/s (%.3f %%)\n",

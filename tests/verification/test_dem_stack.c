@@ -12,10 +12,6 @@
 #include <math.h>
 #include "testlib.h"
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 typedef struct { double r, yw, m1, m2, k, c, g; } stack_sys;
 
 /* linear spring-dashpot force along +y on the lower/upper sphere (contacts open when the overlap is <= 0) */
@@ -79,7 +75,7 @@ int main(void) {
       char msg[256];
       sphdem_dem dem;
       int rc = sphdem_dem_create(&dem, &p, test_device(), msg, sizeof msg);
-      if (rc) { printf("create: %s\n", msg); return rc == SPHDEM_ERR_NO_GPU ? 77 : 1; }
+      if (rc) { printf("create: %s\n", msg); return rc == SPHDEM_ERR_NO_GPU ? test_skip("no usable GPU") : 1; }
       sphdem_dem_wall walls[2] = {{{0, 0, 0}, {0, 1, 0}}, {{0, S.yw, 0}, {0, -1, 0}}};
       TEST_ASSERT(sphdem_dem_set_walls(dem, 2, walls) == SPHDEM_OK, "walls");
       int64_t tag[2] = {1, 2};
