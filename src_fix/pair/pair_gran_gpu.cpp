@@ -99,26 +99,8 @@ Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new
 }  // namespace
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
-    : Pair(lmp), rolling_(0), limit_force_(0), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      hooke_(0), kt_to_kn_(0), tangential_damping_(1), cohesion_(0), nmat_(0), freeze_group_bit_(0), dem_(nullptr) {
-  single_enable = 0;
-  no_virial_fdotr_compute = 1;
-  restartinfo = 1; /* settings, pair_coeff flags and the contact history go into restart files */
-  for (int d = 0; d < 3; d++) box_lo_[d] = box_hi_[d] = 0.0, box_per_[d] = 0;
-  sphdem_dem_params_default(&prm_);
-}
-
-PairGranGPU::~PairGranGPU() {
-  sphdem_dem_destroy(&dem_);
-  if (allocated) {
-    memory->destroy(setflag);
-    memory->destroy(cutsq);
-  }
-}
-
-void PairGranGPU::fail(const std::string &msg) {
-  sphdem_compat::error_all(error, __FILE__, __LINE__, "Pair gran/gpu: " + msg);
-}
+    : PairGranGPUBase(lmp, "gran/gpu"), rolling_(0), limit_force_(0), hooke_(0), kt_to_kn_(0), tangential_damping_(1),
+      cohesion_(0), nmat_(0) {}
 
 void PairGranGPU::settings(int narg, char **arg) {
   bool model = false, tangential = false;
@@ -162,33 +144,13 @@ void PairGranGPU::settings(int narg, char **arg) {
       if (val != "off") fail("tangential_reduce '" + val + "' is not supported (only off, the default)");
     } else if (kw == "surface") {
       if (val != "default") fail("surface '" + val + "' is not supported (only default)");
-    } else if (kw == "device") {
-      if (val == "auto") device_ = SPHDEM_DEVICE_AUTO;
-      else if (val == "cpu") device_ = SPHDEM_DEVICE_CPU;
-      else if (val == "gpu") device_ = SPHDEM_DEVICE_GPU;
-      else fail("device must be auto, cpu or gpu (got '" + val + "')");
-    } else if (kw == "algo") {
-      if (val == "pair") algo_ = SPHDEM_DEM_PAIR_PARALLEL;
-      else if (val == "particle") algo_ = SPHDEM_DEM_PARTICLE_PARALLEL;
-      else fail("algo must be pair or particle (got '" + val + "')");
-    } else if (kw == "timers") {
-      if (val == "on") timers_.on = 1;
-      else if (val == "off") timers_.on = 0;
-      else fail("timers must be on or off (got '" + val + "')");
-    } else {
+    } else if (!common_keyword(kw, val)) { /* device, algo, timers */
       fail("unsupported keyword '" + kw + "' (usage: " + USAGE + ")");
     }
   }
   if (!model) fail("needs 'model hertz' or 'model hooke' (usage: " + std::string(USAGE) + ")");
   if (kt_to_kn_ && !hooke_) fail("ktToKnUser is a keyword of model hooke");
   if (!tangential) fail("needs 'tangential history' (usage: " + std::string(USAGE) + ")");
-}
-
-void PairGranGPU::allocate() {
-  allocated = 1;
-  int n = atom->ntypes;
-  memory->create(setflag, n + 1, n + 1, "pair:setflag");
-  memory->create(cutsq, n + 1, n + 1, "pair:cutsq");
 }
 
 void PairGranGPU::coeff(int narg, char **arg) {
@@ -237,10 +199,7 @@ void PairGranGPU::apply_materials() {
 }
 
 void PairGranGPU::init_style() {
-  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
-    fail("requires atom attributes radius, rmass, omega, torque (atom_style granular or sphere)");
-  if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
-  if (domain->triclinic) fail("triclinic boxes are not supported");
+  check_atoms("atom_style granular or sphere");
   if (force->nktv2p != 1.0) fail("needs units si or cgs (nktv2p = 1)");
   freeze_group_bit_ = 0;
   for (int i = 0; i < modify->ncompute; i++)
@@ -262,26 +221,11 @@ void PairGranGPU::init_style() {
     if (!modify->fix[i]->use_rad_for_cut_neigh_and_ghost()) continue;
     for (int t = 1; t <= nt; t++) dyn[t] = std::max(dyn[t], modify->fix[i]->max_rad(t));
   }
-  for (int i = 0; i < atom->nlocal; i++) {
-    std::vector<double> &r = (atom->mask[i] & freeze_group_bit_) ? frz : dyn;
-    r[atom->type[i]] = std::max(r[atom->type[i]], atom->radius[i]);
-  }
-  maxrad_dynamic_.assign(nt + 1, 0.0);
-  maxrad_frozen_.assign(nt + 1, 0.0);
-  MPI_Allreduce(&dyn[1], &maxrad_dynamic_[1], nt, MPI_DOUBLE, MPI_MAX, world);
-  MPI_Allreduce(&frz[1], &maxrad_frozen_[1], nt, MPI_DOUBLE, MPI_MAX, world);
+  reduce_maxrad(dyn, frz);
   sync_params();
-  if (!dem_) {
-    char msg[512];
-    int rc = sphdem_dem_create(&dem_, &prm_, (sphdem_device)device_, msg, sizeof msg);
-    if (rc) fail(std::string("cannot start the DEM core: ") + msg);
-    if (comm->me == 0)
-      sphdem_compat::logmesg(lmp, std::string("Pair gran/gpu: sphdem DEM core on the ") +
-                                      (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
-                                      (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
-  }
+  create_core();
   apply_materials();
-  if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
+  restore_history();
 }
 
 /* Restart: the keywords (as parsed), pair_coeff flags and the core's contact history (pair keys made
@@ -291,17 +235,13 @@ void PairGranGPU::write_restart(FILE *fp) {
    * without them read as damping on, no cohesion) */
   int iv[6] = {rolling_, limit_force_, device_, algo_, hooke_, kt_to_kn_ | (tangential_damping_ ? 0 : 2) | (cohesion_ << 2)};
   fwrite(iv, sizeof(int), 6, fp);
-  sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
-  if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
+  write_restart_tail(fp);
 }
 
 void PairGranGPU::read_restart(FILE *fp, const int, const int) {
-  if (comm->nprocs > 1) fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
-  if (!allocated) allocate();
+  begin_read_restart();
   int iv[6];
-  if (!sphdem_restart::read_items(fp, iv, sizeof(int), 6) || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
-      !pending_history_.read(fp, (int64_t)atom->natoms))
-    fail(pending_history_.error_or("restart file ends inside the pair style's data"));
+  read_restart_tail(fp, sphdem_restart::read_items(fp, iv, sizeof(int), 6));
   rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5] & 1;
   tangential_damping_ = (iv[5] & 2) ? 0 : 1;
   cohesion_ = (iv[5] >> 2) & 3;
@@ -355,12 +295,7 @@ void PairGranGPU::sync_params() {
   for (int k = 0; k < (int)mat_mur_.size() && nmat_; k++) if (!(mat_mur_[k] >= 0.0)) p.mu_r = mat_mur_[k];
   p.limit_damping = limit_force_;
   p.keep_history = 1; /* as LIGGGHTS: a separated pair keeps its history until the next list build */
-  p.skin = neighbor->skin;
-  for (int d = 0; d < 3; d++) {
-    p.boxlo[d] = box_lo_[d] = domain->boxlo[d];
-    p.boxhi[d] = box_hi_[d] = domain->boxhi[d];
-    p.periodic[d] = box_per_[d] = domain->periodicity[d];
-  }
+  set_box(p);
   char msg[512];
   if (sphdem_dem_params_check(&p, msg, sizeof msg)) {
     /* the core names its fields; the script names the values of fix property/global */
@@ -375,72 +310,15 @@ void PairGranGPU::sync_params() {
       }
     fail("material: " + m);
   }
-  prm_ = p;
-  if (dem_ && sphdem_dem_set_params(dem_, &p)) fail(sphdem_dem_last_error(dem_));
+  push_params(p);
   apply_materials();
-}
-
-/* The largest contact distance of the type pair (stock PairGran::init_one): it sizes atom sorting,
- * the communication cutoff and the neighbour lists' bins, as with the stock style. */
-double PairGranGPU::init_one(int i, int j) {
-  if ((int)maxrad_dynamic_.size() <= std::max(i, j)) return 0.0;
-  const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
-  const double cut = std::max(d[i] + d[j], std::max(z[i] + d[j], d[i] + z[j]));
-  return cut * neighbor->contactDistanceFactor;
 }
 
 void PairGranGPU::compute(int eflag, int vflag) {
   if (eflag || vflag) ev_setup(eflag, vflag);
   else evflag = vflag_fdotr = vflag_global = vflag_atom = 0;
   if (vflag_atom) fail("per-atom virial is not supported");
-  const int n = atom->nlocal;
-  bool box_changed = false;
-  for (int d = 0; d < 3; d++)
-    box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
-  if (box_changed) sync_params();
-  const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  tags_.resize(n);
-  fbuf_.resize(3 * (size_t)n);
-  tbuf_.resize(3 * (size_t)n);
-  for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
-  const int *fl = nullptr; /* NULL: no grain frozen, one material */
-  if (freeze_group_bit_ || nmat_) {
-    flags_.resize(n);
-    const int *type = atom->type;
-    for (int i = 0; i < n; i++)
-      flags_[i] = ((atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0) |
-                  (nmat_ ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0);
-    fl = flags_.data();
-  }
-  /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core
-   * reads them in place */
-  const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
-  double vir[6];
-  const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps */
-  if (neighbor->ago == 0) sphdem_dem_request_build(dem_);
-  int rc = sphdem_dem_compute(dem_, n, tags_.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
-                              update->setupflag ? 0 : 1, fbuf_.data(), tbuf_.data(), vflag_global ? vir : nullptr);
-  if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
-  const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  for (int i = 0; i < n; i++)
-    for (int d = 0; d < 3; d++) {
-      atom->f[i][d] += fbuf_[3 * i + d];
-      atom->torque[i][d] += tbuf_[3 * i + d];
-    }
-  if (vflag_global)
-    for (int k = 0; k < 6; k++) virial[k] += vir[k];
-  if (timers_.on) {
-    timers_.pack += tp1 - tp0;
-    timers_.unpack += sphdem_pair_timers::now() - tp2;
-    if (update->setupflag) timers_.reset(dem_);
-    else if (update->ntimestep == update->laststep && comm->me == 0) sphdem_compat::logmesg(lmp, timers_.line(dem_, "gran/gpu"));
-  }
-}
-
-double PairGranGPU::memory_usage() {
-  return (double)(tags_.capacity() * sizeof(int64_t) + flags_.capacity() * sizeof(int)) +
-         (double)(fbuf_.capacity() + tbuf_.capacity()) * sizeof(double);
+  compute_grains(nmat_ != 0, true);
 }
 
 static Pair *pair_gran_gpu_creator(LAMMPS *lmp) { return new PairGranGPU(lmp); }

@@ -1,0 +1,72 @@
+/* pair_gran_gpu_base.h - the engine-neutral part of the GPU granular pair styles (LAMMPS
+ * gran/hooke|hertz/history/gpu, LIGGGHTS gran/gpu): the DEM core context, the grain upload and the
+ * force download, the run timers, the restart of the contact history and the messages. Each engine's
+ * style derives from it and keeps its own arguments and their mapping to sphdem_dem_params. */
+#ifndef SPHDEM_PAIR_GRAN_GPU_BASE_H
+#define SPHDEM_PAIR_GRAN_GPU_BASE_H
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "pair.h"
+#include "pair_gran_gpu_restart.h"
+#include "pair_gran_gpu_timers.h"
+#include "sphdem.h"
+
+namespace LAMMPS_NS {
+
+class PairGranGPUBase : public Pair {
+ public:
+  PairGranGPUBase(class LAMMPS *, const std::string &style);
+  ~PairGranGPUBase() override;
+  /* the largest contact distance of the type pair (stock init_one); 0 before init_style. LIGGGHTS scales
+   * it by contact_distance_factor, which init_style of gran/gpu admits only at 1 */
+  double init_one(int, int) override;
+  double memory_usage() override;
+
+ protected:
+  std::string style_;       /* the style name, for messages */
+  int device_;              /* sphdem_device (keyword device) */
+  int algo_;                /* sphdem_dem_algo (keyword algo) */
+  int freeze_group_bit_;
+  std::vector<double> maxrad_dynamic_, maxrad_frozen_; /* per type (1..ntypes), as the stock style */
+  sphdem_dem dem_;
+  sphdem_dem_params prm_;
+  double box_lo_[3], box_hi_[3];
+  int box_per_[3];
+  std::vector<int64_t> tags_;
+  std::vector<double> fbuf_, tbuf_;
+  std::vector<int> flags_;
+  sphdem_pair_timers::RunTimers timers_;           /* keyword timers on */
+  sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
+
+  /* the engine's arguments -> sphdem_dem_params; ends with set_box and push_params */
+  virtual void sync_params() = 0;
+
+  [[noreturn]] void fail(const std::string &msg);
+  void allocate();
+  /* keywords device, algo, timers: true when kw is one of them (a bad value ends the run) */
+  bool common_keyword(const std::string &kw, const std::string &val);
+  void require_one_rank();
+  /* the checks of init_style common to both engines; atom_styles names the styles that fit */
+  void check_atoms(const char *atom_styles);
+  /* the largest radius per type of the local grains (frozen ones apart) added to dyn/frz (nt + 1 each,
+   * the inserting fixes already in dyn), reduced over the ranks into maxrad_dynamic_/maxrad_frozen_ */
+  void reduce_maxrad(std::vector<double> &dyn, std::vector<double> &frz);
+  void set_box(sphdem_dem_params &p);  /* skin and box of the engine into p (and remembered) */
+  void push_params(const sphdem_dem_params &p);
+  void create_core();                  /* once: the DEM core, and a line saying where it runs */
+  void restore_history();              /* the contact history of read_restart, once the core exists */
+  void write_restart_tail(FILE *fp);   /* pair_coeff flags and the contact history */
+  void begin_read_restart();
+  void read_restart_tail(FILE *fp, bool head_read);
+  /* One evaluation: grains to the core, forces and torques added to the atoms, the virial, the timers.
+   * material_types: the grain's type is its material (several materials); follow_list_builds: the core
+   * rebuilds its pair list on the engine's neighbour-list builds. */
+  void compute_grains(bool material_types, bool follow_list_builds);
+};
+
+}  // namespace LAMMPS_NS
+
+#endif
