@@ -169,19 +169,28 @@ def test_same(lmp, lig):
     return verdict(compare(a, b, "LAMMPS vs LIGGGHTS"), 1e-10, "LAMMPS vs LIGGGHTS")
 
 
-def test_restart(exe, engine):
-    wd = "restart_" + engine
-    must_run([exe], wd + "/unbroken", scene(engine))
-    first = HEAD + CREATE + NEIGH + FIX.format(extra="") + THERMO + "run %d\nwrite_restart half.restart\n" % (STEPS // 2)
+def split_run(exe, wd, unbroken, first, second, load, moved):
+    """the scene in one run (wd/unbroken) and split in two by a restart file (wd/split): the two final dumps (load
+    of the folder), or None where the unbroken run did not move (it says so)"""
+    must_run([exe], wd + "/unbroken", unbroken)
     must_run([exe], wd + "/split", first)
+    must_run([exe], wd + "/split", second)
+    a, b = load(wd + "/unbroken"), load(wd + "/split")
+    if not moved(a):
+        print("FAIL: the fluid did not move")
+        return None
+    return a, b
+
+
+def test_restart(exe, engine):
+    first = HEAD + CREATE + NEIGH + FIX.format(extra="") + THERMO + "run %d\nwrite_restart half.restart\n" % (STEPS // 2)
     # LIGGGHTS does not restore the timestep from a restart file
     second = ("read_restart half.restart\natom_modify sort 50 0.02\ntimestep 1e-4\n" + NEIGH + FIX.format(extra="") + THERMO +
               DUMP.format(every=STEPS, fmt=DUMPFMT[engine]) + "run %d\n" % (STEPS // 2))
-    must_run([exe], wd + "/split", second)
-    a, b = final_dump(wd + "/unbroken"), final_dump(wd + "/split")
-    if not moved(a):
-        print("FAIL: the fluid did not move")
+    ab = split_run(exe, "restart_" + engine, scene(engine), first, second, final_dump, moved)
+    if ab is None:
         return 1
+    a, b = ab
     return verdict(compare(a, b, "restart"), 1e-9, "restart at step %d vs unbroken (%s)" % (STEPS // 2, engine))
 
 

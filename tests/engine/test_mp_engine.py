@@ -16,7 +16,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import engine_test as E  # noqa: E402  (the shared helpers)
-from engine_test import compare_cols, must_run, read_dump, refused, run, verdict  # noqa: E402
+from engine_test import compare_cols, must_run, read_dump, refused, run, split_run, verdict  # noqa: E402
 
 ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
 DUMPFMT = {"lammps": "dump_modify d sort id format float %.17g",
@@ -103,18 +103,14 @@ def test_badkw(exe, engine):
 
 
 def test_restart(exe, engine):
-    wd = "mp_restart_" + engine
-    must_run([exe], wd + "/unbroken", scene(engine))
     first = HEAD + SETUP + FIX.format(extra="") + THERMO + "run %d\nwrite_restart half.restart\n" % (STEPS // 2)
-    must_run([exe], wd + "/split", first)
     # LIGGGHTS forgets the sort settings in a restart (bin size 0 with pair none)
     second = ("read_restart half.restart\natom_modify sort 0 0.0\n" + SETUP + FIX.format(extra="") + THERMO +
               DUMP.format(every=STEPS, fmt=DUMPFMT[engine]) + "run %d\n" % (STEPS // 2))
-    must_run([exe], wd + "/split", second)
-    a, b = final(wd + "/unbroken"), final(wd + "/split")
-    if not moved(a):
-        print("FAIL: the fluid did not move")
+    ab = split_run(exe, "mp_restart_" + engine, scene(engine), first, second, final, moved)
+    if ab is None:
         return 1
+    a, b = ab
     return verdict(compare_cols(a, b, ["x", "y", "vx", "vy", "rho"]), 1e-9,
                    "restart at step %d vs unbroken (%s)" % (STEPS // 2, engine))
 

@@ -52,8 +52,8 @@ static double reldiff(const double *a, const double *b, int n) {
 }
 
 int main(void) {
-  /* SPHDEM_TWIN_SELF=1: both runs on the CPU (a smoke test of the scene where no GPU exists) */
-  int self = getenv("SPHDEM_TWIN_SELF") != NULL;
+  /* SPHDEM_TWIN_SELFTEST=1: both runs on the CPU (a smoke test of the scene where no GPU exists) */
+  int self = getenv("SPHDEM_TWIN_SELFTEST") != NULL;
   if (!self && !sphdem_gpu_available()) {
     return test_skip("no usable GPU: twin test");
   }
