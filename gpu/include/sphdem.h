@@ -585,6 +585,23 @@ size_t sphdem_cfd_device_bytes(sphdem_cfd c);
  * grain of diameter d, voidage eps, slip speed |u - v|; drag is a sphdem_cfd_drag. */
 double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho_g, double mu_g);
 
+/* ---- set-up of a fluid at rest (sph/sph_setup.c): context-free, for the engine shims ----------------- */
+/* Initial density of fluid particles that have no state yet. n particles (x 3n; phase n, the phase index
+ * of each, used when m is given and m->enabled) are the whole fluid; rho[j] is written for particle
+ * which[j], j < nout. Single phase (m NULL or not enabled): rho0, or with hydrostatic the Tait-inverted
+ * density sphdem_hydrostatic_rho at the depth below zsurf (along the axis of the largest gravity
+ * component). Multiphase: the phase's EOS inverted (sphdem_mp_density) at P0, plus with hydrostatic the
+ * pressure of the layers above it (the fluid binned by dx in depth, each bin's mean reference density
+ * integrated from zsurf down: exact for horizontal layers, an estimate elsewhere). SPHDEM_ERR_ARG for a
+ * bad index or phase, SPHDEM_ERR_ALLOC. */
+int sphdem_initial_density(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf, int n,
+                           const double *x, const int *phase, int nout, const int *which, double *rho);
+/* Fixed ghost walls (Shi & Huang 2022 §3.4): xi (3n) of each of n wall particles (x 3n) is its mirror image
+ * across the faces of the fluid box [lo, hi] it lies outside of (unbounded axes: -1e300, 1e300). A particle
+ * inside the box: SPHDEM_ERR_ARG with *inside its index (xi written up to it); else *inside = -1. */
+int sphdem_mirror_points(int n, const double *x, const double lo[3], const double hi[3], double *xi, int *inside);
+/* ---- end of the set-up of a fluid at rest ---------------------------------------------------------------- */
+
 #ifdef __cplusplus
 }
 #endif

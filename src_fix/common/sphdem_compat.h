@@ -38,22 +38,22 @@ constexpr const char *engine_name = "LIGGGHTS";
 
 /* Errors. LAMMPS: only the std::string overloads exist without fmt (a string literal would pick
  * the fmt template). LIGGGHTS: const char * only, and Error::all is not marked noreturn. */
-[[noreturn]] inline void error_all(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+[[noreturn]] inline void error_end(LAMMPS_NS::Error *e, bool all, const char *file, int line, const std::string &msg) {
 #ifdef SPHDEM_ENGINE_LAMMPS
-  e->all(std::string(file), line, msg);
-#else
-  e->all(file, line, msg.c_str());
-  std::exit(1); /* not reached: LIGGGHTS' Error::all ends the run */
-#endif
-}
-
-[[noreturn]] inline void error_one(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
-#ifdef SPHDEM_ENGINE_LAMMPS
+  if (all) e->all(std::string(file), line, msg);
   e->one(std::string(file), line, msg);
 #else
-  e->one(file, line, msg.c_str());
-  std::exit(1);
+  if (all) e->all(file, line, msg.c_str());
+  else e->one(file, line, msg.c_str());
+  std::exit(1); /* not reached: LIGGGHTS' Error::all and Error::one end the run */
 #endif
+}
+/* every rank stops with msg (error->all) / one rank does (error->one) */
+[[noreturn]] inline void error_all(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+  error_end(e, true, file, line, msg);
+}
+[[noreturn]] inline void error_one(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {
+  error_end(e, false, file, line, msg);
 }
 
 inline void warning(LAMMPS_NS::Error *e, const char *file, int line, const std::string &msg) {

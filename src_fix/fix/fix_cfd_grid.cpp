@@ -19,7 +19,9 @@
 #include "input.h"
 #include "memory.h"
 #include "modify.h"
+#include "sphdem_args.h"
 #include "sphdem_compat.h"
+#include "sphdem_grains.h"
 #include "sphdem_peratom.h"
 #include "update.h"
 #include "variable.h"
@@ -74,27 +76,11 @@ FixCFDGrid::FixCFDGrid(LAMMPS *lmp, int narg, char **arg)
   time_ = update->atime + (double)(update->ntimestep - update->atimestep) * update->dt;
   clock_step_ = update->ntimestep;
 
-  nevery = 1;
-  peratom_flag = 1;
-  size_peratom_cols = NCOL;
-  peratom_freq = 1;
-  vector_flag = 1;
-  size_vector = NVEC;
-  global_freq = 1;
-  extvector = 0;
-  restart_peratom = 1;
-  restart_global = 1;
-  create_attribute = 1;
-
-  grow_arrays(atom->nmax);
-  atom->add_callback(0);
-  atom->add_callback(1);
+  sphdem_peratom::start(this, atom, NCOL, NVEC, true);
 }
 
 FixCFDGrid::~FixCFDGrid() {
-  atom->delete_callback(id, 0);
-  atom->delete_callback(id, 1);
-  memory->destroy(fa_);
+  sphdem_peratom::stop(this, atom, memory, fa_);
   sphdem_cfd_destroy(&ctx_);
 }
 
@@ -114,10 +100,7 @@ void FixCFDGrid::check(int rc, const char *what) {
 }
 
 double FixCFDGrid::parse_number(const char *kw, const char *s, const char *usage) {
-  double v;
-  if (!sphdem_compat::to_double(s, &v))
-    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
-  return v;
+  return sphdem_args::number([this](const std::string &m) { fail(m); }, kw, s, usage);
 }
 
 /* ---- arguments --------------------------------------------------------------------------------- */
@@ -143,12 +126,7 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
   auto need = [&](int n, const char *usage) {
     if (iarg + n >= narg) fail(std::string("missing value(s) for ") + arg[iarg] + " (usage: " + usage + ")");
   };
-  auto yes_no = [&](const std::string &kw) -> int {
-    if (iarg + 1 >= narg) fail(kw + " must be yes or no");
-    const std::string v = arg[iarg + 1];
-    if (v != "yes" && v != "no") fail(kw + " must be yes or no (got '" + v + "')");
-    return v == "yes";
-  };
+  auto bad = [this](const std::string &m) { fail(m); };
   auto integer = [&](const std::string &kw, const char *s, long nmin, const char *usage) -> long {
     long n;
     if (!sphdem_compat::to_int(s, &n) || n < nmin)
@@ -264,37 +242,26 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
       else prm_.maxiter = (int)n;
       iarg += 2;
     } else if (kw == "drag") {
-      if (iarg + 1 >= narg) fail(std::string("drag must be ") + DRAGS);
-      const std::string v = arg[iarg + 1];
-      if (v == "gidaspow") prm_.drag = SPHDEM_CFD_DRAG_GIDASPOW;
-      else if (v == "wenyu") prm_.drag = SPHDEM_CFD_DRAG_WENYU;
-      else if (v == "none") prm_.drag = SPHDEM_CFD_DRAG_NONE;
-      else fail(std::string("drag must be ") + DRAGS + " (got '" + v + "')");
+      prm_.drag = sphdem_args::choice(bad, kw, iarg, narg, arg,
+                                      {{"gidaspow", SPHDEM_CFD_DRAG_GIDASPOW}, {"wenyu", SPHDEM_CFD_DRAG_WENYU},
+                                       {"none", SPHDEM_CFD_DRAG_NONE}}, DRAGS);
       iarg += 2;
     } else if (kw == "voidage") {
-      if (iarg + 1 >= narg) fail("voidage must be centroid or smooth");
-      const std::string v = arg[iarg + 1];
-      if (v == "centroid") prm_.voidage = SPHDEM_CFD_VOID_CENTROID;
-      else if (v == "smooth") prm_.voidage = SPHDEM_CFD_VOID_SMOOTH;
-      else fail("voidage must be centroid or smooth (got '" + v + "')");
+      prm_.voidage = sphdem_args::choice(bad, kw, iarg, narg, arg,
+                                         {{"centroid", SPHDEM_CFD_VOID_CENTROID}, {"smooth", SPHDEM_CFD_VOID_SMOOTH}},
+                                         "centroid or smooth");
       iarg += 2;
     } else if (kw == "solver") {
-      if (iarg + 1 >= narg) fail("solver must be mg or line");
-      const std::string v = arg[iarg + 1];
-      if (v == "mg") prm_.solver = SPHDEM_CFD_SOLVER_MG;
-      else if (v == "line") prm_.solver = SPHDEM_CFD_SOLVER_LINE;
-      else fail("solver must be mg or line (got '" + v + "')");
+      prm_.solver = sphdem_args::choice(bad, kw, iarg, narg, arg,
+                                        {{"mg", SPHDEM_CFD_SOLVER_MG}, {"line", SPHDEM_CFD_SOLVER_LINE}}, "mg or line");
       iarg += 2;
     } else if (kw == "ddt_eps" || kw == "pressure_force") {
-      (kw == "ddt_eps" ? prm_.ddt_eps : prm_.pressure_force) = yes_no(kw);
+      (kw == "ddt_eps" ? prm_.ddt_eps : prm_.pressure_force) = sphdem_args::yes_no(bad, kw, iarg, narg, arg);
       iarg += 2;
     } else if (kw == "device") {
-      if (iarg + 1 >= narg) fail("device must be auto, gpu or cpu");
-      const std::string v = arg[iarg + 1];
-      if (v == "auto") device_ = SPHDEM_DEVICE_AUTO;
-      else if (v == "gpu") device_ = SPHDEM_DEVICE_GPU;
-      else if (v == "cpu") device_ = SPHDEM_DEVICE_CPU;
-      else fail("device must be auto, gpu or cpu (got '" + v + "')");
+      device_ = (sphdem_device)sphdem_args::choice(
+          bad, kw, iarg, narg, arg,
+          {{"auto", SPHDEM_DEVICE_AUTO}, {"gpu", SPHDEM_DEVICE_GPU}, {"cpu", SPHDEM_DEVICE_CPU}}, "auto, gpu or cpu");
       iarg += 2;
     } else if (kw == "vtk") {
       const char *usage = "vtk N PREFIX (a file PREFIX_<step>.vti every N gas steps, PREFIX.pvd)";
@@ -496,34 +463,16 @@ void FixCFDGrid::setup(int) {
   }
 }
 
-int FixCFDGrid::nloop() const {
-  return (atom->firstgroup >= 0 && igroup == atom->firstgroup) ? atom->nfirst : atom->nlocal;
-}
+int FixCFDGrid::nloop() const { return sphdem_grains::nloop(atom, igroup); }
 
 /* ---- the gas step ---------------------------------------------------------------------------------- */
 
 void FixCFDGrid::gas_step() {
   const double t0 = wall_seconds();
   update_inlets(false);
-  const int *mask = atom->mask;
-  gidx_.clear();
-  for (int i = 0; i < nloop(); i++)
-    if (mask[i] & groupbit) gidx_.push_back(i);
-  const size_t n = gidx_.size();
-  gx_.resize(3 * n);
-  gv_.resize(3 * n);
-  grad_.resize(n);
+  const size_t n = sphdem_grains::gather(atom, groupbit, nloop(), gidx_, gx_, gv_, grad_, nullptr);
   gfd_.resize(3 * n);
   gfp_.resize(3 * n);
-  double **x = atom->x, **v = atom->v;
-  for (size_t k = 0; k < n; k++) {
-    const int i = gidx_[k];
-    grad_[k] = atom->radius[i];
-    for (int d = 0; d < 3; d++) {
-      gx_[3 * k + d] = x[i][d];
-      gv_[3 * k + d] = v[i][d];
-    }
-  }
   const double t1 = wall_seconds();
   const double dt_gas = (double)every_ * update->dt;
   const int rc = sphdem_cfd_step(ctx_, dt_gas, (int)n, gx_.data(), gv_.data(), grad_.data(), gfd_.data(), gfp_.data());
@@ -743,26 +692,3 @@ void FixCFDGrid::restart(char *buf) {
   }
 }
 
-/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
-
-void FixCFDGrid::grow_arrays(int nmax) {
-  memory->grow(fa_, nmax, NCOL, "cfd/grid:fa");
-  sphdem_peratom::zero(fa_, nmax_ < nmax ? nmax_ : nmax, nmax, NCOL);
-  nmax_ = nmax;
-  array_atom = fa_;
-}
-
-void FixCFDGrid::copy_arrays(int i, int j, int) { sphdem_peratom::copy(fa_, i, j, NCOL); }
-void FixCFDGrid::set_arrays(int i) { sphdem_peratom::zero(fa_, i, i + 1, NCOL); }
-int FixCFDGrid::pack_exchange(int i, double *buf) { return sphdem_peratom::pack(fa_, i, buf, NCOL); }
-int FixCFDGrid::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(fa_, nlocal, buf, NCOL); }
-int FixCFDGrid::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(fa_, i, buf, NCOL); }
-void FixCFDGrid::unpack_restart(int nlocal, int nth) {
-  if (!sphdem_peratom::unpack_restart(fa_, atom->extra, nlocal, nth, NCOL) && restart_error_.empty())
-    restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " +
-                     sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL) + " (fix cfd/grid writes " +
-                     std::to_string(NCOL + 1) + " values per atom; a corrupted restart file, or one written by "
-                     "another version)";
-}
-int FixCFDGrid::size_restart(int) { return NCOL + 1; }
-int FixCFDGrid::maxsize_restart() { return NCOL + 1; }

@@ -15,6 +15,7 @@ FixStyle(cfd/grid,FixCFDGrid)
 
 #include "fix.h"
 #include "sphdem.h"
+#include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
 
@@ -32,15 +33,7 @@ class FixCFDGrid : public Fix {
   void write_restart(FILE *) override;
   void restart(char *) override;
 
-  void grow_arrays(int) override;
-  void copy_arrays(int, int, int) override;
-  void set_arrays(int) override;
-  int pack_exchange(int, double *) override;
-  int unpack_exchange(int, double *) override;
-  int pack_restart(int, double *) override;
-  void unpack_restart(int, int) override;
-  int size_restart(int) override;
-  int maxsize_restart() override;
+  SPHDEM_PERATOM_METHODS(fa_, NCOL, "cfd/grid", "cfd/grid:fa")
 
  private:
   /* per-atom array: f_ID[1-3] drag force, [4-6] pressure-gradient force (held between gas steps) */

@@ -14,7 +14,9 @@
 #include "group.h"
 #include "memory.h"
 #include "modify.h"
+#include "sphdem_args.h"
 #include "sphdem_compat.h"
+#include "sphdem_grains.h"
 #include "sphdem_peratom.h"
 #include "update.h"
 
@@ -50,27 +52,11 @@ FixSPHCouple::FixSPHCouple(LAMMPS *lmp, int narg, char **arg)
   for (int d = 0; d < 3; d++) pgrain_[d] = 0.0;
   parse_args(narg, arg);
 
-  nevery = 1;
-  peratom_flag = 1;
-  size_peratom_cols = NOUT;
-  peratom_freq = 1;
-  vector_flag = 1;
-  size_vector = NVEC;
-  global_freq = 1;
-  extvector = 0;
-  restart_peratom = 1;
-  restart_global = 1;
-  create_attribute = 1;
-
-  grow_arrays(atom->nmax);
-  atom->add_callback(0);
-  atom->add_callback(1);
+  sphdem_peratom::start(this, atom, NOUT, NVEC, true);
 }
 
 FixSPHCouple::~FixSPHCouple() {
-  atom->delete_callback(id, 0);
-  atom->delete_callback(id, 1);
-  memory->destroy(ca_);
+  sphdem_peratom::stop(this, atom, memory, ca_);
 }
 
 int FixSPHCouple::setmask() { return POST_FORCE; }
@@ -85,10 +71,7 @@ void FixSPHCouple::check(sphdem_ctx ctx, int rc, const char *what) {
 }
 
 double FixSPHCouple::parse_number(const char *kw, const char *s, const char *usage) {
-  double v;
-  if (!sphdem_compat::to_double(s, &v))
-    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
-  return v;
+  return sphdem_args::number([this](const std::string &m) { fail(m); }, kw, s, usage);
 }
 
 /* ---- arguments --------------------------------------------------------------------------------- */
@@ -277,32 +260,12 @@ void FixSPHCouple::setup(int) {
   }
 }
 
-int FixSPHCouple::nloop() const {
-  return (atom->firstgroup >= 0 && igroup == atom->firstgroup) ? atom->nfirst : atom->nlocal;
-}
+int FixSPHCouple::nloop() const { return sphdem_grains::nloop(atom, igroup); }
 
 /* ---- the fluid step: upload grains, fetch forces ------------------------------------------------- */
 
 void FixSPHCouple::couple_before_rates(sphdem_ctx ctx) {
-  const int *mask = atom->mask;
-  gidx_.clear();
-  for (int i = 0; i < nloop(); i++)
-    if (mask[i] & groupbit) gidx_.push_back(i);
-  const size_t n = gidx_.size();
-  gx_.resize(3 * n);
-  gv_.resize(3 * n);
-  grad_.resize(n);
-  if (cp_.torque) gom_.resize(3 * n);
-  double **x = atom->x, **v = atom->v, **om = atom->omega;
-  for (size_t k = 0; k < n; k++) {
-    const int i = gidx_[k];
-    grad_[k] = atom->radius[i];
-    for (int d = 0; d < 3; d++) {
-      gx_[3 * k + d] = x[i][d];
-      gv_[3 * k + d] = v[i][d];
-      if (cp_.torque) gom_[3 * k + d] = om[i][d];
-    }
-  }
+  const size_t n = sphdem_grains::gather(atom, groupbit, nloop(), gidx_, gx_, gv_, grad_, cp_.torque ? &gom_ : nullptr);
   const int rc = sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr);
   /* grains that went non-finite during a run: the fluid fix writes its failure dump, with the grains */
   if (rc != SPHDEM_OK && update->ntimestep > update->beginstep)
@@ -398,26 +361,3 @@ void FixSPHCouple::restart(char *buf) {
   for (int d = 0; d < 3; d++) pgrain_[d] = list[d];
 }
 
-/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
-
-void FixSPHCouple::grow_arrays(int nmax) {
-  memory->grow(ca_, nmax, NCOL, "sph/couple:ca");
-  sphdem_peratom::zero(ca_, nmax_ < nmax ? nmax_ : nmax, nmax, NCOL);
-  nmax_ = nmax;
-  array_atom = ca_;
-}
-
-void FixSPHCouple::copy_arrays(int i, int j, int) { sphdem_peratom::copy(ca_, i, j, NCOL); }
-void FixSPHCouple::set_arrays(int i) { sphdem_peratom::zero(ca_, i, i + 1, NCOL); }
-int FixSPHCouple::pack_exchange(int i, double *buf) { return sphdem_peratom::pack(ca_, i, buf, NCOL); }
-int FixSPHCouple::unpack_exchange(int nlocal, double *buf) { return sphdem_peratom::unpack(ca_, nlocal, buf, NCOL); }
-int FixSPHCouple::pack_restart(int i, double *buf) { return sphdem_peratom::pack_restart(ca_, i, buf, NCOL); }
-void FixSPHCouple::unpack_restart(int nlocal, int nth) {
-  if (!sphdem_peratom::unpack_restart(ca_, atom->extra, nlocal, nth, NCOL) && restart_error_.empty())
-    restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " +
-                     sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL) + " (fix sph/couple writes " +
-                     std::to_string(NCOL + 1) + " values per atom; a corrupted restart file, or one written by "
-                     "another version)";
-}
-int FixSPHCouple::size_restart(int) { return NCOL + 1; }
-int FixSPHCouple::maxsize_restart() { return NCOL + 1; }

@@ -14,6 +14,7 @@ FixStyle(sph/couple,FixSPHCouple)
 #include "fix.h"
 #include "fix_sph_fluid.h"
 #include "sphdem.h"
+#include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
 
@@ -30,15 +31,7 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   void write_restart(FILE *) override;
   void restart(char *) override;
 
-  void grow_arrays(int) override;
-  void copy_arrays(int, int, int) override;
-  void set_arrays(int) override;
-  int pack_exchange(int, double *) override;
-  int unpack_exchange(int, double *) override;
-  int pack_restart(int, double *) override;
-  void unpack_restart(int, int) override;
-  int size_restart(int) override;
-  int maxsize_restart() override;
+  SPHDEM_PERATOM_METHODS(ca_, NCOL, "sph/couple", "sph/couple:ca")
 
   /* SPHCoupler: called by the fluid fix */
   void couple_setup(sphdem_ctx ctx) override;

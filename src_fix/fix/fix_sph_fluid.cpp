@@ -15,6 +15,7 @@
 #include "memory.h"
 #include "modify.h"
 #include "output.h"
+#include "sphdem_args.h"
 #include "sphdem_compat.h"
 #include "sphdem_peratom.h"
 #include "update.h"
@@ -36,15 +37,6 @@ const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, isolated, skin, cfl, "
     "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost, "
     "failure_dump";
-
-/* The axis of the largest gravity component; *down_sign is +1 when depth grows against it. */
-int gravity_axis(const sphdem_params &p, double *down_sign) {
-  int axis = 0;
-  for (int d = 1; d < 3; d++)
-    if (std::fabs(p.gravity[d]) > std::fabs(p.gravity[axis])) axis = d;
-  *down_sign = p.gravity[axis] < 0 ? 1.0 : -1.0;
-  return axis;
-}
 
 /* x rounded down to 3 significant digits: a suggested time step that is below x as printed */
 double round_down3(double x) {
@@ -75,26 +67,11 @@ FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
   time_integrate = 1;
   force_reneighbor = 1;
   next_reneighbor = -1;
-  nevery = 1;
-  peratom_flag = 1;
-  size_peratom_cols = NOUT;
-  peratom_freq = 1;
-  vector_flag = 1;
-  size_vector = 4;
-  global_freq = 1;
-  extvector = 0;
-  restart_peratom = 1;
-  create_attribute = 1;
-
-  grow_arrays(atom->nmax);
-  atom->add_callback(0);
-  atom->add_callback(1);
+  sphdem_peratom::start(this, atom, NOUT, 4, false);
 }
 
 FixSPHFluid::~FixSPHFluid() {
-  atom->delete_callback(id, 0);
-  atom->delete_callback(id, 1);
-  memory->destroy(sa_);
+  sphdem_peratom::stop(this, atom, memory, sa_);
   sphdem_destroy(&ctx_);
 }
 
@@ -116,10 +93,7 @@ void FixSPHFluid::check(int rc, const char *what) {
 /* ---- arguments --------------------------------------------------------------------------------- */
 
 double FixSPHFluid::parse_number(const char *kw, const char *s, const char *usage) {
-  double v;
-  if (!sphdem_compat::to_double(s, &v))
-    fail(std::string(kw) + " expects a number, got '" + (s ? s : "") + "' (usage: " + usage + ")");
-  return v;
+  return sphdem_args::number([this](const std::string &m) { fail(m); }, kw, s, usage);
 }
 
 void FixSPHFluid::parse_args(int narg, char **arg) {
@@ -144,6 +118,17 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
   auto optional_number = [&](int pos, double *out) {
     return pos < narg && sphdem_compat::to_double(arg[pos], out);
   };
+  /* KW V [OPT]: the value and an optional trailing number (then *have is set, if given) */
+  auto value_and_optional = [&](const char *usage, double *v, double *opt, bool *have) {
+    need(1, usage);
+    *v = parse_number(arg[iarg], arg[iarg + 1], usage);
+    iarg += 2;
+    double o;
+    if (!optional_number(iarg, &o)) return;
+    *opt = o, iarg++;
+    if (have) *have = true;
+  };
+  auto bad = [this](const std::string &m) { fail(m); };
 
   while (iarg < narg) {
     const std::string kw = arg[iarg];
@@ -189,12 +174,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
         fail("visc must be none, morris MU or artificial ALPHA (got '" + model + "')");
       }
     } else if (kw == "tensile") {
-      const char *usage = "tensile EPS [N]";
-      need(1, usage);
-      prm_.tensile_eps = parse_number("tensile", arg[iarg + 1], usage);
-      iarg += 2;
-      double n;
-      if (optional_number(iarg, &n)) prm_.tensile_n = n, iarg++;
+      value_and_optional("tensile EPS [N]", &prm_.tensile_eps, &prm_.tensile_n, nullptr);
     } else if (kw == "delta") {
       const char *usage = "delta D [hydrostatic|plain]";
       need(1, usage);
@@ -204,12 +184,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       if (iarg < narg && (std::string(arg[iarg]) == "hydrostatic" || std::string(arg[iarg]) == "plain"))
         prm_.delta_hydro = std::string(arg[iarg]) == "hydrostatic", iarg++;
     } else if (kw == "repulsion") {
-      const char *usage = "repulsion D [R0]";
-      need(1, usage);
-      prm_.rep_D = parse_number("repulsion", arg[iarg + 1], usage);
-      iarg += 2;
-      double r0;
-      if (optional_number(iarg, &r0)) prm_.rep_r0 = r0, have_r0 = true, iarg++;
+      value_and_optional("repulsion D [R0]", &prm_.rep_D, &prm_.rep_r0, &have_r0);
     } else if (kw == "wall") {
       need(1, "wall GROUP-ID");
       wall_group_ = arg[iarg + 1];
@@ -218,18 +193,12 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       wall_groupbit_ = group->bitmask[wall_igroup_];
       iarg += 2;
     } else if (kw == "wall_clamp") {
-      if (iarg + 1 >= narg) fail("wall_clamp must be yes or no");
-      const std::string v = arg[iarg + 1];
-      if (v != "yes" && v != "no") fail("wall_clamp must be yes or no (got '" + v + "')");
-      prm_.wall_clamp = v == "yes";
+      prm_.wall_clamp = sphdem_args::yes_no(bad, kw, iarg, narg, arg);
       iarg += 2;
     } else if (kw == "device") {
-      if (iarg + 1 >= narg) fail("device must be auto, cpu or gpu");
-      const std::string d = arg[iarg + 1];
-      if (d == "auto") device_ = SPHDEM_DEVICE_AUTO;
-      else if (d == "cpu") device_ = SPHDEM_DEVICE_CPU;
-      else if (d == "gpu") device_ = SPHDEM_DEVICE_GPU;
-      else fail("device must be auto, cpu or gpu (got '" + d + "')");
+      device_ = (sphdem_device)sphdem_args::choice(
+          bad, kw, iarg, narg, arg,
+          {{"auto", SPHDEM_DEVICE_AUTO}, {"cpu", SPHDEM_DEVICE_CPU}, {"gpu", SPHDEM_DEVICE_GPU}}, "auto, cpu or gpu");
       iarg += 2;
     } else if (kw == "sync" || kw == "check" || kw == "every") {
       const std::string usage = kw + " N";
@@ -556,8 +525,8 @@ void FixSPHFluid::build_map() {
 static double atom_mass(Atom *atom, int i) { return atom->rmass ? atom->rmass[i] : atom->mass[atom->type[i]]; }
 
 /* Upload the fluid from the host. rho and state come from the per-atom array where it is valid
- * (an earlier run or a restart); otherwise rho is rho0 (or hydrostatic), the rates are zero and the
- * function returns false: the caller computes them. */
+ * (an earlier run or a restart); otherwise rho is the core's initial density (rho0, hydrostatic or
+ * layered), the rates are zero and the function returns false: the caller computes them. */
 bool FixSPHFluid::upload_fluid() {
   const size_t n = fidx_.size();
   double **x = atom->x, **v = atom->v;
@@ -567,9 +536,6 @@ bool FixSPHFluid::upload_fluid() {
   frho_.resize(n);
   fmass_.resize(n);
   fstate_.resize(SPHDEM_NSTATE * n);
-
-  double down_sign;
-  const int axis = gravity_axis(prm_, &down_sign);
 
   bool all_valid = true, scaled_any = false;
   fresh_.clear();
@@ -582,7 +548,6 @@ bool FixSPHFluid::upload_fluid() {
              ", which no phase keyword names (phase TYPE RHO0 ...)");
       fphase_[k] = type_phase_[t];
     }
-    if (hydrostatic_) layered_pressure();
   }
   for (size_t k = 0; k < n; k++) {
     const int i = fidx_[k];
@@ -595,14 +560,22 @@ bool FixSPHFluid::upload_fluid() {
     } else {
       all_valid = false;
       fresh_.push_back((int)k);
-      frho_[k] = fresh_density(i, axis, down_sign);
-      const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
-      /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
-      if (hydrostatic_ && !mass_scaled_ && atom->rmass) {
-        atom->rmass[i] *= frho_[k] / rho0;
-        fmass_[k] = atom->rmass[i];
-        scaled_any = true;
-      }
+    }
+  }
+  std::vector<double> rho(fresh_.size());
+  const int rc = sphdem_initial_density(&prm_, mp_.enabled ? &mp_ : nullptr, hydrostatic_, zsurf_, (int)n,
+                                        fx_.data(), mp_.enabled ? fphase_.data() : nullptr, (int)fresh_.size(),
+                                        fresh_.data(), rho.data());
+  if (rc != SPHDEM_OK) fail(std::string("initial_density: ") + sphdem_strerror(rc));
+  for (size_t j = 0; j < fresh_.size(); j++) {
+    const int k = fresh_[j], i = fidx_[k];
+    frho_[k] = rho[j];
+    const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
+    /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
+    if (hydrostatic_ && !mass_scaled_ && atom->rmass) {
+      atom->rmass[i] *= frho_[k] / rho0;
+      fmass_[k] = atom->rmass[i];
+      scaled_any = true;
     }
   }
   if (scaled_any) mass_scaled_ = true;
@@ -627,49 +600,6 @@ bool FixSPHFluid::upload_fluid() {
         "set_fluid");
   if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   return all_valid;
-}
-
-/* Density of a fluid atom that has no valid state: rho0 (of its phase), or the hydrostatic density
- * below ZSURF (single phase: Tait inverted; multiphase: the pressure of the layers above it, from
- * layered_pressure(), through the phase's EOS). */
-double FixSPHFluid::fresh_density(int i, int axis, double down_sign) {
-  const double depth = std::max(down_sign * (zsurf_ - atom->x[i][axis]), 0.0);
-  if (!mp_.enabled) return hydrostatic_ ? sphdem_hydrostatic_rho(&prm_, depth) : prm_.rho0;
-  const int k = type_phase_[atom->type[i]];
-  double p = mp_.p0;
-  if (hydrostatic_ && !hyd_z_.empty()) {
-    const double bw = hyd_z_[1] - hyd_z_[0];
-    size_t b = std::min((size_t)(depth / bw), hyd_z_.size() - 2);
-    const double w = (depth - hyd_z_[b]) / bw;
-    p += (1.0 - w) * hyd_p_[b] + w * hyd_p_[b + 1];
-  }
-  return sphdem_mp_density(&mp_, &prm_, k, p);
-}
-
-/* Multiphase hydrostatic start: the fluid is binned in depth below ZSURF (bins of dx); the mean reference
- * density of the atoms in each bin, integrated from the surface down, gives p(depth) = g int rho dz. Exact
- * for horizontal layers; an estimate elsewhere (the fluid settles from it). */
-void FixSPHFluid::layered_pressure() {
-  double down_sign;
-  const int axis = gravity_axis(prm_, &down_sign);
-  const double g = std::fabs(prm_.gravity[axis]), bw = prm_.dx;
-  double dmax = 0.0;
-  for (int i : fidx_) dmax = std::max(dmax, down_sign * (zsurf_ - atom->x[i][axis]));
-  const size_t nb = (size_t)(dmax / bw) + 2;
-  std::vector<double> srho(nb, 0.0), cnt(nb, 0.0);
-  for (int i : fidx_) {
-    const double depth = down_sign * (zsurf_ - atom->x[i][axis]);
-    if (depth < 0) continue;
-    const size_t b = std::min((size_t)(depth / bw), nb - 1);
-    srho[b] += mp_.phase[type_phase_[atom->type[i]]].rho0;
-    cnt[b] += 1.0;
-  }
-  hyd_z_.assign(nb + 1, 0.0);
-  hyd_p_.assign(nb + 1, 0.0);
-  for (size_t b = 0; b < nb; b++) {
-    hyd_z_[b + 1] = (double)(b + 1) * bw;
-    hyd_p_[b + 1] = hyd_p_[b] + (cnt[b] > 0 ? srho[b] / cnt[b] : 0.0) * g * bw;
-  }
 }
 
 /* Superficial coupling: the fluid density variable is eps rho_f (He 2018 eq 6). Fluid particles created
@@ -750,21 +680,15 @@ void FixSPHFluid::upload_walls(bool each_step) {
   /* fixed ghost walls (Shi & Huang §3.4): each wall particle's interpolation point is its mirror image
    * across the faces of the fluid box it lies outside of */
   wxi_.resize(3 * n);
-  for (size_t k = 0; k < n; k++) {
-    bool outside = false;
-    for (int d = 0; d < 3; d++) {
-      double x = wx_[3 * k + d];
-      if (x < ghost_lo_[d]) x = 2.0 * ghost_lo_[d] - x, outside = true;
-      else if (x > ghost_hi_[d]) x = 2.0 * ghost_hi_[d] - x, outside = true;
-      wxi_[3 * k + d] = x;
-    }
-    if (!outside) {
-      char m[256];
-      snprintf(m, sizeof m, "ghost mirror: wall atom %lld at (%g, %g, %g) lies inside the fluid box; mirror ghosts "
-               "need every wall atom outside it (use the Adami walls, i.e. no ghost keyword, for other shapes)",
-               (long long)atom->tag[widx_[k]], wx_[3 * k], wx_[3 * k + 1], wx_[3 * k + 2]);
-      fail(m);
-    }
+  int inside = -1;
+  if (sphdem_mirror_points((int)n, wx_.data(), ghost_lo_, ghost_hi_, wxi_.data(), &inside) != SPHDEM_OK) {
+    if (inside < 0) fail("mirror_points: invalid argument");
+    const size_t k = (size_t)inside;
+    char m[256];
+    snprintf(m, sizeof m, "ghost mirror: wall atom %lld at (%g, %g, %g) lies inside the fluid box; mirror ghosts "
+             "need every wall atom outside it (use the Adami walls, i.e. no ghost keyword, for other shapes)",
+             (long long)atom->tag[widx_[k]], wx_[3 * k], wx_[3 * k + 1], wx_[3 * k + 2]);
+    fail(m);
   }
   check(sphdem_set_wall_mirror(ctx_, (int)n, wxi_.data()), "set_wall_mirror");
 }
@@ -1074,57 +998,3 @@ double FixSPHFluid::memory_usage() {
                   fstate_.capacity() + wx_.capacity() + wv_.capacity() + wa_.capacity() + wmass_.capacity()) *
              sizeof(double);
 }
-
-/* ---- per-atom array: migration and restarts -------------------------------------------------------------- */
-
-void FixSPHFluid::grow_arrays(int nmax) {
-  memory->grow(sa_, nmax, NCOL, "sph/fluid:sa");
-  for (int i = std::min(nmax_, nmax); i < nmax; i++)
-    for (int c = 0; c < NCOL; c++) sa_[i][c] = 0.0;
-  nmax_ = nmax;
-  array_atom = sa_;
-}
-
-void FixSPHFluid::copy_arrays(int i, int j, int) {
-  for (int c = 0; c < NCOL; c++) sa_[j][c] = sa_[i][c];
-}
-
-void FixSPHFluid::set_arrays(int i) {
-  for (int c = 0; c < NCOL; c++) sa_[i][c] = 0.0;
-}
-
-int FixSPHFluid::pack_exchange(int i, double *buf) {
-  for (int c = 0; c < NCOL; c++) buf[c] = sa_[i][c];
-  return NCOL;
-}
-
-int FixSPHFluid::unpack_exchange(int nlocal, double *buf) {
-  for (int c = 0; c < NCOL; c++) sa_[nlocal][c] = buf[c];
-  return NCOL;
-}
-
-int FixSPHFluid::pack_restart(int i, double *buf) {
-  buf[0] = NCOL + 1;
-  for (int c = 0; c < NCOL; c++) buf[c + 1] = sa_[i][c];
-  return NCOL + 1;
-}
-
-void FixSPHFluid::unpack_restart(int nlocal, int nth) {
-  const char *bad = sphdem_peratom::check_restart(atom->extra[nlocal], nth, NCOL);
-  if (bad) { /* reported by init() on every rank; the row stays zero (not valid) */
-    if (restart_error_.empty())
-      restart_error_ = "the restart record of atom " + std::to_string((long long)atom->tag[nlocal]) + " " + bad +
-                       " (fix sph/fluid writes " + std::to_string(NCOL + 1) + " values per atom; a corrupted restart "
-                       "file, or one written by another version)";
-    return;
-  }
-  double **extra = atom->extra;
-  int m = 0;
-  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
-  m++;
-  for (int c = 0; c < NCOL; c++) sa_[nlocal][c] = extra[nlocal][m++];
-}
-
-int FixSPHFluid::size_restart(int) { return NCOL + 1; }
-
-int FixSPHFluid::maxsize_restart() { return NCOL + 1; }

@@ -12,6 +12,7 @@ FixStyle(sph/fluid,FixSPHFluid)
 
 #include "fix.h"
 #include "sphdem.h"
+#include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
 
@@ -63,15 +64,7 @@ class FixSPHFluid : public Fix {
    * failure_dump) is written and named after msg, which carries the coupler's own prefix */
   [[noreturn]] void fail_with_dump(const std::string &msg);
 
-  void grow_arrays(int) override;
-  void copy_arrays(int, int, int) override;
-  void set_arrays(int) override;
-  int pack_exchange(int, double *) override;
-  int unpack_exchange(int, double *) override;
-  int pack_restart(int, double *) override;
-  void unpack_restart(int, int) override;
-  int size_restart(int) override;
-  int maxsize_restart() override;
+  SPHDEM_PERATOM_METHODS(sa_, NCOL, "sph/fluid", "sph/fluid:sa")
 
  private:
   /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
@@ -144,9 +137,6 @@ class FixSPHFluid : public Fix {
   void box_to_params();
   void build_map();
   void parse_phase(int &iarg, int narg, char **arg);
-  double fresh_density(int i, int axis, double down_sign);
-  void layered_pressure();
-  std::vector<double> hyd_z_, hyd_p_; /* multiphase hydrostatic start: pressure at bin edges */
   void seed_porosity();
   bool upload_fluid();
   void upload_walls(bool each_step);

@@ -24,62 +24,51 @@
 #error "no version.h in the LAMMPS headers and no SPHDEM_LAMMPS_VERSION given"
 #endif
 
-static void *sph_fluid_creator(void *lmp, int argc, char **argv) {
-  return new LAMMPS_NS::FixSPHFluid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
+template <typename T> static void *style_creator(void *lmp, int argc, char **argv) {
+  return new T(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
 }
 
-static void *sph_couple_creator(void *lmp, int argc, char **argv) {
-  return new LAMMPS_NS::FixSPHCouple(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
-}
+template <typename T> static void *pair_creator(void *lmp) { return new T(static_cast<LAMMPS_NS::LAMMPS *>(lmp)); }
 
-static void *cfd_grid_creator(void *lmp, int argc, char **argv) {
-  return new LAMMPS_NS::FixCFDGrid(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
-}
+/* One row per style; add later sphdem styles here as in sphdem_register.cpp. Fixes and computes are made
+ * by a factory2 (lmp, argc, argv), pair styles by a factory1 (lmp). */
+namespace {
+struct PluginStyle {
+  const char *style, *name, *info;
+  lammpsplugin_factory1 *v1;
+  lammpsplugin_factory2 *v2;
+};
+const PluginStyle kStyles[] = {
+    {"fix", "sph/fluid", "sphdem " SPHDEM_VERSION " SPH fluid on CPU or GPU", nullptr,
+     &style_creator<LAMMPS_NS::FixSPHFluid>},
+    {"fix", "sph/couple", "sphdem " SPHDEM_VERSION " SPH-DEM coupling (fluid force on grains, reaction on the fluid)",
+     nullptr, &style_creator<LAMMPS_NS::FixSPHCouple>},
+    {"fix", "cfd/grid",
+     "sphdem " SPHDEM_VERSION " coarse-grid gas of CFD-DEM (drag and pressure-gradient force on grains)", nullptr,
+     &style_creator<LAMMPS_NS::FixCFDGrid>},
+    {"compute", "sph/probe", "sphdem " SPHDEM_VERSION " fluid fields at fixed points", nullptr,
+     &style_creator<LAMMPS_NS::ComputeSPHProbe>},
+    {"pair", "gran/hooke/history/gpu",
+     "sphdem " SPHDEM_VERSION " granular Hooke contacts with history on the sphdem DEM core (CPU or GPU)",
+     &pair_creator<LAMMPS_NS::PairGranHookeHistoryGPU>, nullptr},
+    {"pair", "gran/hertz/history/gpu",
+     "sphdem " SPHDEM_VERSION " granular Hertz contacts with history on the sphdem DEM core (CPU or GPU)",
+     &pair_creator<LAMMPS_NS::PairGranHertzHistoryGPU>, nullptr},
+};
+}  // namespace
 
-static void *sph_probe_creator(void *lmp, int argc, char **argv) {
-  return new LAMMPS_NS::ComputeSPHProbe(static_cast<LAMMPS_NS::LAMMPS *>(lmp), argc, argv);
-}
-
-static void *pair_hooke_gpu_creator(void *lmp) {
-  return new LAMMPS_NS::PairGranHookeHistoryGPU(static_cast<LAMMPS_NS::LAMMPS *>(lmp));
-}
-
-static void *pair_hertz_gpu_creator(void *lmp) {
-  return new LAMMPS_NS::PairGranHertzHistoryGPU(static_cast<LAMMPS_NS::LAMMPS *>(lmp));
-}
-
-/* One registration per style; add later sphdem styles here as in sphdem_register.cpp. */
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc) {
   lammpsplugin_regfunc register_plugin = (lammpsplugin_regfunc)regfunc;
-  lammpsplugin_t plugin;
-  plugin.version = SPHDEM_BUILT_FOR_LAMMPS; /* compiled for this LAMMPS, not the one that loads it */
-  plugin.style = "fix";
-  plugin.name = "sph/fluid";
-  plugin.info = "sphdem " SPHDEM_VERSION " SPH fluid on CPU or GPU";
-  plugin.author = "sphdem developers";
-  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_fluid_creator;
-  plugin.handle = handle;
-  (*register_plugin)(&plugin, lmp);
-  plugin.name = "sph/couple";
-  plugin.info = "sphdem " SPHDEM_VERSION " SPH-DEM coupling (fluid force on grains, reaction on the fluid)";
-  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_couple_creator;
-  (*register_plugin)(&plugin, lmp);
-  plugin.name = "cfd/grid";
-  plugin.info = "sphdem " SPHDEM_VERSION " coarse-grid gas of CFD-DEM (drag and pressure-gradient force on grains)";
-  plugin.creator.v2 = (lammpsplugin_factory2 *)&cfd_grid_creator;
-  (*register_plugin)(&plugin, lmp);
-  plugin.style = "compute";
-  plugin.name = "sph/probe";
-  plugin.info = "sphdem " SPHDEM_VERSION " fluid fields at fixed points";
-  plugin.creator.v2 = (lammpsplugin_factory2 *)&sph_probe_creator;
-  (*register_plugin)(&plugin, lmp);
-  plugin.style = "pair";
-  plugin.name = "gran/hooke/history/gpu";
-  plugin.info = "sphdem " SPHDEM_VERSION " granular Hooke contacts with history on the sphdem DEM core (CPU or GPU)";
-  plugin.creator.v1 = (lammpsplugin_factory1 *)&pair_hooke_gpu_creator;
-  (*register_plugin)(&plugin, lmp);
-  plugin.name = "gran/hertz/history/gpu";
-  plugin.info = "sphdem " SPHDEM_VERSION " granular Hertz contacts with history on the sphdem DEM core (CPU or GPU)";
-  plugin.creator.v1 = (lammpsplugin_factory1 *)&pair_hertz_gpu_creator;
-  (*register_plugin)(&plugin, lmp);
+  for (const PluginStyle &st : kStyles) {
+    lammpsplugin_t plugin;
+    plugin.version = SPHDEM_BUILT_FOR_LAMMPS; /* compiled for this LAMMPS, not the one that loads it */
+    plugin.style = st.style;
+    plugin.name = st.name;
+    plugin.info = st.info;
+    plugin.author = "sphdem developers";
+    if (st.v1) plugin.creator.v1 = st.v1;
+    else plugin.creator.v2 = st.v2;
+    plugin.handle = handle;
+    (*register_plugin)(&plugin, lmp);
+  }
 }

@@ -1,0 +1,116 @@
+/* sph_setup.c - the initial state of a fluid at rest, for the engine shims: the density of each fresh
+ * particle (rho0, hydrostatic, or the layered multiphase pressure through its phase's EOS) and the
+ * mirror points of the fixed ghost walls. Context-free: plain arrays in, error codes out. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "sphdem.h"
+
+/* The axis of the largest gravity component; *down_sign is +1 when the depth grows against it. */
+static int gravity_axis(const sphdem_params *p, double *down_sign) {
+  int axis = 0;
+  for (int d = 1; d < 3; d++)
+    if (fabs(p->gravity[d]) > fabs(p->gravity[axis])) axis = d;
+  *down_sign = p->gravity[axis] < 0 ? 1.0 : -1.0;
+  return axis;
+}
+
+/* Multiphase hydrostatic start: the fluid is binned in depth below zsurf (bins of dx); the mean reference
+ * density of the particles in each bin, integrated from the surface down, gives p(depth) = g int rho dz at
+ * the nb + 1 bin edges z[b] = b dx. Exact for horizontal layers; an estimate elsewhere (the fluid settles
+ * from it). *z and *pres are allocated here (the caller frees them). */
+static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, double zsurf, int n,
+                            const double *x, const int *phase, size_t *nb_out, double **z_out, double **p_out) {
+  double down_sign;
+  const int axis = gravity_axis(p, &down_sign);
+  const double g = fabs(p->gravity[axis]), bw = p->dx;
+  double dmax = 0.0;
+  for (int i = 0; i < n; i++) {
+    const double depth = down_sign * (zsurf - x[3 * i + axis]);
+    if (dmax < depth) dmax = depth;
+  }
+  const size_t nb = (size_t)(dmax / bw) + 2;
+  double *srho = calloc(nb, sizeof(double)), *cnt = calloc(nb, sizeof(double));
+  double *z = calloc(nb + 1, sizeof(double)), *pr = calloc(nb + 1, sizeof(double));
+  if (!srho || !cnt || !z || !pr) {
+    free(srho), free(cnt), free(z), free(pr);
+    return SPHDEM_ERR_ALLOC;
+  }
+  for (int i = 0; i < n; i++) {
+    const double depth = down_sign * (zsurf - x[3 * i + axis]);
+    if (depth < 0) continue;
+    size_t b = (size_t)(depth / bw);
+    if (b > nb - 1) b = nb - 1;
+    srho[b] += m->phase[phase[i]].rho0;
+    cnt[b] += 1.0;
+  }
+  for (size_t b = 0; b < nb; b++) {
+    z[b + 1] = (double)(b + 1) * bw;
+    pr[b + 1] = pr[b] + (cnt[b] > 0 ? srho[b] / cnt[b] : 0.0) * g * bw;
+  }
+  free(srho), free(cnt);
+  *nb_out = nb, *z_out = z, *p_out = pr;
+  return SPHDEM_OK;
+}
+
+int sphdem_initial_density(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf, int n,
+                           const double *x, const int *phase, int nout, const int *which, double *rho) {
+  const int mp = m && m->enabled;
+  if (!p || n < 0 || nout < 0 || (nout > 0 && (!x || !which || !rho)) || (mp && n > 0 && !phase))
+    return SPHDEM_ERR_ARG;
+  if (hydrostatic && !(p->dx > 0)) return SPHDEM_ERR_ARG;
+  for (int j = 0; j < nout; j++)
+    if (which[j] < 0 || which[j] >= n) return SPHDEM_ERR_ARG;
+  if (mp)
+    for (int i = 0; i < n; i++)
+      if (phase[i] < 0 || phase[i] >= m->nphase) return SPHDEM_ERR_ARG;
+  if (nout == 0) return SPHDEM_OK;
+
+  double down_sign;
+  const int axis = gravity_axis(p, &down_sign);
+  size_t nb = 0;
+  double *z = NULL, *pr = NULL;
+  if (mp && hydrostatic) {
+    const int rc = layered_pressure(p, m, zsurf, n, x, phase, &nb, &z, &pr);
+    if (rc != SPHDEM_OK) return rc;
+  }
+  for (int j = 0; j < nout; j++) {
+    const int i = which[j];
+    double depth = down_sign * (zsurf - x[3 * i + axis]);
+    if (depth < 0.0) depth = 0.0;
+    if (!mp) {
+      rho[j] = hydrostatic ? sphdem_hydrostatic_rho(p, depth) : p->rho0;
+      continue;
+    }
+    double pres = m->p0;
+    if (hydrostatic) { /* linear between the bin edges */
+      const double bw = z[1] - z[0];
+      size_t b = (size_t)(depth / bw);
+      if (b > nb - 1) b = nb - 1;
+      const double w = (depth - z[b]) / bw;
+      pres += (1.0 - w) * pr[b] + w * pr[b + 1];
+    }
+    rho[j] = sphdem_mp_density(m, p, phase[i], pres);
+  }
+  free(z), free(pr);
+  return SPHDEM_OK;
+}
+
+int sphdem_mirror_points(int n, const double *x, const double lo[3], const double hi[3], double *xi, int *inside) {
+  if (inside) *inside = -1;
+  if (n < 0 || (n > 0 && (!x || !xi)) || !lo || !hi) return SPHDEM_ERR_ARG;
+  for (int k = 0; k < n; k++) {
+    int outside = 0;
+    for (int d = 0; d < 3; d++) {
+      double v = x[3 * k + d];
+      if (v < lo[d]) v = 2.0 * lo[d] - v, outside = 1;
+      else if (v > hi[d]) v = 2.0 * hi[d] - v, outside = 1;
+      xi[3 * k + d] = v;
+    }
+    if (!outside) {
+      if (inside) *inside = k;
+      return SPHDEM_ERR_ARG;
+    }
+  }
+  return SPHDEM_OK;
+}
