@@ -17,6 +17,15 @@ def src_out(default_src, default_out, argv=None):
     return (argv[1] if len(argv) > 1 else default_src, argv[2] if len(argv) > 2 else default_out)
 
 
+def csv_plot(default_src, default_out, argv=None):
+    """pyplot, the rows of the input CSV (dicts by column name) and the output name; arguments [input.csv] [out.png]"""
+    import csv
+    src, out = src_out(default_src, default_out, argv)
+    with open(src) as f:
+        rows = list(csv.DictReader(f))
+    return pyplot(), rows, out
+
+
 def axes(ax, xlabel, ylabel, title=None, fontsize=8, **legend):
     """labels, title, legend (fontsize, further legend arguments) and a light grid"""
     ax.set_xlabel(xlabel)

@@ -4,17 +4,15 @@ contact point vs normalised incidence Psi1 (Thornton's form of Maw, Barber & Faw
 Hertz-Mindlin and LIGGGHTS hertz models, e = 1 and 0.7, beside the rigid-body gross-sliding line
 Psi2 = Psi1 - 7, the analytic transitions Psi* and the no-slip (sticking) slope.
 Usage: /usr/bin/python3 tests/verification/plot_dem_oblique.py [build-dir/tests/dem_oblique.csv] [out.png]"""
-import csv
 import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
 import plotlib  # noqa: E402
 
-plt = plotlib.pyplot()
-src, out = plotlib.src_out("dem_oblique.csv", "examples/dem_drop/dem_oblique.png")
+plt, rows, out = plotlib.csv_plot("dem_oblique.csv", "examples/dem_drop/dem_oblique.png")
 series = {}
-for r in csv.DictReader(open(src)):
+for r in rows:
     s = series.setdefault((r["model"], float(r["en_set"])), {"p1": [], "p2": [], "jt": []})
     s["p1"].append(float(r["psi1"]))
     s["p2"].append(float(r["psi2"]))

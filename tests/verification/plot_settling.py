@@ -2,17 +2,15 @@
 """plot_settling.py - settling velocity of one sphere: SPH-DEM (verify_settling) vs the Schiller-Naumann ODE
 (closed form of data/reference/closed_forms.md, "Single sphere settling").
 Usage: /usr/bin/python3 tests/verification/plot_settling.py [build-dir/tests/settling_v.csv] [out.png]"""
-import csv
 import os
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
 import plotlib  # noqa: E402
 
-plt = plotlib.pyplot()
-src, out = plotlib.src_out("settling_v.csv", "settling.png")
+plt, rows, out = plotlib.csv_plot("settling_v.csv", "settling.png")
 cases = {}
-for r in csv.DictReader(open(src)):
+for r in rows:
     c = cases.setdefault(int(r["case"]), {"d": float(r["d"]), "rho": float(r["rho_p"]), "t": [], "v": [], "ode": [], "u": []})
     c["t"].append(1e3 * float(r["t"]))
     c["v"].append(1e3 * float(r["v_sim"]))
