@@ -137,7 +137,7 @@ static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
 
 /* The fluid set was rebuilt (set_fluid with new particles): the porosity array must cover it before any
  * pass reads it (reductions of the next sort read eps through eos_density); 1 until the next porosity pass. */
-int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
+static int couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   if (!D->couple || !D->eps) return SPHDEM_OK;
   TRYC(ensure_couple_fluid(c, D->nf));
@@ -151,8 +151,9 @@ int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
   return rc;
 }
 
-void sphdem_couple_release(struct sphdem_ctx_s *c) {
+static void couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
+  sphdem_cpu_couple_lists_free(c); /* CPU pair lists (host memory; nothing on the GPU backend) */
   sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
   c->cap_cw = 0;
   free_grains(c);
@@ -186,7 +187,7 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   c->cp = *cp;
   sphdem_dev *D = &c->D;
   if (!cp->enabled) { /* off and free */
-    sphdem_couple_release(c);
+    couple_release(c);
     return SPHDEM_OK;
   }
   int was_on = D->couple;
@@ -325,7 +326,7 @@ static void set_layers(sphdem_dev *D) {
   }
 }
 
-int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
+static int couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
   /* wall porosity (wall_porosity 1), written by the wall-state pass */
@@ -345,7 +346,7 @@ int sphdem_couple_prepare(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
-int sphdem_couple_finish(struct sphdem_ctx_s *c) {
+static int couple_finish(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   int64_t n = D->ng;
   if (n > 0) {
@@ -571,3 +572,10 @@ int64_t sphdem_debug_couple_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs
   free(ui); free(gt); free(lst[0]); free(lst[1]);
   return out;
 }
+
+static int couple_on(const struct sphdem_ctx_s *c) { return c->D.couple; }
+
+/* The coupling as a feature of the fluid context: grain sort and porosity before the EOS, grain forces and
+ * the reaction on the fluid after the rates pass, both timed as SPHDEM_T_COUPLE. */
+const sphdem_feature sphdem_feature_couple = {
+    "couple", couple_on, couple_fluid_rebuilt, couple_prepare, NULL, couple_finish, couple_release, SPHDEM_T_COUPLE};

@@ -295,7 +295,11 @@ typedef struct {
                            phase's pressure noise blows the light one apart */
 } sphdem_phase;
 typedef struct {
-  int enabled;          /* 0: single-phase fluid (default) */
+  int enabled;          /* 0: the fluid of sphdem_params alone (default); 1: the delta-plus fluid below */
+  int single;           /* 1: one fluid, no phases: phase 0 is filled from sphdem_params (rho0; visc morris mu
+                           as its Newtonian viscosity, visc none: inviscid), every particle is in it and the
+                           EOS stays the fluid's (tait unless eos says otherwise): the delta-plus terms
+                           (shifting, diffusion, les, p0) for a plain fluid. sphdem_mp_single_phase fills it */
   int nphase;           /* phases in use, 1..SPHDEM_MAX_PHASES */
   sphdem_phase phase[SPHDEM_MAX_PHASES];
   int eos;              /* sphdem_eos */
@@ -313,6 +317,16 @@ void sphdem_mp_params_default(sphdem_mp_params *m);
  * names the bad field in msg. */
 int sphdem_mp_params_check(const sphdem_mp_params *m, const sphdem_params *p, char *msg, size_t msglen);
 int sphdem_mp_set(sphdem_ctx ctx, const sphdem_mp_params *m);
+/* One fluid without phases (m->single): sets nphase 1 and phase 0 from p (rho0, K = mu of visc morris or 0,
+ * Newtonian, the fluid's c0). sphdem_mp_set calls it too; a caller that keeps its own copy calls it first. */
+void sphdem_mp_single_phase(const sphdem_params *p, sphdem_mp_params *m);
+/* Why the delta-plus terms of one fluid are refused with the SPH-DEM coupling. */
+#define SPHDEM_MP_COUPLE_WHY                                                                                  \
+  "the delta-plus terms (shifting, diffusion, les, eos, p0) are not defined for the coupled fluid: its "     \
+  "equations (He 2018) carry the superficial density eps rho, and neither the shifting of Shi & Huang 2022 "  \
+  "nor its diffusion of (P - P0)/c0^2 has been derived for a porous fluid; with grains use delta D "          \
+  "(density diffusion of eps rho_f) and xsph EPS"
+
 int sphdem_mp_get(sphdem_ctx ctx, sphdem_mp_params *m);
 /* Phase index (0..nphase-1) of each fluid particle, in the order of the last sphdem_set_fluid. */
 int sphdem_set_fluid_phase(sphdem_ctx ctx, int n, const int *phase);

@@ -62,10 +62,23 @@ int sphdem_mp_params_check(const sphdem_mp_params *m, const sphdem_params *p, ch
          "shifting thresholds need 0 < lam_surface <= lam_near <= 1.5 (got %g, %g)", m->lam_surface, m->lam_near);
   MCHECK(m->cs_les >= 0 && m->cs_les < 1, "Smagorinsky constant must be in [0, 1) (got %g)", m->cs_les);
   MCHECK(m->alpha_visc > 0 && m->alpha_visc <= 1, "alpha_visc must be in (0, 1] (got %g)", m->alpha_visc);
-  MCHECK(p->visc == SPHDEM_VISC_NONE,
-         "the multiphase viscous term (eq 24, phase rheology) replaces visc morris/artificial; set visc none");
-  MCHECK(p->tensile_eps == 0, "the tensile correction is a single-phase option; use a background pressure p0");
-  MCHECK(p->delta == 0, "the single-phase delta term is replaced by the multiphase diffusion option");
+  if (m->single) {
+    /* one fluid with the delta-plus terms: its viscosity is eq 24 with mu of visc morris (the same laminar
+     * viscosity, written as Hu & Adams' inter-particle average); the other plain-fluid terms have a
+     * delta-plus counterpart that replaces them */
+    MCHECK(p->visc != SPHDEM_VISC_ARTIFICIAL,
+           "visc artificial is not defined with the delta-plus terms (shifting, diffusion, les, eos, p0): they take "
+           "the laminar viscous term of eq 24; use visc morris MU (and les CS for turbulence) or visc none");
+    MCHECK(p->tensile_eps == 0, "tensile and the delta-plus terms (shifting, diffusion, les, eos, p0) are two cures "
+           "for tensile instability; give one (p0 P0 with shifting is the delta-plus one)");
+    MCHECK(p->delta == 0, "delta (Molteni-Colagrossi diffusion of rho) and diffusion (of (P - P0)/c0^2, eqs 16-18) "
+           "are two density-diffusion terms; give one");
+  } else {
+    MCHECK(p->visc == SPHDEM_VISC_NONE,
+           "the multiphase viscous term (eq 24, phase rheology) replaces visc morris/artificial; set visc none");
+    MCHECK(p->tensile_eps == 0, "the tensile correction is a single-phase option; use a background pressure p0");
+    MCHECK(p->delta == 0, "the single-phase delta term is replaced by the multiphase diffusion option");
+  }
 #undef MCHECK
   return SPHDEM_OK;
 }
@@ -93,7 +106,7 @@ double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int 
 
 /* ---- memory ------------------------------------------------------------------------------------------ */
 
-void sphdem_mp_release(struct sphdem_ctx_s *c) {
+static void mp_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   size_t n = (size_t)c->cap_mp;
   sphdem_dfree(c, (void **)&D->ph, 4 * n);
@@ -113,7 +126,7 @@ static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
   sphdem_dev *D = &c->D;
   if (n <= c->cap_mp && c->cap_mp > 0) return SPHDEM_OK;
   int mp = D->mp;
-  sphdem_mp_release(c);
+  mp_release(c);
   D->mp = mp;
   size_t m = (size_t)(n > 0 ? n : 1);
   TRYM(sphdem_dalloc(c, (void **)&D->ph, 4 * m));
@@ -130,7 +143,7 @@ static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
   return SPHDEM_OK;
 }
 
-int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
+static int mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   if (!D->mp) return SPHDEM_OK;
   TRYM(ensure_mp(c, D->nf));
@@ -140,17 +153,31 @@ int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
-int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m) {
+void sphdem_mp_single_phase(const sphdem_params *p, sphdem_mp_params *m) {
+  m->single = 1;
+  m->nphase = 1;
+  sphdem_phase *f = &m->phase[0];
+  f->rho0 = p->rho0;
+  f->tau_y = 0.0;
+  f->K = p->visc == SPHDEM_VISC_MORRIS ? p->mu : 0.0;
+  f->N = 1.0;
+  f->gdot_cut = 0.0;
+  f->c0 = 0.0;
+}
+
+int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m_in) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (!m) return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: parameters missing");
+  if (!m_in) return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: parameters missing");
+  sphdem_mp_params mm = *m_in, *m = &mm;
+  if (m->enabled && m->single) sphdem_mp_single_phase(&c->D.P, m);
   char msg[512];
   if (sphdem_mp_params_check(m, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: %s", msg);
   sphdem_dev *D = &c->D;
-  if (!m->enabled) { sphdem_mp_release(c); D->M = *m; return SPHDEM_OK; }
+  if (!m->enabled) { mp_release(c); D->M = *m; return SPHDEM_OK; }
   if (D->couple)
-    return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: the multiphase fluid cannot be combined with the SPH-DEM "
-                                          "coupling yet");
+    return sphdem_fail(c, SPHDEM_ERR_ARG, m->single ? SPHDEM_MP_COUPLE_WHY :
+                       "mp_set: the multiphase fluid cannot be combined with the SPH-DEM coupling yet");
   int was_on = D->mp;
   D->M = *m;
   D->mp = 1;
@@ -198,7 +225,7 @@ int sphdem_set_fluid_phase(sphdem_ctx c, int n, const int *phase) {
 
 /* Before the rates pass (after the pressure and wall passes): per-phase max velocity when shifting,
  * then the gradient pass and the shifting pass. */
-int sphdem_mp_prepare(struct sphdem_ctx_s *c) {
+static int mp_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYM(ensure_mp(c, D->nf));
   if (D->M.shifting) {
@@ -241,3 +268,10 @@ int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda,
   free(h);
   return rc;
 }
+
+static int mp_on(const struct sphdem_ctx_s *c) { return c->D.mp; }
+
+/* The delta-plus / multiphase fluid as a feature of the fluid context: renormalisation, viscosity and shifting
+ * passes after the pressure and wall passes, before the rates pass (timed with the rates). */
+const sphdem_feature sphdem_feature_mp = {
+    "delta-plus", mp_on, mp_fluid_rebuilt, NULL, mp_prepare, NULL, mp_release, SPHDEM_T_RATES};

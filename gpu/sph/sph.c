@@ -349,8 +349,7 @@ static int ensure_ksum(sphdem_ctx c) {
 int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
-  sphdem_couple_release(c);
-  sphdem_mp_release(c);
+  for (const sphdem_feature *const *f = sphdem_features; *f; f++) (*f)->release(c);
   free_rk(c);
   DFREE(c, c->D.ksum, 8 * (size_t)c->cap_ks);
   DFREE(c, c->D.wxi, 24 * (size_t)c->cap_wm);
@@ -363,8 +362,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
-  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf);
-    sphdem_cpu_couple_lists_free(c); }
+  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); }
   free(c);
   *pc = NULL;
   return SPHDEM_OK;
@@ -573,8 +571,8 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
       TRY(up(c, D->uidx, c->huidx, 4 * (size_t)n));
       c->host_tags_valid = 1;
     }
-    TRY(sphdem_couple_fluid_rebuilt(c)); /* coupling: porosity array sized to the new set */
-    TRY(sphdem_mp_fluid_rebuilt(c));     /* multiphase: arrays sized, phases back to 0 */
+    for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* arrays sized to the new set */
+      if ((*f)->on(c) && (*f)->fluid_rebuilt) TRY((*f)->fluid_rebuilt(c));
   } else {
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }
@@ -734,6 +732,26 @@ int sphdem_drift(sphdem_ctx c, double dt) {
   return SPHDEM_OK;
 }
 
+/* The hooks of the active features at one point of a rate evaluation (sph_internal.h, sphdem_feature); the time
+ * of a hook with its own timer goes there and into *tx. */
+enum { HOOK_BEFORE_PRESSURE, HOOK_BEFORE_RATES, HOOK_AFTER_RATES };
+static int feature_hooks(struct sphdem_ctx_s *c, int which, double *tx) {
+  for (const sphdem_feature *const *f = sphdem_features; *f; f++) {
+    int (*h)(struct sphdem_ctx_s *) = which == HOOK_BEFORE_PRESSURE ? (*f)->before_pressure
+                                      : which == HOOK_BEFORE_RATES  ? (*f)->before_rates
+                                                                    : (*f)->after_rates;
+    if (!h || !(*f)->on(c)) continue;
+    double t = rt_now();
+    TRY(h(c));
+    if ((*f)->timer != SPHDEM_T_RATES) {
+      t = rt_now() - t;
+      c->timers[(*f)->timer] += t;
+      *tx += t;
+    }
+  }
+  return SPHDEM_OK;
+}
+
 int sphdem_compute_rates(sphdem_ctx c) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
@@ -747,12 +765,8 @@ int sphdem_compute_rates(sphdem_ctx c) {
     c->need_wall_sort = 0;
   }
   if (!c->half_kicked) c->D.pred_dth = 0.0;
-  double t0 = rt_now(), tc = 0.0;
-  /* SPH-DEM coupling (couple.c): grain sort and porosity before the EOS (timed as SPHDEM_T_COUPLE) */
-  if (D->couple) {
-    TRY(sphdem_couple_prepare(c));
-    tc = rt_now() - t0;
-  }
+  double t0 = rt_now(), tx = 0.0; /* tx: time the features booked on their own timers */
+  TRY(feature_hooks(c, HOOK_BEFORE_PRESSURE, &tx)); /* coupling: grain sort and porosity before the EOS */
   TRY(ensure_ksum(c));
   D->ks_ok = D->ksum != NULL;
   TRY(c->ops->pressure(c));
@@ -760,17 +774,13 @@ int sphdem_compute_rates(sphdem_ctx c) {
   double t1 = rt_now();
   if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
   double t2 = rt_now();
-  if (D->mp) TRY(sphdem_mp_prepare(c)); /* renormalisation, viscosity, shifting (mp.c) */
+  TRY(feature_hooks(c, HOOK_BEFORE_RATES, &tx)); /* delta-plus: renormalisation, viscosity, shifting */
   TRY(c->ops->rates(c));
   TRY(rt_sync(&c->rt));
-  double t3 = rt_now(), tf = 0.0;
-  if (D->couple) {
-    TRY(sphdem_couple_finish(c)); /* grain forces, reaction on the fluid */
-    tf = rt_now() - t3;
-  }
+  TRY(feature_hooks(c, HOOK_AFTER_RATES, &tx)); /* coupling: grain forces, reaction on the fluid */
+  double t3 = rt_now();
   c->timers[SPHDEM_T_WALL] += t2 - t1;
-  c->timers[SPHDEM_T_RATES] += (t1 - t0 - tc) + (t3 - t2);
-  c->timers[SPHDEM_T_COUPLE] += tc + tf;
+  c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2) - tx;
   c->have_rates = 1;
   return SPHDEM_OK;
 }

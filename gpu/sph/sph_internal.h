@@ -208,17 +208,23 @@ int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 /* Derived constants again after a parameter change (sph.c). */
 void sphdem_rederive(struct sphdem_ctx_s *c);
-/* Coupling steps of compute_rates (couple.c): before the pressure pass (grain sort, porosity) and after
- * the rates pass (grain forces, reaction); and release of the coupling memory. */
-int sphdem_couple_prepare(struct sphdem_ctx_s *c);
-int sphdem_couple_finish(struct sphdem_ctx_s *c);
-void sphdem_couple_release(struct sphdem_ctx_s *c);
-/* Multiphase (mp.c): arrays sized to the fluid (after a rebuild), the passes before the rates pass,
- * release. */
-int sphdem_mp_fluid_rebuilt(struct sphdem_ctx_s *c);
-int sphdem_mp_prepare(struct sphdem_ctx_s *c);
-void sphdem_mp_release(struct sphdem_ctx_s *c);
-int sphdem_couple_fluid_rebuilt(struct sphdem_ctx_s *c);
+/* A feature of the fluid context (the SPH-DEM coupling, the delta-plus / multiphase fluid): the core calls
+ * its hooks at fixed points and knows nothing else of it. Each hook may be NULL and runs only while `on`
+ * says the feature is active; the table of features is gpu/sph/features.c. Order of a rate evaluation:
+ * before_pressure (timed into `timer`), pressure and wall passes, before_rates (timed with the rates),
+ * rates pass, after_rates (timed into `timer`). */
+typedef struct {
+  const char *name;
+  int (*on)(const struct sphdem_ctx_s *c);
+  int (*fluid_rebuilt)(struct sphdem_ctx_s *c);   /* set_fluid made a new fluid set: arrays sized to D.nf */
+  int (*before_pressure)(struct sphdem_ctx_s *c);
+  int (*before_rates)(struct sphdem_ctx_s *c);
+  int (*after_rates)(struct sphdem_ctx_s *c);
+  void (*release)(struct sphdem_ctx_s *c);        /* free its memory (also when on() is false) */
+  int timer;                                      /* SPHDEM_T_* of before_pressure and after_rates */
+} sphdem_feature;
+extern const sphdem_feature sphdem_feature_couple, sphdem_feature_mp;
+extern const sphdem_feature *const sphdem_features[]; /* NULL-terminated, in call order */
 /* CPU coupling passes (couple_cpu.c) */
 int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);
 int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c);

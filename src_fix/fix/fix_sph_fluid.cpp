@@ -289,9 +289,13 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
     mp_.enabled = 1;
     if (!have_eos) mp_.eos = SPHDEM_EOS_LINEAR; /* Shi & Huang eq 4 */
   } else {
-    if (mp_kw) fail("keyword " + mp_kw_name + " belongs to the multiphase fluid: give at least one phase keyword "
-                    "(phase TYPE RHO0 newtonian MU | hb TAU_Y K N GDOT_CUT)");
     mp_.nphase = 1;
+    if (mp_kw) { /* one fluid with the delta-plus terms: phase 0 from rho0 and visc (sphdem_mp_single_phase) */
+      mp_.enabled = 1;
+      mp_.single = 1;
+      std::fill(type_phase_.begin(), type_phase_.end(), 0); /* every atom type is the one fluid */
+      if (!have_eos) mp_.eos = SPHDEM_EOS_TAIT; /* the plain fluid's EOS */
+    }
   }
 
   if (!have_rho0 || !have_h || !have_c0) {
@@ -446,7 +450,9 @@ void FixSPHFluid::setup(int) {
   }
   if (rk4_ && coupler_) fail("integrator rk4 cannot be used with fix sph/couple (grains need velocity Verlet)");
   if (mp_.enabled) {
+    if (coupler_ && mp_.single) fail(std::string("fix sph/couple: ") + SPHDEM_MP_COUPLE_WHY);
     if (coupler_) fail("the multiphase fluid (keyword phase) cannot be coupled to grains (fix sph/couple) yet");
+    if (mp_.single) sphdem_mp_single_phase(&prm_, &mp_);
     check(sphdem_mp_set(ctx_, &mp_), "mp_set");
   }
   if (coupler_) {

@@ -1,0 +1,6 @@
+/* features.c - the features of the fluid context, in the order the core calls their hooks (sph_internal.h,
+ * sphdem_feature): the SPH-DEM coupling (couple/couple.c), the delta-plus / multiphase fluid (sph/mp.c).
+ * A new feature adds its object here; sph.c does not change. */
+#include "sph_internal.h"
+
+const sphdem_feature *const sphdem_features[] = {&sphdem_feature_couple, &sphdem_feature_mp, NULL};
