@@ -12,7 +12,7 @@ static inline unsigned nblk(int64_t n) { return (unsigned)((n + CFD_BLOCK - 1) /
 
 #define SPHDEM_CFD_KERNEL_(name)                                                                      \
   __global__ void k_cfd_##name(cfd_dev D, int64_t n) {                                                \
-    int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;                                       \
+    int64_t i = RT_THREAD_INDEX();                                                                    \
     if (i < n) cfd_k_##name(&D, i);                                                                   \
   }
 SPHDEM_CFD_KERNELS(SPHDEM_CFD_KERNEL_)

@@ -9,20 +9,11 @@
 
 static inline unsigned cblocks(int64_t n) { return (unsigned)((n + SPHDEM_CBLOCK - 1) / SPHDEM_CBLOCK); }
 
-__global__ void k_couple_porosity(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) couple_porosity_body(&D, i);
-}
+RT_KERNEL_EACH(k_couple_porosity, sphdem_dev, D.nf, couple_porosity_body)
 
-__global__ void k_couple_grains(sphdem_dev D) {
-  int64_t j = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (j < D.ng) couple_grain_body(&D, j);
-}
+RT_KERNEL_EACH(k_couple_grains, sphdem_dev, D.ng, couple_grain_body)
 
-__global__ void k_couple_reaction(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) couple_reaction_body(&D, i);
-}
+RT_KERNEL_EACH(k_couple_reaction, sphdem_dev, D.nf, couple_reaction_body)
 
 extern "C" {
 

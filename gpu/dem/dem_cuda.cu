@@ -16,49 +16,40 @@
 static inline unsigned nblk(int64_t n) { return (unsigned)((n + DEM_BLOCK - 1) / DEM_BLOCK); }
 
 __global__ void k_dem_cell(dem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i >= D.n) return;
   D.cell[i] = dem_cell_of(&D, D.x + 3 * i);
   D.sidx[i] = (int32_t)i;
 }
 
 __global__ void k_dem_cell_ranges(dem_dev D) {
-  int64_t s = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t s = RT_THREAD_INDEX();
   if (s < D.n) dem_cell_range_body(D.cell, D.n, s, D.cstart, D.cend);
 }
 
 __global__ void k_dem_count(dem_dev D) {
-  int64_t s = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t s = RT_THREAD_INDEX();
   if (s < D.n) D.cnt[s] = dem_scan_slot(&D, s, 0);
 }
 
 __global__ void k_dem_fill(dem_dev D) {
-  int64_t s = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t s = RT_THREAD_INDEX();
   if (s < D.n) dem_scan_slot(&D, s, 1);
 }
 
-__global__ void k_dem_carry(dem_dev D) {
-  int64_t p = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (p < D.np) dem_carry_body(&D, p);
-}
+RT_KERNEL_EACH(k_dem_carry, dem_dev, D.np, dem_carry_body)
 
 __global__ void k_dem_ranges(const int32_t *g, int64_t n, int32_t *st, int32_t *en) {
-  int64_t k = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t k = RT_THREAD_INDEX();
   if (k < n) dem_range_body(g, n, k, st, en);
 }
 
-__global__ void k_dem_pair_forces(dem_dev D) {
-  int64_t p = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (p < D.np) dem_pair_force_body(&D, p);
-}
+RT_KERNEL_EACH(k_dem_pair_forces, dem_dev, D.np, dem_pair_force_body)
 
-__global__ void k_dem_particle_forces(dem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.n) dem_particle_force_body(&D, i);
-}
+RT_KERNEL_EACH(k_dem_particle_forces, dem_dev, D.n, dem_particle_force_body)
 
 __global__ void k_dem_touching(dem_dev D, unsigned long long *count) {
-  int64_t p = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t p = RT_THREAD_INDEX();
   if (p < D.np && dem_touching(&D, p)) atomicAdd(count, 1ull);
 }
 

@@ -19,7 +19,7 @@ static inline unsigned nblocks(int64_t n) { return (unsigned)((n + SPHDEM_BLOCK 
 /* ---- kernels: one thread per particle, bodies shared with the CPU loops --------------------------- */
 
 __global__ void k_cell(sphdem_dev D, int set, uint64_t *key, int32_t *perm) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i >= set_count(&D, set)) return;
   int32_t c = set_cell_of(&D, set, set_x(&D, set) + 3 * i);
   key[i] = sort_key(c, set_tag(&D, set)[i]);
@@ -27,75 +27,57 @@ __global__ void k_cell(sphdem_dev D, int set, uint64_t *key, int32_t *perm) {
 }
 
 __global__ void k_cell_from_key(const uint64_t *key, int32_t *cell, int64_t n) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < n) cell[i] = (int32_t)(key[i] >> 36);
 }
 
 __global__ void k_gather(uint32_t *dst, const uint32_t *src, const int32_t *perm, int ew, int64_t n) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < n) gather_words_body(dst, src, perm, ew, i);
 }
 
 __global__ void k_cell_ranges(const int32_t *cell, int64_t n, int32_t *cs, int32_t *ce) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < n) cell_range_body(cell, n, i, cs, ce);
 }
 
-__global__ void k_ksum(sphdem_dev D) {
-  int64_t i = (int64_t)blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < D.nf) ksum_body(&D, i);
-}
+RT_KERNEL_EACH(k_ksum, sphdem_dev, D.nf, ksum_body)
 
-__global__ void k_pressure(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) predict_body(&D, i);
-}
+RT_KERNEL_EACH(k_pressure, sphdem_dev, D.nf, predict_body)
 
 __global__ void k_wall_state(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < D.nw) {
     if (D.wmls) mls_wall_state_body(&D, i);
     else wall_state_body(&D, i);
   }
 }
 
-__global__ void k_mp_grad(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) mp_grad_body(&D, i);
-}
+RT_KERNEL_EACH(k_mp_grad, sphdem_dev, D.nf, mp_grad_body)
 
-__global__ void k_mp_shift(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) mp_shift_body(&D, i);
-}
+RT_KERNEL_EACH(k_mp_shift, sphdem_dev, D.nf, mp_shift_body)
 
-__global__ void k_mp_rates(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) mp_rates_body(&D, i);
-}
+RT_KERNEL_EACH(k_mp_rates, sphdem_dev, D.nf, mp_rates_body)
 
 __global__ void k_rk(sphdem_dev D, int mode, double wk, double cst) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < D.nf) rk_stage_body(&D, i, mode, wk, cst);
 }
 
-__global__ void k_rates(sphdem_dev D) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
-  if (i < D.nf) rates_body(&D, i);
-}
+RT_KERNEL_EACH(k_rates, sphdem_dev, D.nf, rates_body)
 
 __global__ void k_kick(sphdem_dev D, double dth) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < D.nf) kick_body(&D, i, dth);
 }
 
 __global__ void k_drift(sphdem_dev D, double dt) {
-  int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t i = RT_THREAD_INDEX();
   if (i < D.nf) drift_body(&D, i, dt);
 }
 
 __global__ void k_probe(sphdem_dev D, const double *pts, double *out, int64_t n) {
-  int64_t k = blockIdx.x * (int64_t)blockDim.x + threadIdx.x;
+  int64_t k = RT_THREAD_INDEX();
   if (k < n) probe_body(&D, pts, out, k);
 }
 
@@ -105,7 +87,7 @@ __global__ void k_reduce(sphdem_dev D, int set, sphdem_red *out) {
   int64_t n = set == SPHDEM_SET_FLUID ? D.nf : D.nw;
   sphdem_red r;
   red_init(&r);
-  for (int64_t i = blockIdx.x * (int64_t)blockDim.x + threadIdx.x; i < n; i += (int64_t)gridDim.x * blockDim.x)
+  for (int64_t i = RT_THREAD_INDEX(); i < n; i += (int64_t)gridDim.x * blockDim.x)
     red_body(&D, set, i, &r);
   sh[threadIdx.x] = r;
   __syncthreads();
