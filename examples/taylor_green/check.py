@@ -65,7 +65,8 @@ def main():
         t = [r[0] for r in rows]
         plt.semilogy(t, [r[1] / rows[0][1] for r in rows], "o", ms=3, label="sphdem")
         plt.semilogy(t, [math.exp(-exact * x) for x in t], "-", label=r"exact $e^{-16\pi^2\nu t/L^2}$")
-        plt.xlabel("t (s)"); plt.ylabel("KE / KE(0)"); plt.legend(); plt.title("Taylor-Green vortex, Re = 100")
+        plt.xlabel("t (s)"); plt.ylabel("KE / KE(0)"); plt.legend(); plt.title("Taylor-Green vortex, Re = 100, %d samples" % len(rows))
+        plt.tight_layout()
         plt.savefig(a.plot, dpi=120)
     if a.bound is not None and not (abs(err) <= a.bound and reached):
         print(f"FAIL: |error| {abs(err):.4f} > {a.bound} or the floor was not reached")
