@@ -174,13 +174,14 @@ int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m_in) {
   if (sphdem_mp_params_check(m, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: %s", msg);
   sphdem_dev *D = &c->D;
-  if (!m->enabled) { mp_release(c); D->M = *m; return SPHDEM_OK; }
+  if (!m->enabled) { if (D->mp) c->nl_dirty = 1; mp_release(c); D->M = *m; return SPHDEM_OK; }
   if (D->couple)
     return sphdem_fail(c, SPHDEM_ERR_ARG, m->single ? SPHDEM_MP_COUPLE_WHY :
                        "mp_set: the multiphase fluid cannot be combined with the SPH-DEM coupling yet");
   int was_on = D->mp;
   D->M = *m;
   D->mp = 1;
+  c->nl_dirty = 1; /* the CPU's fluid lists: full lists for the delta-plus gather, half lists otherwise */
   sphdem_rederive(c);
   if (!was_on) {
     TRYM(ensure_mp(c, D->nf));

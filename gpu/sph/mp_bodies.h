@@ -1,10 +1,10 @@
 /* mp_bodies.h - multiphase delta-plus SPH with Herschel-Bulkley phases (Shi & Huang 2022 §2-§3),
- * written once for the CPU loops and the CUDA kernels. Three passes per rate evaluation:
+ * written once for the CPU loops and the CUDA kernels. Two passes before the rates pass:
  *   mp_grad_body   renormalisation L_i (eq 19), lambda_i (§3.3), <grad P>^L (eq 19), shear rate
  *                  |D_i| (eq 26) and viscosity mu_i (eqs 22-25);
  *   mp_shift_body  shifting velocity du_i (eqs 27-29), only with shifting on;
- *   mp_rates_body  continuity (eq 15) with diffusion (eqs 16-18), pressure (eq 20), viscous (eq 24) and
- *                  shifting terms (eq 3), wall pairs, XSPH. */
+ * and the delta-plus pair terms of the one fluid rate pass (fluid_rates.h): continuity (eq 15) with
+ * diffusion (eqs 16-18), pressure (eq 20), viscous (eq 24) and shifting terms (eq 3), wall pairs, XSPH. */
 #ifndef SPHDEM_MP_BODIES_H
 #define SPHDEM_MP_BODIES_H
 
@@ -294,84 +294,94 @@ SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
  * ~1.5 % independently of the resolution (the two-layer Poiseuille test then stops converging at 1.5 %). */
 #define MP_ETA2 1e-4
 
-/* ---- pass 3: rates ----------------------------------------------------------------------------------- */
+/* ---- the delta-plus terms of the one fluid rate pass (fluid_rates.h) ----------------------------------- */
 
-SPHDEM_HD void mp_rates_body(const sphdem_dev *D, int64_t a) {
-  const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
+/* a's constants of the delta-plus pair terms. Diffusion on delta rho = (P - P0) / c_a^2 (eq 18 with the
+ * particle's sound speed): P is continuous across an interface, so is delta rho measured in a's units;
+ * delta_d h c_a D_a. */
+SPHDEM_HD void dplus_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
+  R->pha = D->ph[a];
+  R->ma = D->mass[a];
+  R->Va = R->ma / R->rhoa;
+  R->pa = D->p[a];
+  R->mua = D->mu_p[a];
+  for (int d = 0; d < 3; d++) R->dua[d] = D->M.shifting ? D->dus[3 * a + d] : 0.0;
+  double ca = D->ck[R->pha];
+  R->ic2 = 1.0 / (ca * ca);
+  R->kdiff = D->M.delta * D->h * ca;
+  R->paV = R->pa * R->Va * R->Va / R->ma;
+  R->Va2 = R->Va * R->Va;
+  R->ga = D->gdr + 3 * a;
+}
+
+/* Fluid pair (a, b), delta-plus: continuity with shifting (eq 15) and diffusion (eqs 16-18), pressure
+ * (eq 20), viscosity (eq 24), the shifting terms of momentum (eq 3), XSPH; a's rates, weight 1 (fluid_pair_rec).
+ * 0 if out of reach. */
+SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t b, fluid_pair_rec *P) {
+  const double *xa = R->xa, *va = R->va, *dua = R->dua;
   const int shift = D->M.shifting, diff = D->M.diffusion;
-  double rhoa = D->rhop[a], ma = D->mass[a], Va = ma / rhoa, pa = D->p[a], mua = D->mu_p[a];
-  double dua[3] = {0, 0, 0}, acc[3], U[3] = {0, 0, 0}, drho = 0.0, r[3], vab[3];
-  int pha = D->ph[a];
-  if (shift) for (int d = 0; d < 3; d++) dua[d] = D->dus[3 * a + d];
-  for (int d = 0; d < 3; d++) acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0;
-  /* diffusion on delta rho = (P - P0) / c_a^2 (eq 18 with the particle's sound speed): P is continuous
-   * across an interface, so is delta rho measured in a's units; delta_d h c_a D_a */
-  double ca = D->ck[pha], ic2 = 1.0 / (ca * ca), kdiff = D->M.delta * D->h * ca;
-  double paV = pa * Va * Va / ma, Va2 = Va * Va, dua_r;
-  const double *ga = D->gdr + 3 * a;
-  int32_t cells[27];
-  int nn = neighbor_cells(D, D->cell[a], cells);
-  for (int k = 0; k < nn; k++) {
-    for (int32_t b = D->cstart[cells[k]]; b < D->cend[cells[k]]; b++) {
-      double r2 = separation(D, xa, D->x + 3 * b, r);
-      if (r2 >= D->support2 || r2 == 0.0) continue;
-      double q = sqrt(r2) * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
-      double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-      double rhob = D->rhop[b], mb = D->mass[b], Vb = mb / rhob, pb = D->p[b], mub = D->mu_p[b];
-      int same = D->ph[b] == pha;
-      double dub[3] = {0, 0, 0}, s1 = 0.0;
-      if (shift) for (int d = 0; d < 3; d++) dub[d] = D->dus[3 * b + d];
-      for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; s1 += (vab[d] + dua[d] - dub[d]) * r[d]; }
-      drho += rhoa * Vb * F * s1;                                           /* eq 15, first term */
-      if (shift && same) {
-        double t = 0.0;
-        for (int d = 0; d < 3; d++) t += (rhob * dub[d] + rhoa * dua[d]) * r[d];
-        drho += Vb * F * t;                                                 /* eq 15, div(rho du) */
-      }
-      if (diff) {
-        double psi = 2.0 * (pb - pa);                                       /* eq 17, times c_a^2 */
-        if (diff == SPHDEM_DIFF_RENORM) {
-          const double *gb = D->gdr + 3 * b;
-          for (int d = 0; d < 3; d++) psi += (ga[d] + gb[d]) * r[d];       /* -(<>_i + <>_j).(x_j - x_i) */
-        }
-        psi *= ic2;
-        drho += kdiff * psi * (-F) * r2 * ie * Vb;                          /* eq 16: (x_j - x_i).grad W / r^2 */
-      }
-      double kp = -(paV + pb * Vb * Vb / ma) * F;                           /* eq 20 */
-      double mubar = mua + mub > 0.0 ? 2.0 * mua * mub / (mua + mub) : 0.0;
-      double kv = mubar * (Va2 + Vb * Vb) * F * r2 * ie / ma;               /* eq 24 */
-      for (int d = 0; d < 3; d++) acc[d] += kp * r[d] + kv * vab[d];
-      if (shift && same) {
-        /* eq 3: div(u (x) du) - u div(du), Sun et al. 2019 discretisation */
-        double dub_r = 0.0;
-        dua_r = 0.0;
-        for (int d = 0; d < 3; d++) { dub_r += dub[d] * r[d]; dua_r += dua[d] * r[d]; }
-        for (int d = 0; d < 3; d++)
-          acc[d] += Vb * F * (D->ve[3 * b + d] * dub_r + va[d] * dua_r) - va[d] * Vb * F * (dub_r - dua_r);
-      }
-      if (D->P.xsph_eps > 0.0) {
-        double k2 = -D->P.xsph_eps * mb / (0.5 * (rhoa + rhob)) * W;       /* XSPH (He 2018 eq 12) */
-        for (int d = 0; d < 3; d++) U[d] += k2 * vab[d];
-      }
-    }
-    if (D->nw == 0) continue;
-    for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) {
-      double r2 = separation(D, xa, D->wx + 3 * w, r);
-      if (r2 >= D->support2 || r2 == 0.0) continue;
-      double rr = sqrt(r2), q = rr * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
-      double F = wendland_grad_factor(D->alphaD, D->inv_h, q), Vw = wall_volume(D, w), s1 = 0.0;
-      for (int d = 0; d < 3; d++) s1 += (va[d] + dua[d] - D->wv[3 * w + d]) * r[d]; /* prescribed wall velocity */
-      drho += rhoa * Vw * F * s1;
-      double kp = -(paV + D->wp[w] * Vw * Vw / ma) * F;
-      /* Adami walls take the fluid particle's viscosity; MLS ghosts their own (§3.4), harmonic mean as eq 24 */
-      double muw = D->wmls ? D->wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
-      double kv = mub * (Va2 + Vw * Vw) * F * r2 * ie / ma;
-      for (int d = 0; d < 3; d++) acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
-      wall_repulsion(D, rr, r2, r, acc);
-    }
+  double r[3], vab[3];
+  double r2 = separation(D, xa, D->x + 3 * b, r);
+  if (r2 >= D->support2 || r2 == 0.0) return 0;
+  double q = sqrt(r2) * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
+  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
+  double rhoa = R->rhoa, rhob = D->rhop[b], mb = D->mass[b], Vb = mb / rhob, pb = D->p[b], mub = D->mu_p[b];
+  int same = D->ph[b] == R->pha;
+  double dub[3] = {0, 0, 0}, s1 = 0.0;
+  if (shift) for (int d = 0; d < 3; d++) dub[d] = D->dus[3 * b + d];
+  for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; s1 += (vab[d] + dua[d] - dub[d]) * r[d]; }
+  double cont = rhoa * Vb * F * s1;                                      /* eq 15, first term */
+  if (shift && same) {
+    double t = 0.0;
+    for (int d = 0; d < 3; d++) t += (rhob * dub[d] + rhoa * dua[d]) * r[d];
+    cont += Vb * F * t;                                                   /* eq 15, div(rho du) */
   }
-  D->drho[a] = drho;
-  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = acc[d]; D->u[3 * a + d] = U[d] + dua[d]; }
+  if (diff) {
+    double psi = 2.0 * (pb - R->pa);                                      /* eq 17, times c_a^2 */
+    if (diff == SPHDEM_DIFF_RENORM) {
+      const double *ga = R->ga, *gb = D->gdr + 3 * b;
+      for (int d = 0; d < 3; d++) psi += (ga[d] + gb[d]) * r[d];         /* -(<>_i + <>_j).(x_j - x_i) */
+    }
+    psi *= R->ic2;
+    cont += R->kdiff * psi * (-F) * r2 * ie * Vb;                         /* eq 16: (x_j - x_i).grad W / r^2 */
+  }
+  P->cont = cont;
+  P->dda = P->ddb = 0.0;
+  double ma = R->ma, mua = R->mua;
+  double kp = -(R->paV + pb * Vb * Vb / ma) * F;                          /* eq 20 */
+  double mubar = mua + mub > 0.0 ? 2.0 * mua * mub / (mua + mub) : 0.0;
+  double kv = mubar * (R->Va2 + Vb * Vb) * F * r2 * ie / ma;              /* eq 24 */
+  for (int d = 0; d < 3; d++) P->A[d] = kp * r[d] + kv * vab[d];
+  if (shift && same) {
+    /* eq 3: div(u (x) du) - u div(du), Sun et al. 2019 discretisation */
+    double dub_r = 0.0, dua_r = 0.0;
+    for (int d = 0; d < 3; d++) { dub_r += dub[d] * r[d]; dua_r += dua[d] * r[d]; }
+    for (int d = 0; d < 3; d++)
+      P->A[d] += Vb * F * (D->ve[3 * b + d] * dub_r + va[d] * dua_r) - va[d] * Vb * F * (dub_r - dua_r);
+  }
+  double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps * mb / (0.5 * (rhoa + rhob)) * W : 0.0; /* XSPH (He 2018 eq 12) */
+  for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
+  return 1;
+}
+
+/* Wall neighbour w of a, delta-plus: the wall's volume m_w / rho0 in continuity, pressure and viscosity
+ * (Adami walls take the fluid particle's viscosity, MLS ghosts their own, §3.4, harmonic mean as eq 24),
+ * Monaghan repulsion. */
+SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
+  const double *va = R->va;
+  double r[3];
+  double r2 = separation(D, R->xa, D->wx + 3 * w, r);
+  if (r2 >= D->support2 || r2 == 0.0) return;
+  double rr = sqrt(r2), q = rr * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
+  double F = wendland_grad_factor(D->alphaD, D->inv_h, q), Vw = wall_volume(D, w), s1 = 0.0;
+  for (int d = 0; d < 3; d++) s1 += (va[d] + R->dua[d] - D->wv[3 * w + d]) * r[d]; /* prescribed wall velocity */
+  R->drho += R->rhoa * Vw * F * s1;
+  double ma = R->ma, mua = R->mua;
+  double kp = -(R->paV + D->wp[w] * Vw * Vw / ma) * F;
+  double muw = D->wmls ? D->wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
+  double kv = mub * (R->Va2 + Vw * Vw) * F * r2 * ie / ma;
+  for (int d = 0; d < 3; d++) R->acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
+  wall_repulsion(D, rr, r2, r, R->acc);
 }
 
 #endif

@@ -333,16 +333,23 @@ SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob
   return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie / rhob;
 }
 
-/* Accumulators of one fluid particle's rates. */
+/* Accumulators of one fluid particle's rates (the one fluid rate pass, fluid_rates.h). */
 typedef struct {
   const double *xa, *va;
   double rhoa, pra, drho, acc[3], u[3];
   double epsa;          /* porosity of a (1 without coupling) */
+  /* delta-plus fluid only (D->mp; dplus_init in mp_bodies.h): shift velocity, volume, pressure, viscosity,
+   * diffusion constants and <grad P>^L of a, its phase */
+  double dua[3], ma, Va, Va2, pa, paV, mua, ic2, kdiff;
+  const double *ga;
+  int pha;
 } rates_acc;
 
-/* The fluid pair (a, b) per unit mass of the partner. Every term is symmetric or antisymmetric in
- * a and b, so one evaluation serves both: a gains m_b (cont + dda) density rate, m_b A acceleration
- * and m_b U XSPH velocity; b gains m_a (cont + ddb), -m_a A and -m_a U. */
+/* The record of one fluid pair (a, b), for every fluid model. Plain fluid (fluid_pair_terms): per unit mass
+ * of the partner; every term is symmetric or antisymmetric in a and b, so one evaluation serves both: a
+ * gains m_b (cont + dda) density rate, m_b A acceleration and m_b U XSPH velocity; b gains m_a (cont + ddb),
+ * -m_a A and -m_a U (the CPU's half-list pass). Delta-plus fluid (dplus_pair_terms): a's own rates, weight
+ * 1 (its shifting terms are not antisymmetric). */
 typedef struct {
   double cont, dda, ddb, A[3], U[3];
 } fluid_pair_rec;
@@ -379,15 +386,6 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   return 1;
 }
 
-/* Fluid neighbour b of a, gathered into a's rates. */
-SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
-  fluid_pair_rec P;
-  if (!fluid_pair_terms(D, R->xa, R->va, R->rhoa, R->pra, R->epsa, b, &P)) return;
-  double mb = D->mass[b];
-  R->drho += mb * (P.cont + P.dda);
-  for (int d = 0; d < 3; d++) { R->acc[d] += mb * P.A[d]; R->u[d] += mb * P.U[d]; }
-}
-
 /* Monaghan 1994 wall repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 within r0. */
 SPHDEM_HD void wall_repulsion(const sphdem_dev *D, double rr, double r2, const double *r, double *acc) {
   if (!(D->P.rep_D > 0.0) || rr >= D->P.rep_r0) return;
@@ -396,8 +394,9 @@ SPHDEM_HD void wall_repulsion(const sphdem_dev *D, double rr, double r2, const d
   for (int d = 0; d < 3; d++) acc[d] += k3 * r[d];
 }
 
-/* Wall neighbour w of a: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan repulsion. */
-SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
+/* Wall neighbour w of a, plain fluid: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan
+ * repulsion. */
+SPHDEM_HD void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double r[3], vv[3];
   double r2 = separation(D, R->xa, D->wx + 3 * w, r);
   if (r2 >= D->support2 || r2 == 0.0) return;
@@ -416,47 +415,6 @@ SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   pair_momentum(D, mb, R->pra * ka, R->rhoa, D->wp[w] / (rw * rw) * kb, rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv,
                 R->acc);
   wall_repulsion(D, rr, r2, r, R->acc);
-}
-
-SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
-  R->xa = D->x + 3 * a; R->va = D->ve + 3 * a;
-  R->rhoa = D->rhop[a]; R->pra = D->pr2[a]; R->drho = 0.0; R->epsa = fluid_eps(D, a);
-  for (int d = 0; d < 3; d++) { R->acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R->u[d] = 0.0; }
-}
-
-/* Wall neighbours of a, from the wall list (CPU) or the cell walk. */
-SPHDEM_HD void rates_walls(const sphdem_dev *D, int64_t a, rates_acc *R, const int32_t *cells, int nn) {
-  if (D->nw == 0) return;
-  if (D->wl_start) {
-    for (int64_t k = D->wl_start[a]; k < D->wl_start[a + 1]; k++) rates_wall_pair(D, R, D->wl[k]);
-  } else {
-    for (int k = 0; k < nn; k++)
-      for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) rates_wall_pair(D, R, w);
-  }
-}
-
-SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
-  D->drho[a] = R->drho;
-  for (int d = 0; d < 3; d++) { D->a[3 * a + d] = R->acc[d]; D->u[3 * a + d] = R->u[d]; }
-}
-
-/* Rates of fluid particle a, gathered from all its neighbours. Neighbours come from the full CSR
- * lists when they exist or from the cell walk; both visit fluid then wall neighbours in the same cell
- * order, so the sums are identical. */
-SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
-  rates_acc R;
-  rates_init(D, a, &R);
-  int32_t cells[27];
-  int nn = 0;
-  if (D->nl_start) {
-    for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) rates_fluid_pair(D, &R, D->nl[k]);
-  } else {
-    nn = neighbor_cells(D, D->cell[a], cells);
-    for (int k = 0; k < nn; k++)
-      for (int32_t b = D->cstart[cells[k]]; b < D->cend[cells[k]]; b++) rates_fluid_pair(D, &R, b);
-  }
-  rates_walls(D, a, &R, cells, nn);
-  rates_store(D, a, &R);
 }
 
 /* Kernel interpolation at probe point k (He 2018 eq 4, Shepard-normalised). */

@@ -6,8 +6,7 @@
 #include <omp.h>
 #endif
 
-#include "mp_bodies.h"
-#include "sph_bodies.h"
+#include "fluid_rates.h"
 #include "sph_internal.h"
 
 #define TRY_CPU(x) do { int rc_ = (x); if (rc_) return rc_; } while (0)
@@ -100,7 +99,7 @@ static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_
 static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
   int64_t n = D->nf, *st;
-  int half = set == 0 && c->cpu_sym;
+  int half = set == 0 && c->cpu_sym && !D->mp; /* the delta-plus fluid gathers from full lists */
   if (set == 0) {
     TRY_CPU(grow(c, (void **)&D->nl_start, &c->nls_cap, n + 1, sizeof(int64_t)));
     TRY_CPU(grow(c, (void **)&D->wl_start, &c->wls_cap, n + 1, sizeof(int64_t)));
@@ -243,14 +242,8 @@ static int cpu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
 }
 
 static int cpu_rates(struct sphdem_ctx_s *c) {
-  if (c->D.mp) {
-    const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t a = 0; a < D->nf; a++) mp_rates_body(D, a);
-    return SPHDEM_OK;
-  }
   TRY_CPU(cpu_ensure_lists(c));
-  if (c->cpu_sym) return cpu_rates_sym(c);
+  if (c->cpu_sym && !c->D.mp) return cpu_rates_sym(c);
   const sphdem_dev *D = &c->D;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t a = 0; a < D->nf; a++) rates_body(D, a);

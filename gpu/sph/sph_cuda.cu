@@ -7,8 +7,7 @@
 #include <stdio.h>
 
 #include "cuda_check.h"
-#include "mp_bodies.h"
-#include "sph_bodies.h"
+#include "fluid_rates.h"
 #include "sph_internal.h"
 
 #define SPHDEM_BLOCK 256
@@ -56,8 +55,6 @@ __global__ void k_wall_state(sphdem_dev D) {
 RT_KERNEL_EACH(k_mp_grad, sphdem_dev, D.nf, mp_grad_body)
 
 RT_KERNEL_EACH(k_mp_shift, sphdem_dev, D.nf, mp_shift_body)
-
-RT_KERNEL_EACH(k_mp_rates, sphdem_dev, D.nf, mp_rates_body)
 
 __global__ void k_rk(sphdem_dev D, int mode, double wk, double cst) {
   int64_t i = RT_THREAD_INDEX();
@@ -163,12 +160,7 @@ static int cu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
   return SPHDEM_OK;
 }
 
-static int cu_rates(struct sphdem_ctx_s *c) {
-  if (c->D.mp) {
-    k_mp_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-    RT_LAUNCHED(&c->rt, "multiphase rates kernel");
-    return SPHDEM_OK;
-  }
+static int cu_rates(struct sphdem_ctx_s *c) { /* the one fluid rate pass, every fluid model (fluid_rates.h) */
   k_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
   RT_LAUNCHED(&c->rt, "rates kernel");
   return SPHDEM_OK;
