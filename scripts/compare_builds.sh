@@ -29,7 +29,9 @@ for item in $LIST; do
     if [ ! -s "$a" ] || [ ! -s "$bb" ]; then echo "$ex $eng: no thermo output (A $(wc -l < "$a"), B $(wc -l < "$bb") lines)"; rc=1; continue; fi
     if cmp -s "$a" "$bb"; then echo "$ex $eng: identical ($(wc -l < "$a") thermo lines)"; continue; fi
     # the speed column of fix sph/fluid (f_ID[4], particle-steps per wall-clock second) is not compared
-    speed=$(awk '$1 == "fix" && $4 == "sph/fluid" {printf "f_%s[4] ", $2}' "$inp")
+    # (LIGGGHTS writes its header without the f_), nor the engine's own timing columns
+    speed=$(awk '$1 == "fix" && $4 == "sph/fluid" {printf "f_%s[4] %s[4] ", $2, $2}' "$inp")
+    speed="$speed CPU Cpu T/CPU S/CPU CPULeft"
     python3 - "$a" "$bb" "$ex $eng" "$speed" <<'PY' || rc=1
 import sys
 la = [l.split() for l in open(sys.argv[1])]; lb = [l.split() for l in open(sys.argv[2])]

@@ -359,7 +359,7 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
     for (int d = 0; d < 3; d++)
       P->A[d] += Vb * F * (D->ve[3 * b + d] * dub_r + va[d] * dua_r) - va[d] * Vb * F * (dub_r - dua_r);
   }
-  double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps * mb / (0.5 * (rhoa + rhob)) * W : 0.0; /* XSPH (He 2018 eq 12) */
+  double k2 = mb * xsph_weight(D, rhoa, rhob, W); /* XSPH (He 2018 eq 12) */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
   return 1;
 }

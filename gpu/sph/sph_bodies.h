@@ -333,6 +333,11 @@ SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob
   return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie / rhob;
 }
 
+/* XSPH (He 2018 eq 12): a moves with v_a + sum_b m_b xsph_weight (v_a - v_b); 0 with xsph off. */
+SPHDEM_HD double xsph_weight(const sphdem_dev *D, double rhoa, double rhob, double W) {
+  return D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0;
+}
+
 /* Accumulators of one fluid particle's rates (the one fluid rate pass, fluid_rates.h). */
 typedef struct {
   const double *xa, *va;
@@ -381,7 +386,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   pair_form_factors(D, rhoa, rhob, &ka, &kb);
   if (D->pressure_volume_form) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
   pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
-  double k2 = D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0; /* eq 12 */
+  double k2 = xsph_weight(D, rhoa, rhob, W); /* eq 12 */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
   return 1;
 }
