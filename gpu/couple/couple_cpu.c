@@ -1,4 +1,5 @@
-/* couple_cpu.c - CPU backend of the SPH-DEM coupling: OpenMP loops over the bodies of couple_bodies.h.
+/* couple_cpu.c - CPU backend of the SPH-DEM coupling: the loops of its listed passes (sph_passes.h) and the
+ * CPU's own versions of the three passes over fluid-grain pair lists.
  *
  * The three passes of a coupling step visit the same fluid-grain pairs (porosity: fluid -> grains, grain
  * forces: grain -> fluid, reaction: fluid -> grains). On the CPU the porosity pass walks the grain cells once
@@ -35,6 +36,10 @@ static int grow32(int32_t **p, int64_t *cap, int64_t n) {
   return 0;
 }
 
+/* the cell-walk loops of the listed passes (sph_passes.h): the gather mode, and the fallback when the pair
+ * lists could not be built */
+SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CPU_LOOP)
+
 void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c) {
   free(c->cpl_fs); free(c->cpl_gs); free(c->cpl_f); free(c->cpl_g);
   for (int t = 0; t < c->cpl_nt; t++) free(c->cpl_tb[t]);
@@ -52,11 +57,7 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
   nt = omp_get_max_threads();
 #endif
   c->cpl_valid = 0;
-  if (!c->cpu_sym) {
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t a = 0; a < nf; a++) couple_porosity_body(D, a);
-    return SPHDEM_OK;
-  }
+  if (!c->cpu_sym) return sphdem_cpu_loop_couple_porosity(c);
   if (nt > c->cpl_nt) {
     int32_t **tb = (int32_t **)realloc(c->cpl_tb, sizeof(int32_t *) * (size_t)nt);
     if (tb) c->cpl_tb = tb;
@@ -124,11 +125,7 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
 
 int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!c->cpl_valid) {
-#pragma omp parallel for schedule(dynamic, 16)
-    for (int64_t j = 0; j < D->ng; j++) couple_grain_body(D, j);
-    return SPHDEM_OK;
-  }
+  if (!c->cpl_valid) return sphdem_cpu_loop_couple_grains(c);
   const int64_t *gs = c->cpl_gs;
   const int32_t *gl = c->cpl_g;
 #pragma omp parallel for schedule(dynamic, 16)
@@ -144,11 +141,7 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
 
 int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!c->cpl_valid) {
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t a = 0; a < D->nf; a++) couple_reaction_body(D, a);
-    return SPHDEM_OK;
-  }
+  if (!c->cpl_valid) return sphdem_cpu_loop_couple_reaction(c);
   const int64_t *fs = c->cpl_fs;
   const int32_t *fl = c->cpl_f;
 #pragma omp parallel for schedule(dynamic, 64)

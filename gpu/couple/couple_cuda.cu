@@ -1,4 +1,5 @@
-/* couple_cuda.cu - CUDA backend of the SPH-DEM coupling: kernels over the bodies of couple_bodies.h. */
+/* couple_cuda.cu - CUDA backend of the SPH-DEM coupling: the kernels and launchers of its listed passes
+ * (sph_passes.h) over the bodies of couple_bodies.h. */
 #include <cuda_runtime.h>
 
 #include "couple_bodies.h"
@@ -7,32 +8,7 @@
 
 #define SPHDEM_CBLOCK 128
 
-static inline unsigned cblocks(int64_t n) { return (unsigned)((n + SPHDEM_CBLOCK - 1) / SPHDEM_CBLOCK); }
-
-RT_KERNEL_EACH(k_couple_porosity, sphdem_dev, D.nf, couple_porosity_body)
-
-RT_KERNEL_EACH(k_couple_grains, sphdem_dev, D.ng, couple_grain_body)
-
-RT_KERNEL_EACH(k_couple_reaction, sphdem_dev, D.nf, couple_reaction_body)
-
-extern "C" {
-
-int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c) {
-  if (c->D.nf == 0) return SPHDEM_OK;
-  k_couple_porosity<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
-  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling porosity kernel");
-}
-
-int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c) {
-  if (c->D.ng == 0) return SPHDEM_OK;
-  k_couple_grains<<<cblocks(c->D.ng), SPHDEM_CBLOCK>>>(c->D);
-  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling grain force kernel");
-}
-
-int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c) {
-  if (c->D.nf == 0) return SPHDEM_OK;
-  k_couple_reaction<<<cblocks(c->D.nf), SPHDEM_CBLOCK>>>(c->D);
-  return rt_cuda_check(&c->rt, cudaGetLastError(), "coupling reaction kernel");
-}
-
-}
+/* the kernels and launchers of the coupling's listed passes (sph_passes.h) */
+#define SPHDEM_PASS_BLOCK SPHDEM_CBLOCK
+SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CUDA)
+#undef SPHDEM_PASS_BLOCK

@@ -234,10 +234,10 @@ static int mp_prepare(struct sphdem_ctx_s *c) {
     TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
     for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
   }
-  TRYM(c->ops->mp_pass(c, 1));
+  TRYM(c->ops->mp_grad(c));
   TRYM(rt_sync(&c->rt));
   if (D->M.shifting) {
-    TRYM(c->ops->mp_pass(c, 2));
+    TRYM(c->ops->mp_shift(c));
     TRYM(rt_sync(&c->rt));
   }
   c->mp_ready = 1;

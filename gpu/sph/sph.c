@@ -769,6 +769,7 @@ int sphdem_compute_rates(sphdem_ctx c) {
   TRY(feature_hooks(c, HOOK_BEFORE_PRESSURE, &tx)); /* coupling: grain sort and porosity before the EOS */
   TRY(ensure_ksum(c));
   D->ks_ok = D->ksum != NULL;
+  TRY(c->ops->ksum(c)); /* no elements unless keyword isolated is on */
   TRY(c->ops->pressure(c));
   TRY(rt_sync(&c->rt));
   double t1 = rt_now();

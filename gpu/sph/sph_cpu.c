@@ -1,4 +1,5 @@
-/* sph_cpu.c - CPU backend: OpenMP loops over the shared bodies of sph_bodies.h. */
+/* sph_cpu.c - CPU backend of the fluid: the loops of the listed passes (sph_passes.h), the sorts, the
+ * reduction, and the CPU's own wall-state and rate passes over neighbour lists. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -72,17 +73,6 @@ static int cpu_cell_ranges(struct sphdem_ctx_s *c, int set) {
   return SPHDEM_OK;
 }
 
-static int cpu_pressure(struct sphdem_ctx_s *c) {
-  const sphdem_dev *D = &c->D;
-  if (D->ksum) {
-#pragma omp parallel for schedule(static)
-    for (int64_t i = 0; i < D->nf; i++) ksum_body(D, i);
-  }
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < D->nf; i++) predict_body(D, i);
-  return SPHDEM_OK;
-}
-
 /* CSR neighbour lists within 2h + skin, rebuilt after each sort: the rates pass then checks ~3x
  * (2D) to ~6x (3D) fewer candidates than the 3^dim-cell walk. */
 static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_t eb) {
@@ -142,23 +132,16 @@ static int cpu_ensure_lists(struct sphdem_ctx_s *c) {
 /* Wall state: from the wall -> fluid lists (the cell walk checked ~6x more candidates in 3D; the wall pass
  * cost as much as the fluid rates in the settling tank); MLS walls, multiphase runs and the GPU-like gather
  * mode (SPHDEM_CPU_GATHER, the twin self-test's second side) walk the cells. */
-static int cpu_wall_state(struct sphdem_ctx_s *c) {
+int sphdem_cpu_wall_state(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!D->wmls && !D->mp && c->cpu_sym) {
-    TRY_CPU(cpu_ensure_lists(c));
-#pragma omp parallel for schedule(static)
-    for (int64_t w = 0; w < D->nw; w++) {
-      const double *xw = D->wx + 3 * w;
-      wall_state_acc A = {0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-      for (int64_t k = D->wfl_start[w]; k < D->wfl_start[w + 1]; k++) wall_state_add(D, xw, D->wfl[k], &A);
-      wall_state_finish(D, w, &A);
-    }
-    return SPHDEM_OK;
-  }
+  if (D->wmls || D->mp || !c->cpu_sym) return sphdem_cpu_loop_wall_state(c);
+  TRY_CPU(cpu_ensure_lists(c));
 #pragma omp parallel for schedule(static)
   for (int64_t w = 0; w < D->nw; w++) {
-    if (D->wmls) mls_wall_state_body(D, w);
-    else wall_state_body(D, w);
+    const double *xw = D->wx + 3 * w;
+    wall_state_acc A = {0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
+    for (int64_t k = D->wfl_start[w]; k < D->wfl_start[w + 1]; k++) wall_state_add(D, xw, D->wfl[k], &A);
+    wall_state_finish(D, w, &A);
   }
   return SPHDEM_OK;
 }
@@ -221,47 +204,12 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
-/* Multiphase: passes walk the cells (no lists), each particle gathers its own rates. */
-static int cpu_mp_pass(struct sphdem_ctx_s *c, int pass) {
-  const sphdem_dev *D = &c->D;
-  if (pass == 1) {
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t a = 0; a < D->nf; a++) mp_grad_body(D, a);
-  } else {
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t a = 0; a < D->nf; a++) mp_shift_body(D, a);
-  }
-  return SPHDEM_OK;
-}
-
-static int cpu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
-  const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < D->nf; i++) rk_stage_body(D, i, mode, wk, cst);
-  return SPHDEM_OK;
-}
-
-static int cpu_rates(struct sphdem_ctx_s *c) {
+/* Rates: the symmetric half-list pass for the plain fluid; the delta-plus fluid and the GPU-like gather mode
+ * run the generated loop (rates_body over the full lists). */
+int sphdem_cpu_rates(struct sphdem_ctx_s *c) {
   TRY_CPU(cpu_ensure_lists(c));
   if (c->cpu_sym && !c->D.mp) return cpu_rates_sym(c);
-  const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t a = 0; a < D->nf; a++) rates_body(D, a);
-  return SPHDEM_OK;
-}
-
-static int cpu_kick(struct sphdem_ctx_s *c, double dth) {
-  const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < D->nf; i++) kick_body(D, i, dth);
-  return SPHDEM_OK;
-}
-
-static int cpu_drift(struct sphdem_ctx_s *c, double dt) {
-  const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < D->nf; i++) drift_body(D, i, dt);
-  return SPHDEM_OK;
+  return sphdem_cpu_loop_rates(c);
 }
 
 static int cpu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
@@ -280,28 +228,15 @@ static int cpu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   return SPHDEM_OK;
 }
 
-static int cpu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, double *out) {
-  const sphdem_dev *D = &c->D;
-#pragma omp parallel for schedule(static)
-  for (int64_t k = 0; k < npts; k++) probe_body(D, pts, out, k);
-  return SPHDEM_OK;
-}
+/* the loops of the listed passes (sph_passes.h) */
+SPHDEM_FLUID_PASSES(SPHDEM_PASS_CPU_LOOP)
 
 const sphdem_ops sphdem_cpu_ops = {
   .name = "cpu",
   .sort_perm = cpu_sort_perm,
   .gather = cpu_gather,
   .cell_ranges = cpu_cell_ranges,
-  .pressure = cpu_pressure,
-  .wall_state = cpu_wall_state,
-  .rates = cpu_rates,
-  .kick = cpu_kick,
-  .drift = cpu_drift,
   .reduce = cpu_reduce,
-  .probe = cpu_probe,
-  .couple_porosity = sphdem_cpu_couple_porosity,
-  .couple_grains = sphdem_cpu_couple_grains,
-  .couple_reaction = sphdem_cpu_couple_reaction,
-  .mp_pass = cpu_mp_pass,
-  .rk = cpu_rk,
+  SPHDEM_FLUID_PASSES(SPHDEM_PASS_CPU_ENTRY)
+  SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CPU_ENTRY)
 };

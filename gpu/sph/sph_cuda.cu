@@ -1,4 +1,5 @@
-/* sph_cuda.cu - CUDA backend: kernels that call the shared bodies of sph_bodies.h. */
+/* sph_cuda.cu - CUDA backend of the fluid: the kernels and launchers of the listed passes (sph_passes.h), the
+ * sorts and the reduction. */
 #include <cuda_runtime.h>
 #include <thrust/device_ptr.h>
 #include <thrust/execution_policy.h>
@@ -15,7 +16,7 @@
 
 static inline unsigned nblocks(int64_t n) { return (unsigned)((n + SPHDEM_BLOCK - 1) / SPHDEM_BLOCK); }
 
-/* ---- kernels: one thread per particle, bodies shared with the CPU loops --------------------------- */
+/* ---- sort and reduction kernels; the passes' kernels come from the list ------------------------------ */
 
 __global__ void k_cell(sphdem_dev D, int set, uint64_t *key, int32_t *perm) {
   int64_t i = RT_THREAD_INDEX();
@@ -40,43 +41,10 @@ __global__ void k_cell_ranges(const int32_t *cell, int64_t n, int32_t *cs, int32
   if (i < n) cell_range_body(cell, n, i, cs, ce);
 }
 
-RT_KERNEL_EACH(k_ksum, sphdem_dev, D.nf, ksum_body)
-
-RT_KERNEL_EACH(k_pressure, sphdem_dev, D.nf, predict_body)
-
-__global__ void k_wall_state(sphdem_dev D) {
-  int64_t i = RT_THREAD_INDEX();
-  if (i < D.nw) {
-    if (D.wmls) mls_wall_state_body(&D, i);
-    else wall_state_body(&D, i);
-  }
-}
-
-RT_KERNEL_EACH(k_mp_grad, sphdem_dev, D.nf, mp_grad_body)
-
-RT_KERNEL_EACH(k_mp_shift, sphdem_dev, D.nf, mp_shift_body)
-
-__global__ void k_rk(sphdem_dev D, int mode, double wk, double cst) {
-  int64_t i = RT_THREAD_INDEX();
-  if (i < D.nf) rk_stage_body(&D, i, mode, wk, cst);
-}
-
-RT_KERNEL_EACH(k_rates, sphdem_dev, D.nf, rates_body)
-
-__global__ void k_kick(sphdem_dev D, double dth) {
-  int64_t i = RT_THREAD_INDEX();
-  if (i < D.nf) kick_body(&D, i, dth);
-}
-
-__global__ void k_drift(sphdem_dev D, double dt) {
-  int64_t i = RT_THREAD_INDEX();
-  if (i < D.nf) drift_body(&D, i, dt);
-}
-
-__global__ void k_probe(sphdem_dev D, const double *pts, double *out, int64_t n) {
-  int64_t k = RT_THREAD_INDEX();
-  if (k < n) probe_body(&D, pts, out, k);
-}
+/* the kernels and launchers of the listed passes (sph_passes.h) */
+#define SPHDEM_PASS_BLOCK SPHDEM_BLOCK
+SPHDEM_FLUID_PASSES(SPHDEM_PASS_CUDA)
+#undef SPHDEM_PASS_BLOCK
 
 /* Block-wise reduction with the shared red_combine; the host combines the block results. */
 __global__ void k_reduce(sphdem_dev D, int set, sphdem_red *out) {
@@ -133,49 +101,6 @@ static int cu_cell_ranges(struct sphdem_ctx_s *c, int set) {
   return SPHDEM_OK;
 }
 
-static int cu_pressure(struct sphdem_ctx_s *c) {
-  if (c->D.ksum) {
-    k_ksum<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-    RT_LAUNCHED(&c->rt, "kernel-sum kernel");
-  }
-  k_pressure<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  RT_LAUNCHED(&c->rt, "pressure kernel");
-  return SPHDEM_OK;
-}
-static int cu_wall_state(struct sphdem_ctx_s *c) {
-  k_wall_state<<<nblocks(c->D.nw), SPHDEM_BLOCK>>>(c->D);
-  RT_LAUNCHED(&c->rt, "wall state kernel");
-  return SPHDEM_OK;
-}
-static int cu_mp_pass(struct sphdem_ctx_s *c, int pass) {
-  if (pass == 1) k_mp_grad<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  else k_mp_shift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  RT_LAUNCHED(&c->rt, "multiphase pass kernel");
-  return SPHDEM_OK;
-}
-
-static int cu_rk(struct sphdem_ctx_s *c, int mode, double wk, double cst) {
-  k_rk<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, mode, wk, cst);
-  RT_LAUNCHED(&c->rt, "Runge-Kutta stage kernel");
-  return SPHDEM_OK;
-}
-
-static int cu_rates(struct sphdem_ctx_s *c) { /* the one fluid rate pass, every fluid model (fluid_rates.h) */
-  k_rates<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D);
-  RT_LAUNCHED(&c->rt, "rates kernel");
-  return SPHDEM_OK;
-}
-static int cu_kick(struct sphdem_ctx_s *c, double dth) {
-  k_kick<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dth);
-  RT_LAUNCHED(&c->rt, "kick kernel");
-  return SPHDEM_OK;
-}
-static int cu_drift(struct sphdem_ctx_s *c, double dt) {
-  k_drift<<<nblocks(c->D.nf), SPHDEM_BLOCK>>>(c->D, dt);
-  RT_LAUNCHED(&c->rt, "drift kernel");
-  return SPHDEM_OK;
-}
-
 static int cu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   cuda_data *cd = (cuda_data *)c->backend_data;
   int64_t n = set == SPHDEM_SET_FLUID ? c->D.nf : c->D.nw;
@@ -190,18 +115,12 @@ static int cu_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *out) {
   return SPHDEM_OK;
 }
 
-static int cu_probe(struct sphdem_ctx_s *c, int64_t npts, const double *pts, double *out) {
-  k_probe<<<nblocks(npts), SPHDEM_BLOCK>>>(c->D, pts, out, npts);
-  RT_LAUNCHED(&c->rt, "probe kernel");
-  return SPHDEM_OK;
-}
-
 extern "C" {
 
 const sphdem_ops sphdem_cuda_ops = {
-  "cuda", cu_sort_perm, cu_gather, cu_cell_ranges,
-  cu_pressure, cu_wall_state, cu_rates, cu_kick, cu_drift, cu_reduce, cu_probe,
-  sphdem_cuda_couple_porosity, sphdem_cuda_couple_grains, sphdem_cuda_couple_reaction, cu_mp_pass, cu_rk,
+  "cuda", cu_sort_perm, cu_gather, cu_cell_ranges, cu_reduce,
+  SPHDEM_FLUID_PASSES(SPHDEM_PASS_CUDA_ENTRY)
+  SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CUDA_ENTRY)
 };
 
 int sphdem_cuda_init(struct sphdem_ctx_s *c) {

@@ -4,6 +4,7 @@
 
 #include "runtime.h"
 #include "sphdem.h"
+#include "sph_passes.h"
 
 #ifdef __CUDACC__
 #define SPHDEM_HD __host__ __device__ static inline
@@ -110,7 +111,7 @@ typedef struct {
 enum { SPHDEM_SET_FLUID = 0, SPHDEM_SET_WALL = 1, SPHDEM_SET_GRAIN = 2 };
 
 /* Backend passes (memory operations are in the runtime, c->rt). Each returns SPHDEM_OK or an error code
- * (message set in ctx). */
+ * (message set in ctx). The per-element passes come from the lists of sph_passes.h, one entry each. */
 struct sphdem_ctx_s;
 typedef struct {
   const char *name;
@@ -121,23 +122,11 @@ typedef struct {
   int (*gather)(struct sphdem_ctx_s *c, void *arr, int elem_bytes, int64_t n);
   /* cell start/end tables of the set from its sorted cell array */
   int (*cell_ranges)(struct sphdem_ctx_s *c, int set);
-  int (*pressure)(struct sphdem_ctx_s *c);
-  int (*wall_state)(struct sphdem_ctx_s *c);
-  int (*rates)(struct sphdem_ctx_s *c);
-  int (*kick)(struct sphdem_ctx_s *c, double dth);
-  int (*drift)(struct sphdem_ctx_s *c, double dt);
   int (*reduce)(struct sphdem_ctx_s *c, int set, sphdem_red *out);
-  int (*probe)(struct sphdem_ctx_s *c, int64_t npts, const double *dpts, double *dout);
-  /* SPH-DEM coupling passes (couple_bodies.h): porosity at fluid particles (eq 26); fluid force on
-   * grains (eqs 27-32); reaction on the fluid (eq 33) */
-  int (*couple_porosity)(struct sphdem_ctx_s *c);
-  int (*couple_grains)(struct sphdem_ctx_s *c);
-  int (*couple_reaction)(struct sphdem_ctx_s *c);
-  /* multiphase passes (mp_bodies.h): 1 = renormalisation, gradients, viscosity; 2 = shifting velocity.
-   * The rates pass itself switches to the multiphase body when D.mp is set. */
-  int (*mp_pass)(struct sphdem_ctx_s *c, int pass);
-  /* Runge-Kutta stage (rk_stage_body): mode 0 saves the state at t_n and clears the sums */
-  int (*rk)(struct sphdem_ctx_s *c, int mode, double wk, double cst);
+  /* ksum, pressure, wall_state, mp_grad, mp_shift, rates, kick, drift, rk, probe; couple_porosity,
+   * couple_grains, couple_reaction */
+  SPHDEM_FLUID_PASSES(SPHDEM_PASS_FIELD)
+  SPHDEM_COUPLE_PASSES(SPHDEM_PASS_FIELD)
 } sphdem_ops;
 
 struct sphdem_ctx_s {
@@ -225,18 +214,17 @@ typedef struct {
 } sphdem_feature;
 extern const sphdem_feature sphdem_feature_couple, sphdem_feature_mp;
 extern const sphdem_feature *const sphdem_features[]; /* NULL-terminated, in call order */
-/* CPU coupling passes (couple_cpu.c) */
-int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c);
-int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c);
-int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c);
+/* CPU passes: the generated loops (sph_cpu.c, couple_cpu.c) and the CPU's own versions (cpu "own") */
+SPHDEM_FLUID_PASSES(SPHDEM_PASS_DECL_CPU)
+SPHDEM_COUPLE_PASSES(SPHDEM_PASS_DECL_CPU)
 void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c);
 
 extern const sphdem_ops sphdem_cpu_ops;
 #ifdef SPHDEM_WITH_CUDA
 extern const sphdem_ops sphdem_cuda_ops;
-int sphdem_cuda_couple_porosity(struct sphdem_ctx_s *c);
-int sphdem_cuda_couple_grains(struct sphdem_ctx_s *c);
-int sphdem_cuda_couple_reaction(struct sphdem_ctx_s *c);
+/* CUDA launchers of the passes (sph_cuda.cu, couple_cuda.cu) */
+SPHDEM_FLUID_PASSES(SPHDEM_PASS_DECL_CUDA)
+SPHDEM_COUPLE_PASSES(SPHDEM_PASS_DECL_CUDA)
 int sphdem_cuda_init(struct sphdem_ctx_s *c);
 void sphdem_cuda_fini(struct sphdem_ctx_s *c);
 #endif
