@@ -23,22 +23,36 @@ void sphdem_dem_params_default(sphdem_dem_params *p) {
   p->mu = 0.5;
 }
 
+/* the models of LIGGGHTS' granular pair style (material from E, nu, e; its history rule and options) */
+static int liggghts_model(int model) {
+  return model == SPHDEM_DEM_HERTZ_LIGGGHTS || model == SPHDEM_DEM_HOOKE_LIGGGHTS ||
+         model == SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS;
+}
+
 #define BAD(...) do { if (msg && msglen) snprintf(msg, msglen, __VA_ARGS__); return SPHDEM_ERR_ARG; } while (0)
 
 int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen) {
   if (!p) BAD("params: NULL");
-  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts, 4 hooke_liggghts)",
-        p->model);
+  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS)
+    BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts, 4 hooke_liggghts, "
+        "5 hooke_hysteresis_liggghts)", p->model);
   if (p->algo != SPHDEM_DEM_PAIR_PARALLEL && p->algo != SPHDEM_DEM_PARTICLE_PARALLEL)
     BAD("algo: %d is not a sphdem_dem_algo (0 pair-parallel, 1 particle-parallel)", p->algo);
   if (!(p->en >= 0.0 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside [0, 1]", p->en);
-  if (p->model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
+  if (p->model == SPHDEM_DEM_HOOKE_LIGGGHTS || p->model == SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS) {
     if (!(p->charvel > 0.0) || !isfinite(p->charvel))
       BAD("charvel: the characteristic velocity of LIGGGHTS model hooke must be > 0 (got %g)", p->charvel);
     if (p->kt_to_kn != 0 && p->kt_to_kn != 1) BAD("kt_to_kn: must be 0 or 1 (got %d)", p->kt_to_kn);
   }
-  if (p->model == SPHDEM_DEM_HERTZ_LIGGGHTS || p->model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
+  if (p->model == SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS) {
+    /* kn2kcmax 1 would make the plastic limit overlap k_2,max / (k_2,max - k_n) 2 phi_F R* infinite */
+    if (!(p->kn2kcmax > 1.0) || !isfinite(p->kn2kcmax))
+      BAD("kn2kcmax: the ratio of the largest unloading stiffness to k_n must be > 1 (got %g)", p->kn2kcmax);
+    if (!(p->kn2kc >= 0.0) || !isfinite(p->kn2kc)) BAD("kn2kc: the adhesion stiffness ratio must be >= 0 (got %g)", p->kn2kc);
+    if (!(p->phif >= 0.0) || !isfinite(p->phif)) BAD("phif: the plasticity depth must be >= 0 (got %g)", p->phif);
+    if (p->limit_damping) BAD("limit_damping: LIGGGHTS' model hooke/hysteresis has no force limit");
+  }
+  if (liggghts_model(p->model)) {
     if (!(p->E > 0.0)) BAD("E: Young's modulus must be > 0 (got %g)", p->E);
     if (!(p->nu >= 0.0 && p->nu <= 0.5)) BAD("nu: Poisson ratio %g outside [0, 0.5]", p->nu);
     if (!(p->en > 0.05 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside (0.05, 1]", p->en);
@@ -64,22 +78,25 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
   if (p->limit_damping != 0 && p->limit_damping != 1) BAD("limit_damping: must be 0 or 1 (got %d)", p->limit_damping);
   if (p->cohesion < SPHDEM_DEM_COH_NONE || p->cohesion > SPHDEM_DEM_COH_SJKR2)
     BAD("cohesion: %d is not a sphdem_dem_cohesion (0 none, 1 sjkr, 2 sjkr2)", p->cohesion);
-  if (p->cohesion && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("cohesion: sjkr and sjkr2 are LIGGGHTS' cohesion models, for the hertz_liggghts and hooke_liggghts models");
+  if (p->cohesion && !liggghts_model(p->model))
+    BAD("cohesion: sjkr and sjkr2 are LIGGGHTS' cohesion models, for the LIGGGHTS models (hertz_liggghts, "
+        "hooke_liggghts, hooke_hysteresis_liggghts)");
   if (!(p->ced >= 0.0) || !isfinite(p->ced)) BAD("ced: cohesion energy density must be >= 0 (got %g)", p->ced);
   if (p->rolling_model < SPHDEM_DEM_ROLL_CDT || p->rolling_model > SPHDEM_DEM_ROLL_EPSD)
     BAD("rolling_model: %d is not a sphdem_dem_rolling (0 cdt, 1 epsd2, 2 epsd)", p->rolling_model);
-  if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS &&
-      p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("rolling_model: epsd and epsd2 are LIGGGHTS' rolling models, for the hertz_liggghts and hooke_liggghts models");
+  if (p->rolling_model != SPHDEM_DEM_ROLL_CDT && !liggghts_model(p->model))
+    BAD("rolling_model: epsd and epsd2 are LIGGGHTS' rolling models, for the LIGGGHTS models (hertz_liggghts, "
+        "hooke_liggghts, hooke_hysteresis_liggghts)");
   if (!(p->rvd >= 0.0) || !isfinite(p->rvd)) BAD("rvd: rolling viscous damping must be >= 0 (got %g)", p->rvd);
   if (p->no_tangential_damping != 0 && p->no_tangential_damping != 1)
     BAD("no_tangential_damping: must be 0 or 1 (got %d)", p->no_tangential_damping);
-  if (p->no_tangential_damping && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("no_tangential_damping: LIGGGHTS' tangential_damping off, for the hertz_liggghts and hooke_liggghts models");
+  if (p->no_tangential_damping && !liggghts_model(p->model))
+    BAD("no_tangential_damping: LIGGGHTS' tangential_damping off, for the LIGGGHTS models (hertz_liggghts, "
+        "hooke_liggghts, hooke_hysteresis_liggghts)");
   if (p->keep_history != 0 && p->keep_history != 1) BAD("keep_history: must be 0 or 1 (got %d)", p->keep_history);
-  if (p->keep_history && p->model != SPHDEM_DEM_HERTZ_LIGGGHTS && p->model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    BAD("keep_history: LIGGGHTS' history rule, for the hertz_liggghts and hooke_liggghts models");
+  if (p->keep_history && !liggghts_model(p->model))
+    BAD("keep_history: LIGGGHTS' history rule, for the LIGGGHTS models (hertz_liggghts, hooke_liggghts, "
+        "hooke_hysteresis_liggghts)");
   if (p->first_contact != 0 && p->first_contact != 1) BAD("first_contact: must be 0 or 1 (got %d)", p->first_contact);
   if (p->first_contact && p->model != SPHDEM_DEM_HOOKE && p->model != SPHDEM_DEM_HERTZ)
     BAD("first_contact: Yu eq 12 applies to the hooke and hertz models");
@@ -104,6 +121,7 @@ static void derive_mat(dem_mat *M, double Yi, double vi, double Yj, double vj, d
   M->mu_r = mu_r;
   M->ced = ced;
   M->rvd = 0.0;
+  M->kn2kcmax = M->kn2kc = M->phif = 0.0;
 }
 
 static void derive(dem_dev *D, const sphdem_dem_params *p) {
@@ -121,6 +139,9 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   if (Y > 0.0) derive_mat(&D->mat0, Y, v, Y, v, p->en, p->mu, p->mu_r, p->ced);
   else memset(&D->mat0, 0, sizeof D->mat0), D->mat0.mu = p->mu, D->mat0.mu_r = p->mu_r;
   D->mat0.rvd = p->rvd;
+  D->mat0.kn2kcmax = p->kn2kcmax;
+  D->mat0.kn2kc = p->kn2kc;
+  D->mat0.phif = p->phif;
 }
 
 int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device dev, char *msg, size_t msglen) {
@@ -211,9 +232,13 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
     return SPHDEM_OK;
   }
   const int n = mat->n;
-  if (D->P.model != SPHDEM_DEM_HERTZ_LIGGGHTS && D->P.model != SPHDEM_DEM_HOOKE_LIGGGHTS)
-    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: a table of materials is for the hertz_liggghts and "
-                           "hooke_liggghts models");
+  if (!liggghts_model(D->P.model))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: a table of materials is for the LIGGGHTS models "
+                           "(hertz_liggghts, hooke_liggghts, hooke_hysteresis_liggghts)");
+  const int hyst = D->P.model == SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS;
+  if (hyst && (!mat->kn2kcmax || !mat->kn2kc || !mat->phif))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: kn2kcmax, kn2kc, phif are needed by hooke_hysteresis_liggghts "
+                           "(one is NULL)");
   if (n < 0 || n > SPHDEM_DEM_MAX_MATERIALS)
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: n %d outside 0..%d", n, SPHDEM_DEM_MAX_MATERIALS);
   if (!mat->E || !mat->nu || !mat->en || !mat->mu)
@@ -239,6 +264,15 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
                                "(got %g)", i, j, rv);
       if (!(ck >= 0.0) || !isfinite(ck))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "ced[%d][%d]: cohesion energy density must be >= 0 (got %g)", i, j, ck);
+      if (hyst) {
+        const double k2 = mat->kn2kcmax[k], kc = mat->kn2kc[k], ph = mat->phif[k];
+        if (!(k2 > 1.0) || !isfinite(k2) || k2 != mat->kn2kcmax[t])
+          return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "kn2kcmax[%d][%d]: must be > 1 and symmetric (got %g)", i, j, k2);
+        if (!(kc >= 0.0) || !isfinite(kc) || kc != mat->kn2kc[t])
+          return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "kn2kc[%d][%d]: must be >= 0 and symmetric (got %g)", i, j, kc);
+        if (!(ph >= 0.0) || !isfinite(ph) || ph != mat->phif[t])
+          return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "phif[%d][%d]: must be >= 0 and symmetric (got %g)", i, j, ph);
+      }
       if (en != mat->en[t] || mu != mat->mu[t] || (mat->mu_r && mr != mat->mu_r[t]) || (mat->ced && ck != mat->ced[t]))
         return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "materials: the pair values of [%d][%d] and [%d][%d] differ "
                                "(en %g, %g; mu %g, %g): the table must be symmetric", i, j, j, i, en, mat->en[t], mu,
@@ -253,6 +287,7 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
       derive_mat(&h[k], mat->E[i], mat->nu[i], mat->E[j], mat->nu[j], mat->en[k], mat->mu[k],
                  mat->mu_r ? mat->mu_r[k] : 0.0, mat->ced ? mat->ced[k] : 0.0);
       h[k].rvd = mat->rvd ? mat->rvd[k] : 0.0;
+      if (hyst) h[k].kn2kcmax = mat->kn2kcmax[k], h[k].kn2kc = mat->kn2kc[k], h[k].phif = mat->phif[k];
     }
   rt_free(&m->rt, (void **)&D->mat, 0);
   D->mat = NULL;

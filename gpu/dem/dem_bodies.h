@@ -175,7 +175,8 @@ SPHDEM_HD const dem_mat *dem_pair_material(const dem_dev *D, int32_t a, int32_t 
   return &D->mat[(int64_t)ia * D->nmat + ib];
 }
 
-/* LIGGGHTS' granular model "hertz tangential history [rolling_friction cdt]" (surface model default:
+/* LIGGGHTS' granular models "hertz|hooke|hooke/hysteresis tangential history [rolling_friction ...]
+ * [cohesion ...]" (hooke and hooke/hysteresis below; surface model default:
  * lever arms r - delta/2), term by term, with the material pair of the two grains (dem_pair_material,
  * LIGGGHTS' [itype][jtype] values): k_n = 4/3 Y* sqrt(R* delta),
  * k_t = 8 G* sqrt(R* delta), gamma = -2 sqrt(5/6) beta sqrt(S m_eff) with S_n = 2 Y* sqrt(R* delta),
@@ -212,14 +213,23 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   const double vtr1 = vt1 - (del[2] * wr2 - del[1] * wr3);
   const double vtr2 = vt2 - (del[0] * wr3 - del[2] * wr1);
   const double vtr3 = vt3 - (del[1] * wr1 - del[0] * wr2);
+  /* with keep_history a history kept from a contact through another periodic image is not this
+   * contact's (the engine's list has the images as separate pairs): it starts from zero */
+  double flag = 1.0;
+  int other_image = 0;
+  if (D->P.keep_history) {
+    flag = wall ? 2.0 : dem_image_flag(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b);
+    other_image = hin[3] <= -2.0 && -hin[3] != flag;
+  }
   /* normal */
   const double reff = wall ? ra : (ra * rb / (ra + rb));
-  double kn, kt, gamman, gammat;
-  if (D->P.model == SPHDEM_DEM_HOOKE_LIGGGHTS) {
+  double kn, kt, gamman, gammat, Fn, deltamax = 0.0;
+  const int hysteresis = D->P.model == SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS;
+  if (D->P.model == SPHDEM_DEM_HOOKE_LIGGGHTS || hysteresis) {
     /* LIGGGHTS model hooke: stiffness from Y* and the characteristic velocity, damping from e */
     const double sqrtval = sqrt(reff), V = D->P.charvel;
     kn = 16. / 15. * sqrtval * M->Yeff * pow(15. * meff * V * V / (16. * sqrtval * M->Yeff), 0.2);
-    kt = D->P.kt_to_kn ? kn * 0.285714286 : kn; /* the 2/7 as LIGGGHTS writes it */
+    kt = D->P.kt_to_kn && !hysteresis ? kn * 0.285714286 : kn; /* the 2/7 as LIGGGHTS writes it */
     const double pl = M_PI / M->lnen;
     gamman = sqrt(4. * meff * kn / (1. + pl * pl));
     gammat = D->P.no_tangential_damping ? 0.0 : gamman; /* tangential_damping off */
@@ -233,8 +243,37 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     /* tangential_damping off: gamma_t = 0 */
     gammat = D->P.no_tangential_damping ? 0.0 : -2. * sqrtFiveOverSix * M->betaeff * sqrt(St * meff);
   }
-  double Fn = -gamman * vn + kn * deltan;
-  if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
+  if (hysteresis) {
+    /* LIGGGHTS model hooke/hysteresis (normal_model_hooke_hysteresis.h; Walton & Braun 1986 in the form of
+     * Luding 2008): loading on k_n; unloading and reloading on k_2 = k_n + (k_2,max - k_n) delta_max /
+     * delta_lim from F = k_2 (delta - delta_max) + k_n delta_max, with delta_max the largest overlap (kept per
+     * pair, as LIGGGHTS raises it also while the history is not advanced) and delta_lim = k_2,max / (k_2,max -
+     * k_n) 2 phi_F R*, beyond which k_2 = k_2,max; the force is not below the adhesive branch -k_c delta,
+     * where delta_max is moved so that the unloading line meets it. No force limit (limitForce is ignored). */
+    const double k2Max = kn * M->kn2kcmax, kc = kn * M->kn2kc;
+    deltamax = other_image ? 0.0 : hin[4];
+    if (deltan > deltamax) deltamax = deltan;
+    const double deltaMaxLim = (k2Max / (k2Max - kn)) * M->phif * 2 * reff;
+    double fHys;
+    int adhesive = 0;
+    if (deltamax >= deltaMaxLim) { /* beyond the plastic limit: k_2,max */
+      const double fTmp = k2Max * (deltan - deltaMaxLim) + kn * deltaMaxLim;
+      if (fTmp >= -kc * deltan) fHys = fTmp;
+      else fHys = -kc * deltan, adhesive = 1;
+    } else {
+      const double k2 = kn + (k2Max - kn) * deltamax / deltaMaxLim;
+      const double fTmp = k2 * (deltan - deltamax) + kn * deltamax;
+      if (fTmp >= kn * deltan) fHys = kn * deltan; /* loading */
+      else if (fTmp > -kc * deltan) fHys = fTmp;   /* unloading, reloading */
+      else fHys = -kc * deltan, adhesive = 1;
+    }
+    if (adhesive && D->update)
+      deltamax = 0.5 * (deltan + sqrt(deltan * deltan + 4 * ((kn + kc) * deltan * deltaMaxLim / (k2Max - kn))));
+    Fn = fHys + -gamman * vn;
+  } else {
+    Fn = -gamman * vn + kn * deltan;
+    if (D->P.limit_damping && Fn < 0.0) Fn = 0.0;
+  }
   for (int d = 0; d < 3; d++) Fa[d] = Fn * en[d];
   /* cohesion sjkr / sjkr2 (LIGGGHTS cohesion_model_sjkr.h, sjkr2.h; tangential_reduce off: the friction
    * limit keeps F_n): F = -k A along the normal, added before the tangential force as LIGGGHTS does */
@@ -248,15 +287,9 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     const double Fn_coh = -M->ced * Acont;
     for (int d = 0; d < 3; d++) Fa[d] += Fn_coh * en[d];
   }
-  /* tangential history; with keep_history a history kept from a contact through another periodic image
-   * is not this contact's (the engine's list has the images as separate pairs) */
-  double shear[3] = {hin[0], hin[1], hin[2]}, flag = 1.0;
-  int other_image = 0;
-  if (D->P.keep_history) {
-    flag = wall ? 2.0 : dem_image_flag(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b);
-    other_image = hin[3] <= -2.0 && -hin[3] != flag;
-    if (other_image) shear[0] = shear[1] = shear[2] = 0.0;
-  }
+  /* tangential history */
+  double shear[3] = {hin[0], hin[1], hin[2]};
+  if (other_image) shear[0] = shear[1] = shear[2] = 0.0;
   if (D->update) {
     shear[0] += vtr1 * D->dt;
     shear[1] += vtr2 * D->dt;
@@ -378,6 +411,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
     hout[1] = shear[1];
     hout[2] = shear[2];
     hout[3] = flag;
+    hout[4] = deltamax;
   }
 }
 
@@ -610,6 +644,7 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
     hout[1] = s[1];
     hout[2] = s[2];
     hout[3] = 1.0;
+    hout[4] = 0.0;
   }
   return 1;
 }
@@ -638,6 +673,7 @@ SPHDEM_HD void dem_separated_history(const dem_dev *D, int64_t p, double *hout) 
   const int keep = D->P.keep_history;
   for (int q = 0; q < 3; q++) hout[q] = keep ? hin[q] : 0.0;
   hout[3] = keep && hin[3] > 0.0 ? -hin[3] : keep ? hin[3] : 0.0; /* < 0: not touching, image kept */
+  hout[4] = keep ? hin[4] : 0.0; /* hooke/hysteresis: the largest overlap, kept alike */
   if (D->rin) /* epsd2's rolling torque: the same rule (LIGGGHTS resets it in surfacesClose, as the shear) */
     for (int q = 0; q < 3; q++) D->rout[3 * p + q] = keep ? D->rin[3 * p + q] : 0.0;
 }

@@ -4,7 +4,8 @@
 
 #include "sph_internal.h"
 
-#define SPHDEM_DEM_NHIST 4      /* per pair: tangential displacement xyz, touch flag */
+#define SPHDEM_DEM_NHIST 5      /* per pair: tangential displacement xyz, touch flag, largest overlap
+                                   (hooke/hysteresis; 0 otherwise) */
 #define SPHDEM_DEM_MAX_CELLS (1 << 24)
 #define SPHDEM_DEM_MAX_WALLS 16 /* the walls travel in the kernel parameters: keep dem_dev small */
 #define SPHDEM_DEM_MAX_TAG 2147483647LL
@@ -22,6 +23,8 @@ typedef struct {
   double mu, mu_r;   /* sliding and rolling friction */
   double ced;        /* cohesion energy density (cohesionEnergyDensity) */
   double rvd;        /* rolling viscous damping (coefficientRollingViscousDamping) */
+  double kn2kcmax, kn2kc, phif; /* hooke/hysteresis: coefficientMaxElasticStiffness, coefficientAdhesionStiffness,
+                                   coefficientPlasticityDepth */
 } dem_mat;
 
 /* Everything a pass needs, by value to kernels and by pointer to CPU loops. Grain arrays are in the
@@ -34,7 +37,7 @@ typedef struct {
   double ct;          /* He eq 21 tangential coefficient */
   double Estar;       /* He eq 21 for one material: E / (2 (1 - nu^2)) */
   double tmax_fac;    /* He eq 22: (2 - nu) / (2 - 2 nu) mu */
-  dem_mat mat0;       /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: the material pair of the params' one material */
+  dem_mat mat0;       /* the LIGGGHTS models: the material pair of the params' one material */
   int nmat;           /* 0: every grain is of mat0; else materials in the table mat (sphdem_dem_set_materials) */
   dem_mat *mat;       /* nmat x nmat material pairs (device), grain material index from its flags */
   double L[3];

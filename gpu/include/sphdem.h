@@ -352,10 +352,14 @@ typedef enum {
   SPHDEM_DEM_HERTZ_MINDLIN = 2, /* Hertz normal + Mindlin-Deresiewicz tangential (He 2018 eqs 18-23) */
   SPHDEM_DEM_HERTZ_LIGGGHTS = 3, /* LIGGGHTS model hertz tangential history [rolling_friction cdt]: stiffness
                                    and damping from E, nu, en (Y*, G*, beta of its material model) */
-  SPHDEM_DEM_HOOKE_LIGGGHTS = 4  /* LIGGGHTS model hooke tangential history: linear spring-dashpot whose
+  SPHDEM_DEM_HOOKE_LIGGGHTS = 4, /* LIGGGHTS model hooke tangential history: linear spring-dashpot whose
                                    k_n = 16/15 sqrt(R*) Y* (15 m* V^2 / (16 sqrt(R*) Y*))^(1/5) comes from E, nu and
                                    the characteristic velocity V (charvel), k_t = k_n (2/7 k_n with kt_to_kn),
                                    gamma_n = gamma_t = sqrt(4 m* k_n / (1 + (pi / ln e)^2)) */
+  SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS = 5 /* LIGGGHTS model hooke/hysteresis (Walton-Braun): loading on the
+                                   k_n of HOOKE_LIGGGHTS (k_t = k_n), unloading and reloading on k_2 between k_n
+                                   and kn2kcmax k_n (growing with the largest overlap, kept per pair), adhesion
+                                   down to -kn2kc k_n delta; plasticity depth phif */
 } sphdem_dem_model;
 
 /* Cohesion of the LIGGGHTS models, between overlapping grains: F = -k A along the normal (attractive),
@@ -405,6 +409,9 @@ typedef struct {
   int cohesion;         /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: sphdem_dem_cohesion */
   double ced;           /* cohesion energy density k (J/m^3) of the params' one material */
   double rvd;           /* ROLL_EPSD: rolling viscous damping coefficient of the params' one material */
+  double kn2kcmax, kn2kc, phif; /* HOOKE_HYSTERESIS_LIGGGHTS, one material: k_2,max / k_n (> 1), k_c / k_n
+                           (>= 0), plasticity depth (>= 0) (coefficientMaxElasticStiffness,
+                           coefficientAdhesionStiffness, coefficientPlasticityDepth) */
   int no_tangential_damping; /* HERTZ_LIGGGHTS, HOOKE_LIGGGHTS: 1 sets gamma_t = 0 (LIGGGHTS
                            tangential_damping off); 0 (default) damps the tangential force */
   int keep_history;     /* 0 (LAMMPS): a pair that stops touching has its tangential history zeroed at
@@ -434,7 +441,7 @@ const char *sphdem_dem_last_error(sphdem_dem dem);
 int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
 /* Change parameters between calls (history is kept). */
 int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
-/* Several materials (HERTZ_LIGGGHTS, HOOKE_LIGGGHTS): n materials (LIGGGHTS atom types) with Young's
+/* Several materials (the LIGGGHTS models): n materials (LIGGGHTS atom types) with Young's
  * modulus E and Poisson ratio nu (n each) and, per pair of materials (n x n, row-major [i n + j],
  * symmetric), the restitution coefficient en, the friction mu, the rolling friction mu_r and the cohesion
  * energy density ced (NULL: 0).
@@ -447,6 +454,7 @@ typedef struct {
   const double *en, *mu, *mu_r;
   const double *ced;    /* n x n cohesion energy density (NULL: 0) */
   const double *rvd;    /* n x n rolling viscous damping of ROLL_EPSD (NULL: 0) */
+  const double *kn2kcmax, *kn2kc, *phif; /* n x n, HOOKE_HYSTERESIS_LIGGGHTS (needed there) */
 } sphdem_dem_materials;
 int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
 /* Fixed planes (replaces the previous set); nw may be 0. */
@@ -477,7 +485,8 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
  * at most max pairs (keys/hist may be NULL with max 0 to ask the count). set: the given list (any
  * order) becomes the history that the next pair-list build carries over, as if it were the list of
  * the previous build; call before the first sphdem_dem_compute after a restart. */
-#define SPHDEM_DEM_HIST_DOUBLES 4
+#define SPHDEM_DEM_HIST_DOUBLES 5 /* the 4 of sphdem_dem_debug_history, then the largest overlap of
+                                     HOOKE_HYSTERESIS_LIGGGHTS (0 for the other models) */
 int64_t sphdem_dem_get_history(sphdem_dem dem, uint64_t *keys, double *hist, int64_t max);
 int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist);
 /* Time split of the sphdem_dem_compute calls since creation or the last reset, in seconds of the

@@ -1,8 +1,9 @@
-/* pair_gran_gpu.cpp - pair_style gran/gpu (LIGGGHTS syntax): the stock "model hertz tangential history
- * [rolling_friction cdt]" contacts computed by the sphdem DEM core (CPU or CUDA), with the shear
+/* pair_gran_gpu.cpp - pair_style gran/gpu (LIGGGHTS syntax): the stock "model hertz|hooke|hooke/hysteresis
+ * tangential history [rolling_friction ...] [cohesion ...]" contacts computed by the sphdem DEM core (CPU or CUDA), with the shear
  * history kept there per pair keyed by the two atom tags. Material from fix property/global
  * (youngsModulus, poissonsRatio, coefficientRestitution, coefficientFriction,
- * coefficientRollingFriction), one material or one per atom type. No physics here. */
+ * coefficientRollingFriction; hooke/hysteresis: coefficientMaxElasticStiffness, coefficientAdhesionStiffness,
+ * coefficientPlasticityDepth), one material or one per atom type. No physics here. */
 #include "pair_gran_gpu.h"
 
 #include <algorithm>
@@ -27,8 +28,8 @@
 using namespace LAMMPS_NS;
 
 static const char *const USAGE =
-    "model hertz|hooke tangential history [rolling_friction cdt|epsd|epsd2|off] [limitForce on|off] [tangential_damping on|off] "
-    "[ktToKnUser on|off (hooke)] "
+    "model hertz|hooke|hooke/hysteresis tangential history [rolling_friction cdt|epsd|epsd2|off] [limitForce on|off] "
+    "[tangential_damping on|off] [ktToKnUser on|off (hooke, hooke/hysteresis)] "
     "[cohesion sjkr|sjkr2|off] [surface default] [device auto|cpu|gpu] [algo pair|particle] [timers on|off]";
 
 /* Stock styles that take the granular pair style for a PairGran (force->pair_match("gran", 0) matches
@@ -112,7 +113,8 @@ void PairGranGPU::settings(int narg, char **arg) {
     if (kw == "model") {
       if (val == "hertz") hooke_ = 0;
       else if (val == "hooke") hooke_ = 1;
-      else fail("model '" + val + "' is not supported (hertz or hooke)");
+      else if (val == "hooke/hysteresis") hooke_ = 2;
+      else fail("model '" + val + "' is not supported (hertz, hooke or hooke/hysteresis)");
       model = true;
     } else if (kw == "ktToKnUser") {
       if (val == "on") kt_to_kn_ = 1;
@@ -148,8 +150,10 @@ void PairGranGPU::settings(int narg, char **arg) {
       fail("unsupported keyword '" + kw + "' (usage: " + USAGE + ")");
     }
   }
-  if (!model) fail("needs 'model hertz' or 'model hooke' (usage: " + std::string(USAGE) + ")");
+  if (!model) fail("needs 'model hertz', 'model hooke' or 'model hooke/hysteresis' (usage: " + std::string(USAGE) + ")");
   if (kt_to_kn_ && !hooke_) fail("ktToKnUser is a keyword of model hooke");
+  /* model hooke/hysteresis takes the words of model hooke, as the stock style, and like it ignores
+   * limitForce and ktToKnUser (its force has no limit, k_t = k_n) */
   if (!tangential) fail("needs 'tangential history' (usage: " + std::string(USAGE) + ")");
 }
 
@@ -191,10 +195,12 @@ bool PairGranGPU::material(const char *name, const char *kind, std::vector<doubl
 /* Several materials: the core gets the table of every type pair and each grain's type in its flags. */
 void PairGranGPU::apply_materials() {
   if (!dem_) return;
-  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+  sphdem_dem_materials t = {0, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
   if (nmat_)
     t = {nmat_, mat_E_.data(), mat_nu_.data(), mat_en_.data(), mat_mu_.data(), rolling_ ? mat_mur_.data() : nullptr,
-         cohesion_ ? mat_ced_.data() : nullptr, rolling_ == 3 ? mat_rvd_.data() : nullptr};
+         cohesion_ ? mat_ced_.data() : nullptr, rolling_ == 3 ? mat_rvd_.data() : nullptr,
+         hooke_ == 2 ? mat_k2_.data() : nullptr, hooke_ == 2 ? mat_kc_.data() : nullptr,
+         hooke_ == 2 ? mat_phif_.data() : nullptr};
   if (sphdem_dem_set_materials(dem_, &t)) fail(std::string("material: ") + sphdem_dem_last_error(dem_));
 }
 
@@ -250,13 +256,14 @@ void PairGranGPU::read_restart(FILE *fp, const int, const int) {
 void PairGranGPU::sync_params() {
   sphdem_dem_params p;
   sphdem_dem_params_default(&p);
-  p.model = hooke_ ? SPHDEM_DEM_HOOKE_LIGGGHTS : SPHDEM_DEM_HERTZ_LIGGGHTS;
+  p.model = hooke_ == 2 ? SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS : hooke_ ? SPHDEM_DEM_HOOKE_LIGGGHTS : SPHDEM_DEM_HERTZ_LIGGGHTS;
   if (hooke_) {
     Fix *f = modify->find_fix_property("characteristicVelocity", "property/global", "scalar", 0, 0, "pair gran/gpu");
     FixPropertyGlobal *g = static_cast<FixPropertyGlobal *>(f);
-    if (!g) fail("model hooke needs fix property/global characteristicVelocity scalar V");
+    if (!g) fail(std::string(hooke_ == 2 ? "model hooke/hysteresis" : "model hooke") +
+                 " needs fix property/global characteristicVelocity scalar V");
     p.charvel = g->compute_scalar();
-    p.kt_to_kn = kt_to_kn_;
+    p.kt_to_kn = hooke_ == 2 ? 0 : kt_to_kn_;
   }
   p.algo = algo_;
   /* one material (every value equal between the types) in the params; several in a table of type pairs */
@@ -284,6 +291,24 @@ void PairGranGPU::sync_params() {
   }
   p.rvd = mat_rvd_[0];
   for (int k = 0; k < (int)mat_rvd_.size() && nmat_; k++) if (!(mat_rvd_[k] >= 0.0)) p.rvd = mat_rvd_[k];
+  /* hooke/hysteresis: its three type-pair values as the stock style's property registry names them */
+  mat_k2_.assign(mat_mu_.size(), 0.0);
+  mat_kc_.assign(mat_mu_.size(), 0.0);
+  mat_phif_.assign(mat_mu_.size(), 0.0);
+  if (hooke_ == 2) {
+    several |= material("coefficientMaxElasticStiffness", "peratomtypepair", mat_k2_);
+    several |= material("coefficientAdhesionStiffness", "peratomtypepair", mat_kc_);
+    several |= material("coefficientPlasticityDepth", "peratomtypepair", mat_phif_);
+    nmat_ = several ? atom->ntypes : 0;
+  }
+  p.kn2kcmax = mat_k2_[0];
+  p.kn2kc = mat_kc_[0];
+  p.phif = mat_phif_[0];
+  for (size_t k = 0; k < mat_k2_.size() && nmat_ && hooke_ == 2; k++) {
+    if (!(mat_k2_[k] > 1.0)) p.kn2kcmax = mat_k2_[k];
+    if (!(mat_kc_[k] >= 0.0)) p.kn2kc = mat_kc_[k];
+    if (!(mat_phif_[k] >= 0.0)) p.phif = mat_phif_[k];
+  }
   p.cohesion = cohesion_;
   p.ced = mat_ced_[0];
   for (int k = 0; k < (int)mat_ced_.size() && nmat_; k++) if (!(mat_ced_[k] >= 0.0)) p.ced = mat_ced_[k];
@@ -293,7 +318,7 @@ void PairGranGPU::sync_params() {
   for (int k = 0; k < (int)mat_en_.size() && nmat_; k++) if (!(mat_en_[k] > 0.05 && mat_en_[k] <= 1.0)) p.en = mat_en_[k];
   for (int k = 0; k < (int)mat_mu_.size() && nmat_; k++) if (!(mat_mu_[k] >= 0.0)) p.mu = mat_mu_[k];
   for (int k = 0; k < (int)mat_mur_.size() && nmat_; k++) if (!(mat_mur_[k] >= 0.0)) p.mu_r = mat_mur_[k];
-  p.limit_damping = limit_force_;
+  p.limit_damping = hooke_ == 2 ? 0 : limit_force_; /* hooke/hysteresis ignores limitForce (as the stock) */
   p.keep_history = 1; /* as LIGGGHTS: a separated pair keeps its history until the next list build */
   set_box(p);
   char msg[512];
@@ -301,7 +326,10 @@ void PairGranGPU::sync_params() {
     /* the core names its fields; the script names the values of fix property/global */
     static const char *const names[][2] = {{"E:", "youngsModulus"}, {"nu:", "poissonsRatio"},
                                            {"en:", "coefficientRestitution"}, {"mu:", "coefficientFriction"},
-                                           {"mu_r:", "coefficientRollingFriction"}, {"charvel:", "characteristicVelocity"}};
+                                           {"mu_r:", "coefficientRollingFriction"}, {"charvel:", "characteristicVelocity"},
+                                           {"kn2kcmax:", "coefficientMaxElasticStiffness"},
+                                           {"kn2kc:", "coefficientAdhesionStiffness"},
+                                           {"phif:", "coefficientPlasticityDepth"}};
     std::string m = msg;
     for (const auto &n : names)
       if (m.compare(0, std::strlen(n[0]), n[0]) == 0) {

@@ -1,5 +1,5 @@
-/* pair_gran_gpu.h - pair_style gran/gpu (LIGGGHTS): "model hertz tangential history
- * [rolling_friction cdt]" with the material of fix property/global, evaluated by the sphdem DEM core. */
+/* pair_gran_gpu.h - pair_style gran/gpu (LIGGGHTS): "model hertz|hooke|hooke/hysteresis tangential history
+ * [rolling_friction ...] [cohesion ...]" with the material of fix property/global, evaluated by the sphdem DEM core. */
 #ifdef PAIR_CLASS
 PairStyle(gran/gpu,PairGranGPU)
 #else
@@ -26,11 +26,12 @@ class PairGranGPU : public PairGranGPUBase {
 
  private:
   int rolling_, limit_force_; /* rolling_: 0 off, 1 cdt, 2 epsd2, 3 epsd */
-  int hooke_, kt_to_kn_; /* model hooke (else hertz); ktToKnUser on */
+  int hooke_, kt_to_kn_; /* 0 model hertz, 1 hooke, 2 hooke/hysteresis; ktToKnUser on */
   int tangential_damping_; /* tangential_damping on (default) / off */
   int cohesion_;           /* sphdem_dem_cohesion: off, sjkr, sjkr2 */
   int nmat_;               /* 0: one material; else atom->ntypes materials, their type-pair values below */
   std::vector<double> mat_E_, mat_nu_, mat_en_, mat_mu_, mat_mur_, mat_ced_, mat_rvd_;
+  std::vector<double> mat_k2_, mat_kc_, mat_phif_; /* hooke/hysteresis: kn2kcMax, kn2kc, phiF */
 
   bool material(const char *name, const char *kind, std::vector<double> &out);
   void apply_materials();

@@ -4,6 +4,7 @@
 #ifndef SPHDEM_PAIR_GRAN_GPU_RESTART_H
 #define SPHDEM_PAIR_GRAN_GPU_RESTART_H
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -40,7 +41,8 @@ inline long long bytes_left(FILE *fp) {
   return (long long)(end - here);
 }
 
-/* The contact history: count, keys, SPHDEM_DEM_HIST_DOUBLES doubles per pair. */
+/* The contact history: count, keys, SPHDEM_DEM_HIST_DOUBLES doubles per pair (displacement xyz, touch
+ * flag, largest overlap of hooke/hysteresis). */
 inline bool write_history(FILE *fp, sphdem_dem dem) {
   int64_t np = dem ? sphdem_dem_get_history(dem, nullptr, nullptr, 0) : 0;
   if (np < 0) return false;
@@ -94,6 +96,18 @@ struct PendingHistory {
       if (ta < 1 || ta > 2147483647u || (!wall && (tb < 1 || tb <= ta)))
         return fail("restart file: contact-history pair " + std::to_string(k) + " has atom tags " +
                     std::to_string(ta) + ", " + std::to_string(tb) + " (corrupt restart file)");
+    }
+    /* per pair: displacement xyz (finite), touch flag (0, +-1 or +-an image code: a whole number), largest
+     * overlap (>= 0); a file with 4 values per pair (before the largest overlap was kept) misreads here */
+    const int H = SPHDEM_DEM_HIST_DOUBLES;
+    for (size_t k = 0; k < keys.size(); k++) {
+      const double *h = &hist[k * H];
+      const bool good = std::isfinite(h[0]) && std::isfinite(h[1]) && std::isfinite(h[2]) && std::isfinite(h[3]) &&
+                        h[3] == std::floor(h[3]) && (H < 5 || (std::isfinite(h[4]) && h[4] >= 0.0));
+      if (!good)
+        return fail("restart file: contact-history pair " + std::to_string(k) + " has values that no contact has "
+                    "(corrupt restart file, or written with " + std::to_string(H - 1) + " values per pair by an "
+                    "earlier version)");
     }
     have = true;
     return true;

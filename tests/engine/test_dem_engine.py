@@ -15,6 +15,13 @@
                gran/gpu positions within 1e-8 d after 2000 steps (LIGGGHTS' contact-history rule)
   mesh_liggghts LIG  1500 grains onto an STL floor (fix wall/gran mesh) with fix check/timestep/gran: positions
                within 1e-8 d, the check's values equal
+  hysteresis_liggghts LIG  model hooke/hysteresis (per-pair kn2kcMax, kn2kc, phiF) vs the stock style: a
+               head-on and an oblique pair that collide and separate (final x, v, omega < 1e-12 of their
+               magnitude after 4000 steps), a pour of two materials (positions < 1e-8 d after 2000 steps; the
+               stock hooke/hysteresis and hooke runs must differ by > 1e-3 d) and a stack of 15 grains
+               settling on a frozen periodic row, 20000 steps (positions < 1e-9 d, settled: KE below 1e-3
+               of its peak, every grain resting on overlapping contacts); the material errors; a
+               write_restart/read_restart continuation equal to the unbroken run (1e-9)
   refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
                themselves
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
@@ -439,40 +446,40 @@ def restart(lmp):
     return ok
 
 
-def restart_liggghts(lig):
+def restart_liggghts(lig, args=LIG_ARGS[0], props="", wdir="restart_lig"):
     """LIGGGHTS gran/gpu: write_restart + read_restart continues the unbroken run (pile scene with
     persistent contacts, rolling friction on). LIGGGHTS does not keep fixes or the timestep in the
-    restart file: the material fixes, integrator, freeze, gravity and timestep are given again."""
+    restart file: the material fixes, integrator, freeze, gravity and timestep are given again.
+    props: more material fixes (lines 'fix m...'), args: the pair style's words."""
     sc = LIG_SCENES["pile"]
-    args = LIG_ARGS[0]
     head = LIG_HEAD.format(boundary=sc["boundary"], box=sc["box"], style="gran/gpu", args=args,
-                           neigh="neighbor 0.001 bin\nneigh_modify delay 0") + sc["atoms"]
+                           neigh="neighbor 0.001 bin\nneigh_modify delay 0").replace("pair_style", props + "pair_style", 1) + sc["atoms"]
     fixes = "fix 1 mobile nve/sphere\n" + sc["extra"] + "\ntimestep 1e-6\nthermo_style custom step ke\nthermo 500\n"
     base = head + "set atom * diameter 0.01\nset atom * density 2500\n" + sc["velocities"] + "\n" + fixes + "run 3000\n"
     dump = ("dump d all custom 1000 dump.r.* id x y z vx vy vz omegax omegay omegaz\n"
             'dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"\n')
-    rc1, o1 = run([lig], "restart_lig/unbroken", base + dump + "run 2000\n")
-    rc2, o2 = run([lig], "restart_lig/first", base + "write_restart pile.restart\n")
+    rc1, o1 = run([lig], wdir + "/unbroken", base + dump + "run 2000\n")
+    rc2, o2 = run([lig], wdir + "/first", base + "write_restart pile.restart\n")
     if rc1 or rc2:
         print("FAIL: runs exited %d/%d:\n%s" % (rc1, rc2, (o1 + o2)[-2000:]))
         return False
-    shutil.copy("restart_lig/first/pile.restart", "restart_lig/pile.restart")
-    mats = "".join(l + "\n" for l in LIG_HEAD.splitlines() if l.startswith("fix m"))
+    shutil.copy(wdir + "/first/pile.restart", wdir + "/pile.restart")
+    mats = "".join(l + "\n" for l in (LIG_HEAD + props).splitlines() if l.startswith("fix m"))
     cont = ("read_restart ../pile.restart\nneighbor 0.001 bin\nneigh_modify delay 0\ncommunicate single vel yes\n" +
             mats + fixes + dump + "run 2000\n")
-    rc3, o3 = run([lig], "restart_lig/second", cont)
+    rc3, o3 = run([lig], wdir + "/second", cont)
     if rc3:
         print("FAIL: restart run exited %d:\n%s" % (rc3, o3[-2000:]))
         return False
-    a = load_dump("restart_lig/unbroken/dump.r.5000")
-    b = load_dump("restart_lig/second/dump.r.5000")
+    a = load_dump(wdir + "/unbroken/dump.r.5000")
+    b = load_dump(wdir + "/second/dump.r.5000")
     worst = 0.0
     for c in range(1, 10):
         scale = max(max(abs(r[c]) for r in a), 1e-300)
         worst = max(worst, max(abs(x[c] - y[c]) for x, y in zip(a, b)) / scale)
     ok = worst < 1e-9 and len(a) == 20
-    print("%s gran/gpu (LIGGGHTS) restart vs unbroken after 2000 more steps: max relative difference %.3e "
-          "(bound 1e-9)" % ("PASS" if ok else "FAIL", worst))
+    print("%s gran/gpu (LIGGGHTS, %s) restart vs unbroken after 2000 more steps: max relative difference %.3e "
+          "(bound 1e-9)" % ("PASS" if ok else "FAIL", args, worst))
     return ok
 
 
@@ -647,6 +654,113 @@ HOOKE_MATERIALS_LIG = MATERIALS_LIG.replace("model hertz tangential history roll
                                             "model hooke tangential history rolling_friction epsd2 tangential_damping off"
                                             "\npair_coeff").replace(
     "fix             m5 all", "fix             m8 all property/global characteristicVelocity scalar 1.0\nfix             m5 all")
+# model hooke/hysteresis (Walton-Braun hysteretic spring with adhesion) with the two materials: per type pair
+# the largest unloading stiffness (kn2kcMax), the adhesion stiffness (kn2kc) and the plasticity depth (phiF)
+HYST_PROPS2 = ("fix             m9 all property/global coefficientMaxElasticStiffness peratomtypepair 2 2.5 3 3 4\n"
+               "fix             m10 all property/global coefficientAdhesionStiffness peratomtypepair 2 0.5 0.3 0.3 0.2\n"
+               "fix             m11 all property/global coefficientPlasticityDepth peratomtypepair 2 0.05 0.03 0.03 0.02\n")
+HYST_LIG = MATERIALS_LIG.replace("model hertz tangential history rolling_friction cdt\npair_coeff",
+                                 "model hooke/hysteresis tangential history rolling_friction cdt\npair_coeff").replace(
+    "fix             m5 all", "fix             m8 all property/global characteristicVelocity scalar 1.0\n" + HYST_PROPS2 +
+    "fix             m5 all")
+HYST_PROPS1 = ("fix m9 all property/global coefficientMaxElasticStiffness peratomtypepair 1 2.5\n"
+               "fix m10 all property/global coefficientAdhesionStiffness peratomtypepair 1 0.5\n"
+               "fix m11 all property/global coefficientPlasticityDepth peratomtypepair 1 0.05\n")
+HYST_ARGS = "model hooke/hysteresis tangential history"
+# 15 grains in three rows, each row in the hollows of the one below with a 0.1 mm gap, above a frozen row
+# (periodic x): they fall, bounce (loading, unloading, reloading) and settle into a stack whose contacts carry
+# the weight of the rows above
+HYST_STACK = dict(boundary="p f p", box="0 0.0505 0 0.08 -0.00505 0.00505", integrate="mobile",
+                  extra="fix fz bottom freeze\nfix g mobile gravity 9.81 vector 0 -1 0",
+                  atoms="".join("create_atoms 1 single %.6g %.6g 0 units box\n" % (0.0101 * k + 0.00505 * (row % 2),
+                                                                                   0.005 + 0.00875 * row)
+                                for row in range(4) for k in range(5)) + "group bottom id 1:5\ngroup mobile subtract all bottom\n",
+                  velocities="velocity mobile set 0 0 0", steps=20000)
+
+
+def hysteresis_liggghts(lig):
+    """model hooke/hysteresis: gran/gpu against the stock gran on pairs that collide and separate, a pour of
+    two materials and a settling stack"""
+    ok = True
+    for scene in ("headon", "oblique"):
+        res = {}
+        for tag, st in (("stock", "gran"), ("gpu", "gran/gpu")):
+            wd = os.path.join("dem_hyst_lig", scene, tag)
+            text = lig_script(scene, st, HYST_ARGS + (" rolling_friction cdt" if scene == "oblique" else ""))
+            text = text.replace("pair_style", HYST_PROPS1 + "pair_style", 1).replace("run 1000", "run 4000")
+            rc, out = run([lig], wd, text)
+            if rc != 0 or "ERROR" in out:
+                print("FAIL %s %s: rc %d\n%s" % (scene, st, rc, out[-1500:]))
+                return False
+            res[tag] = (load_dump(os.path.join(wd, "final.dump")), thermo(out))
+        a, b = res["stock"][0], res["gpu"][0]
+        worst = max(max(abs(r[k] - q[k]) for r, q in zip(a, b)) / (max(abs(r[k]) for r in a) or 1e-300)
+                    for k in range(1, 10))
+        th = res["stock"][1]
+        # the pair collided and separated: the kinetic energy changed, and the grains are apart at the end
+        apart = math.dist(a[0][1:4], a[1][1:4]) > 0.01
+        good = worst < 1e-12 and res["stock"][1] == res["gpu"][1] and float(th[0][1]) != float(th[-1][1]) and apart
+        print("%s %-8s pair, hooke/hysteresis: max |difference| / magnitude %.3g (bound 1e-12), thermo identical: %s, "
+              "separated: %s" % ("PASS" if good else "FAIL", scene, worst, res["stock"][1] == res["gpu"][1], apart))
+        ok &= good
+    ok &= pour_liggghts(lig, scene=("dem_hyst_lig/pour", HYST_LIG, "pour of two materials, model hooke/hysteresis"))
+    # the law matters in this pour: the stock hooke run ends elsewhere
+    wd = os.path.join("dem_hyst_lig", "pour", "stock_hooke")
+    rc, out = run([lig], wd, HYST_LIG.replace("model hooke/hysteresis", "model hooke").format(style="gran", n=3000,
+                                                                                              steps=2000), timeout=600)
+    dh = max_dx(load_dump(os.path.join("dem_hyst_lig", "pour", "stock", "final.dump")),
+                load_dump(os.path.join(wd, "final.dump"))) if rc == 0 else None
+    good = dh is not None and dh > 1e-3 * 0.002
+    print("%s stock hooke/hysteresis vs stock hooke on the pour: %s d apart (must exceed 1e-3 d)" %
+          ("PASS" if good else "FAIL", "%.3g" % (dh / 0.002) if dh is not None else "(run failed)"))
+    ok &= good
+    # the settling stack
+    res = {}
+    s = HYST_STACK
+    for tag, st in (("stock", "gran"), ("gpu", "gran/gpu")):
+        wd = os.path.join("dem_hyst_lig", "stack", tag)
+        text = (LIG_HEAD.format(boundary=s["boundary"], box=s["box"], style=st, args=HYST_ARGS,
+                                neigh="neighbor 0.001 bin\nneigh_modify delay 0").replace("pair_style", HYST_PROPS1 + "pair_style", 1) +
+                s["atoms"] + LIG_TAIL.format(velocities=s["velocities"], integrate=s["integrate"], extra=s["extra"],
+                                             steps=s["steps"]).replace("timestep 1e-6", "timestep 5e-6").replace(
+                                                 "thermo 250", "thermo 500"))
+        rc, out = run([lig], wd, text)
+        if rc != 0 or "ERROR" in out:
+            print("FAIL stack %s: rc %d\n%s" % (st, rc, out[-1500:]))
+            return False
+        res[tag] = (load_dump(os.path.join(wd, "final.dump")), thermo(out))
+    a, b = res["stock"][0], res["gpu"][0]
+    dx = max_dx(a, b)
+    ke = [float(r[1]) for r in res["stock"][1] if r and r[0].isdigit()]
+    settled = len(ke) > 2 and ke[-1] < 1e-3 * max(ke)
+    # every mobile grain overlaps at least two grains below it (the contacts carry the rows above)
+    d = 0.01
+    def below(g):
+        return sum(1 for h in a if h[0] != g[0] and h[2] < g[2] - 0.002 and
+                   math.dist(g[1:4], h[1:4]) < d or
+                   (h[0] != g[0] and h[2] < g[2] - 0.002 and
+                    math.dist((g[1] - 0.0505 * round((g[1] - h[1]) / 0.0505), g[2], g[3]), h[1:4]) < d))
+    resting = all(below(g) >= 2 for g in a if g[0] > 5)
+    good = dx is not None and dx < 1e-9 * d and settled and resting
+    print("%s settling stack, hooke/hysteresis, %d steps: max |x_gpu - x_stock| = %s d (bound 1e-9); KE end/peak "
+          "%.3g (settled below 1e-3: %s); every grain rests on >= 2 overlapping contacts: %s" %
+          ("PASS" if good else "FAIL", s["steps"], "%.3g" % (dx / d) if dx is not None else "(ids differ)",
+           ke[-1] / max(ke) if ke else float("nan"), settled, resting))
+    # the material as the stock names it: a missing value and one out of range stop naming them
+    base = lig_script("headon", "gran/gpu", HYST_ARGS).replace("pair_style", HYST_PROPS1 + "pair_style", 1)
+    for k, (text, want) in enumerate([
+            (base.replace("fix m11 all property/global coefficientPlasticityDepth peratomtypepair 1 0.05\n", ""),
+             "coefficientPlasticityDepth"),
+            (base.replace("coefficientMaxElasticStiffness peratomtypepair 1 2.5", "coefficientMaxElasticStiffness "
+                          "peratomtypepair 1 1.0"), "coefficientMaxElasticStiffness (fix property/global): the ratio")]):
+        rc, out = run([lig], os.path.join("dem_hyst_lig", "err%d" % k), text)
+        bad = rc != 0 and "ERROR" in out and want in out
+        print("%s hooke/hysteresis material error names '%s'" % ("PASS" if bad else "FAIL\n" + out[-800:], want))
+        good &= bad
+    # write_restart / read_restart keeps the largest overlaps with the shear history: the continuation is
+    # the unbroken run
+    good &= restart_liggghts(lig, args=HYST_ARGS + " rolling_friction cdt", props=HYST_PROPS1, wdir="dem_hyst_lig/restart")
+    return ok and good
 
 
 def max_dx(a, b):
@@ -794,6 +908,7 @@ MODES = {
     "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
     "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
+    "hysteresis_liggghts": hysteresis_liggghts,
     "example": example, "errors": errors,
 }
 MODES.update({mode: (lambda lig, scene=scene: pour_liggghts(lig, scene=scene)) for mode, scene in POUR_SCENES.items()})
