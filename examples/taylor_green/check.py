@@ -12,11 +12,11 @@ import sys
 
 
 def thermo(path):
-    """(t, ke) rows of the last thermo table whose header starts with 'Step v_t c_ke'."""
+    """(t, ke) rows of the last thermo table whose header starts with 'Step v_t c_ke' ('Step t ke' in LIGGGHTS)."""
     rows, on = [], False
     for line in open(path):
         w = line.split()
-        if w[:3] == ["Step", "v_t", "c_ke"]:
+        if w[:1] == ["Step"] and w[1:3] in (["v_t", "c_ke"], ["t", "ke"]):  # LIGGGHTS writes the names bare
             rows, on = [], True
             continue
         if on:
@@ -51,7 +51,7 @@ def main():
     a = ap.parse_args()
     rows = thermo(a.log)
     if not rows:
-        raise SystemExit(f"check.py: no thermo table 'Step v_t c_ke' in {a.log}")
+        raise SystemExit(f"check.py: no thermo table 'Step v_t c_ke' (LIGGGHTS: 'Step t ke') in {a.log}")
     exact = 16.0 * math.pi ** 2 * a.nu / a.L ** 2
     rate, n, tlast, reached = decay_rate(rows, a.floor)
     err = rate / exact - 1.0
