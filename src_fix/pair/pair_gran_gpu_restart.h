@@ -41,8 +41,11 @@ inline long long bytes_left(FILE *fp) {
   return (long long)(end - here);
 }
 
-/* The contact history: count, keys, SPHDEM_DEM_HIST_DOUBLES doubles per pair (displacement xyz, touch
- * flag, largest overlap of hooke/hysteresis). */
+/* The contact history: count; when it is > 0, the values per pair (a number below 2^32, so that it cannot be
+ * taken for a key, whose high half is an atom tag >= 1), keys, then that many doubles per pair (displacement
+ * xyz, touch flag, largest overlap of hooke/hysteresis). Files written before the values-per-pair field
+ * have keys right after the count and 4 values per pair (no largest overlap: 0, no hysteresis then). */
+constexpr uint64_t SPHDEM_HIST_LEGACY_DOUBLES = 4;
 inline bool write_history(FILE *fp, sphdem_dem dem) {
   int64_t np = dem ? sphdem_dem_get_history(dem, nullptr, nullptr, 0) : 0;
   if (np < 0) return false;
@@ -51,6 +54,8 @@ inline bool write_history(FILE *fp, sphdem_dem dem) {
   if (np > 0 && sphdem_dem_get_history(dem, keys.data(), hist.data(), np) != np) return false;
   fwrite(&np, sizeof(int64_t), 1, fp);
   if (np > 0) {
+    const uint64_t per = SPHDEM_DEM_HIST_DOUBLES;
+    fwrite(&per, sizeof(uint64_t), 1, fp);
     fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
     fwrite(hist.data(), sizeof(double), hist.size(), fp);
   }
@@ -73,7 +78,25 @@ struct PendingHistory {
     error.clear();
     int64_t np = 0;
     if (!read_items(fp, &np, sizeof(int64_t), 1)) return fail("restart file ends before the contact-history count");
-    const long long per_pair = (long long)(sizeof(uint64_t) + SPHDEM_DEM_HIST_DOUBLES * sizeof(double));
+    /* values per pair: the field after a count > 0, or the keys of a file written before it (legacy: 4) */
+    uint64_t per = SPHDEM_DEM_HIST_DOUBLES;
+    if (np > 0) {
+      uint64_t field = 0;
+      if (!read_items(fp, &field, sizeof(uint64_t), 1))
+        return fail("restart file ends inside the contact history (" + std::to_string(np) + " pairs)");
+      if (field < ((uint64_t)1 << 32)) {
+        per = field;
+        if (per != SPHDEM_DEM_HIST_DOUBLES && per != SPHDEM_HIST_LEGACY_DOUBLES)
+          return fail("restart file: " + std::to_string(per) + " contact-history values per pair; this version "
+                      "reads " + std::to_string(SPHDEM_HIST_LEGACY_DOUBLES) + " or " +
+                      std::to_string(SPHDEM_DEM_HIST_DOUBLES) + " (corrupt restart file)");
+      } else {
+        per = SPHDEM_HIST_LEGACY_DOUBLES;
+        if (fseek(fp, -(long)sizeof(uint64_t), SEEK_CUR) != 0)
+          return fail("restart file: cannot step back over the first contact-history key");
+      }
+    }
+    const long long per_pair = (long long)(sizeof(uint64_t) + per * sizeof(double));
     const long long left = bytes_left(fp);
     if (np < 0 || (left >= 0 && np > left / per_pair))
       return fail("restart file: contact-history count " + std::to_string(np) + " does not fit the " +
@@ -86,10 +109,13 @@ struct PendingHistory {
                     std::to_string(natoms) + " atoms can have (corrupt restart file)");
     }
     keys.resize((size_t)np);
-    hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
+    hist.assign((size_t)np * SPHDEM_DEM_HIST_DOUBLES, 0.0);
+    std::vector<double> raw((size_t)np * per);
     if (!read_items(fp, keys.data(), sizeof(uint64_t), keys.size()) ||
-        !read_items(fp, hist.data(), sizeof(double), hist.size()))
+        !read_items(fp, raw.data(), sizeof(double), raw.size()))
       return fail("restart file ends inside the contact history (" + std::to_string(np) + " pairs)");
+    for (size_t k = 0; k < keys.size(); k++) /* legacy pairs: largest overlap 0 */
+      for (size_t v = 0; v < per; v++) hist[k * SPHDEM_DEM_HIST_DOUBLES + v] = raw[k * per + v];
     for (size_t k = 0; k < keys.size(); k++) {
       const uint64_t ta = keys[k] >> 32, tb = keys[k] & 0xffffffffu;
       const bool wall = tb > 0xffffffffu - SPHDEM_DEM_MAX_WALL_CONTACTS;
@@ -98,7 +124,7 @@ struct PendingHistory {
                     std::to_string(ta) + ", " + std::to_string(tb) + " (corrupt restart file)");
     }
     /* per pair: displacement xyz (finite), touch flag (0, +-1 or +-an image code: a whole number), largest
-     * overlap (>= 0); a file with 4 values per pair (before the largest overlap was kept) misreads here */
+     * overlap (>= 0) */
     const int H = SPHDEM_DEM_HIST_DOUBLES;
     for (size_t k = 0; k < keys.size(); k++) {
       const double *h = &hist[k * H];
@@ -106,8 +132,7 @@ struct PendingHistory {
                         h[3] == std::floor(h[3]) && (H < 5 || (std::isfinite(h[4]) && h[4] >= 0.0));
       if (!good)
         return fail("restart file: contact-history pair " + std::to_string(k) + " has values that no contact has "
-                    "(corrupt restart file, or written with " + std::to_string(H - 1) + " values per pair by an "
-                    "earlier version)");
+                    "(corrupt restart file)");
     }
     have = true;
     return true;

@@ -68,8 +68,11 @@ int main() {
   std::vector<unsigned char> good = history_file(d);
   int64_t np = 0;
   memcpy(&np, good.data(), sizeof np);
-  TEST_ASSERT(np >= 2 && good.size() == 8 + (size_t)np * (8 + 8 * SPHDEM_DEM_HIST_DOUBLES), "history of %lld pairs, %zu bytes",
+  TEST_ASSERT(np >= 2 && good.size() == 16 + (size_t)np * (8 + 8 * SPHDEM_DEM_HIST_DOUBLES), "history of %lld pairs, %zu bytes",
               (long long)np, good.size());
+  uint64_t per = 0;
+  memcpy(&per, good.data() + 8, sizeof per);
+  TEST_ASSERT(per == SPHDEM_DEM_HIST_DOUBLES, "values per pair written after the count (%llu)", (unsigned long long)per);
 
   /* the good file reads and restores, also with the rest of a restart file behind it */
   sphdem_restart::PendingHistory h;
@@ -78,6 +81,31 @@ int main() {
   sphdem_dem d2 = touching_core();
   TEST_ASSERT(h.apply(d2) == SPHDEM_OK, "history restored into a new core: %s", sphdem_dem_last_error(d2));
   sphdem_dem_destroy(&d2);
+
+  /* a file written before the values-per-pair field: keys right after the count, 4 values per pair; it reads,
+   * each pair's largest overlap 0 and its first 4 values as written */
+  {
+    const size_t H = SPHDEM_DEM_HIST_DOUBLES, n = (size_t)np;
+    std::vector<unsigned char> old(good.begin(), good.begin() + 8);
+    old.insert(old.end(), good.begin() + 16, good.begin() + 16 + 8 * n);
+    const double *hv = reinterpret_cast<const double *>(good.data() + 16 + 8 * n);
+    for (size_t k = 0; k < n; k++) {
+      const unsigned char *q = reinterpret_cast<const unsigned char *>(hv + k * H);
+      old.insert(old.end(), q, q + 4 * sizeof(double));
+    }
+    sphdem_restart::PendingHistory lg;
+    bool ok = read_bytes(old, 3, lg, 4096);
+    bool same = ok && lg.hist.size() == n * H;
+    for (size_t k = 0; same && k < n; k++)
+      for (size_t v = 0; v < H; v++) same = same && lg.hist[k * H + v] == (v < 4 ? hv[k * H + v] : 0.0);
+    TEST_ASSERT(ok && lg.have && same, "a history of 4 values per pair (earlier files) reads: %s", lg.error.c_str());
+    std::vector<unsigned char> b = good;
+    const uint64_t seven = 7;
+    memcpy(b.data() + 8, &seven, sizeof seven);
+    sphdem_restart::PendingHistory p7;
+    TEST_ASSERT(!read_bytes(b, 3, p7) && p7.error.find("values per pair") != std::string::npos,
+                "7 values per pair refused ('%s')", p7.error.c_str());
+  }
 
   /* cut: bytes removed from the end; tail: bytes appended (the rest of a restart file) */
   struct Case { const char *what; int64_t count; int64_t natoms; size_t cut, tail; const char *want; };
@@ -103,7 +131,7 @@ int main() {
     TEST_ASSERT(p.error_or("fallback") == p.error, "%s: the message reaches the caller", c.what);
   }
   /* keys: tag 0, a pair written in the wrong order */
-  const size_t key0 = sizeof(int64_t);
+  const size_t key0 = sizeof(int64_t) + sizeof(uint64_t); /* after the count and the values per pair */
   for (int k = 0; k < 2; k++) {
     std::vector<unsigned char> b = good;
     uint64_t key = k == 0 ? ((uint64_t)0 << 32) | 9u : ((uint64_t)9 << 32) | 4u;
