@@ -371,9 +371,9 @@ def lig_base(engine):
 
 
 GRAN_GPU = [
-    V("model missing", R(LIG_ARGS, "tangential history"), ["needs 'model hertz' or 'model hooke'"]),
+    V("model missing", R(LIG_ARGS, "tangential history"), ["needs 'model hertz', 'model hooke' or 'model hooke/hysteresis'"]),
     V("model unknown", R("model hertz", "model hooke/stiffness"), ["model 'hooke/stiffness' is not supported",
-                                                                   "hertz or hooke"]),
+                                                                   "hertz, hooke or hooke/hysteresis"]),
     V("tangential missing", R(LIG_ARGS, "model hertz"), ["needs 'tangential history'"]),
     V("tangential unknown", R("tangential history", "tangential no_history"),
       ["tangential 'no_history' is not supported (only history)"]),
