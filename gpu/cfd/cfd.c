@@ -604,3 +604,10 @@ void sphdem_cfd_timers(sphdem_cfd c, double t[SPHDEM_CFD_NTIMERS]) {
 void sphdem_cfd_timers_reset(sphdem_cfd c) {
   if (c) memset(c->timers, 0, sizeof c->timers);
 }
+
+int sphdem_cfd_set_comm(sphdem_cfd c, const sphdem_comm *comm) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (comm) c->rt.comm = *comm;
+  else memset(&c->rt.comm, 0, sizeof c->rt.comm);
+  return SPHDEM_OK;
+}

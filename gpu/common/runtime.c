@@ -21,6 +21,13 @@ int sphdem_rt_fail(sphdem_rt *rt, int code, const char *fmt, ...) {
   return code;
 }
 
+int sphdem_rt_allreduce(sphdem_rt *rt, double *buf, int n, int op) {
+  if (!rt->comm.allreduce || n <= 0) return SPHDEM_OK;
+  if (rt->comm.allreduce(rt->comm.user, buf, n, op) != 0)
+    return sphdem_rt_fail(rt, SPHDEM_ERR_STATE, "the reduction of %d values over the MPI ranks failed", n);
+  return SPHDEM_OK;
+}
+
 double sphdem_rt_now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

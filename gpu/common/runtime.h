@@ -32,6 +32,7 @@ struct sphdem_rt {
   const sphdem_rt_mem *mem;
   size_t bytes;  /* device bytes held: counted by rt_alloc, given back by rt_free */
   char err[1024];
+  sphdem_comm comm; /* the engine's reductions over ranks (zero: one rank); sphdem_rt_init leaves it */
 };
 
 extern const sphdem_rt_mem sphdem_rt_cpu_mem;
@@ -52,6 +53,10 @@ int sphdem_rt_vfail(sphdem_rt *rt, int code, const char *fmt, va_list ap);
 double sphdem_rt_now(void);
 /* SPHDEM_OK if a CUDA device is usable; msg gets its name or the reason it is not (runtime_cuda.cu). */
 int sphdem_rt_gpu_probe(char *msg, size_t msglen);
+
+/* buf[0..n) combined over every rank (op: sphdem_red_op); nothing to do on one rank. */
+int sphdem_rt_allreduce(sphdem_rt *rt, double *buf, int n, int op);
+static inline int rt_nranks(const sphdem_rt *rt) { return rt->comm.allreduce && rt->comm.nranks > 1 ? rt->comm.nranks : 1; }
 
 #define rt_fail sphdem_rt_fail
 #define rt_now sphdem_rt_now

@@ -705,3 +705,10 @@ int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const 
   m->need_build = 1;
   return SPHDEM_OK;
 }
+
+int sphdem_dem_set_comm(sphdem_dem c, const sphdem_comm *comm) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (comm) c->rt.comm = *comm;
+  else memset(&c->rt.comm, 0, sizeof c->rt.comm);
+  return SPHDEM_OK;
+}

@@ -35,6 +35,16 @@ enum sphdem_status {
 typedef enum { SPHDEM_DEVICE_AUTO = 0, SPHDEM_DEVICE_CPU = 1, SPHDEM_DEVICE_GPU = 2 } sphdem_device;
 typedef enum { SPHDEM_VISC_NONE = 0, SPHDEM_VISC_MORRIS = 1, SPHDEM_VISC_ARTIFICIAL = 2 } sphdem_visc;
 
+/* Many MPI ranks: the engine's reductions, given to a context by the shim (sphdem_set_comm,
+ * sphdem_cfd_set_comm). allreduce combines buf[0..n) in place over every rank with op and returns 0 on
+ * success; a context without one (allreduce NULL) is alone. The core never calls MPI itself. */
+typedef enum { SPHDEM_RED_SUM = 0, SPHDEM_RED_MAX = 1, SPHDEM_RED_MIN = 2 } sphdem_red_op;
+typedef struct {
+  void *user;
+  int (*allreduce)(void *user, double *buf, int n, int op);
+  int rank, nranks;
+} sphdem_comm;
+
 /* Physical and numerical parameters (He 2018 §2.1). Plain struct, passed by value to both backends.
  * Every optional term is off when its coefficient is 0. */
 typedef struct {
@@ -110,6 +120,8 @@ int sphdem_gpu_available(void);              /* 1 if the CUDA backend is built a
 
 /* Change parameters that may vary between runs (box, gravity, coefficients); not dim or h. */
 int sphdem_set_params(sphdem_ctx ctx, const sphdem_params *p);
+/* The reductions over the engine's ranks (NULL: one rank); the core calls them inside collective calls only. */
+int sphdem_set_comm(sphdem_ctx ctx, const sphdem_comm *comm);
 int sphdem_get_params(sphdem_ctx ctx, sphdem_params *p);
 
 /* Upload the fluid particles. tag[i] > 0 is a unique id (engine atom tag). Arrays are in the
@@ -441,6 +453,7 @@ const char *sphdem_dem_last_error(sphdem_dem dem);
 int sphdem_dem_backend(sphdem_dem dem);            /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
 /* Change parameters between calls (history is kept). */
 int sphdem_dem_set_params(sphdem_dem dem, const sphdem_dem_params *p);
+int sphdem_dem_set_comm(sphdem_dem dem, const sphdem_comm *comm); /* NULL: one rank */
 /* Several materials (the LIGGGHTS models): n materials (LIGGGHTS atom types) with Young's
  * modulus E and Poisson ratio nu (n each) and, per pair of materials (n x n, row-major [i n + j],
  * symmetric), the restitution coefficient en, the friction mu, the rolling friction mu_r and the cohesion
@@ -582,6 +595,7 @@ const char *sphdem_cfd_last_error(sphdem_cfd c);
 int sphdem_cfd_backend(sphdem_cfd c);
 /* Change parameters between steps: everything but nc and the box (e.g. inlet_u for a sweep). */
 int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p);
+int sphdem_cfd_set_comm(sphdem_cfd c, const sphdem_comm *comm); /* NULL: one rank */
 int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p);
 /* Advance the gas by dt with n grains (x, v 3n; radius n). Voidage and drag coefficients from the
  * grains (slip of the previous gas field), momentum predictor with implicit drag, pressure solve,

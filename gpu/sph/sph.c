@@ -1075,3 +1075,10 @@ int sphdem_get_wall_state(sphdem_ctx c, double *p, double *rho) {
   free(t);
   return rc;
 }
+
+int sphdem_set_comm(sphdem_ctx c, const sphdem_comm *comm) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (comm) c->rt.comm = *comm;
+  else memset(&c->rt.comm, 0, sizeof c->rt.comm);
+  return SPHDEM_OK;
+}
