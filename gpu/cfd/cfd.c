@@ -173,6 +173,78 @@ static int grow_grains(struct sphdem_cfd_s *m, int64_t n) {
   return SPHDEM_OK;
 }
 
+/* ---- many ranks ------------------------------------------------------------------------------------
+ * The grid is replicated: every rank holds all cells and faces and deposits its own grains only. The
+ * deposits (solid volume per cell; drag sums K, Kv per face) are added over the ranks, after which every
+ * rank advances the same gas equations from the same inputs, so the fields stay identical without halo
+ * exchange. A failure seen on some ranks before or between the deposits is agreed on by every rank, so
+ * none waits in a reduction the others left: every rank then returns the code and message of the lowest
+ * failing rank. */
+
+/* buf[0..n) combined over the ranks, in slices whose count fits the callback's int */
+static int comm_reduce(struct sphdem_cfd_s *m, double *buf, int64_t n, int op) {
+  const int64_t slice = (int64_t)1 << 28;
+  for (int64_t o = 0; o < n; o += slice) {
+    int64_t k = n - o < slice ? n - o : slice;
+    int rc = sphdem_rt_allreduce(&m->rt, buf + o, (int)k, op);
+    if (rc) return rc;
+  }
+  return SPHDEM_OK;
+}
+
+/* Collective, on the failure path only: the code and message of the lowest rank with bad_rc != 0 become
+ * every rank's. Returns that code. */
+static int comm_agree(struct sphdem_cfd_s *m, int bad_rc) {
+  const int nr = rt_nranks(&m->rt), me = m->rt.comm.rank;
+  enum { NMSG = (int)sizeof m->rt.err };
+  double who = bad_rc ? (double)me : (double)nr;
+  if (comm_reduce(m, &who, 1, SPHDEM_RED_MIN)) return SPHDEM_ERR_STATE;
+  const int first = (int)who;
+  if (first >= nr) return SPHDEM_OK;
+  double *b = (double *)calloc(NMSG + 1, sizeof(double));
+  if (!b) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the failure message of rank %d", first);
+  if (me == first) {
+    b[0] = bad_rc;
+    for (int k = 0; k < NMSG - 1 && m->rt.err[k]; k++) b[1 + k] = (unsigned char)m->rt.err[k];
+  }
+  int rc = comm_reduce(m, b, NMSG + 1, SPHDEM_RED_SUM);
+  if (rc) {
+    free(b);
+    return rc;
+  }
+  char text[NMSG];
+  int k = 0;
+  for (; k < NMSG - 1 && b[1 + k] > 0.0; k++) text[k] = (char)(int)b[1 + k];
+  text[k] = 0;
+  int code = (int)b[0];
+  free(b);
+  if (me == first) return code; /* its own message stays */
+  return sphdem_cfd_fail(m, code ? code : SPHDEM_ERR_STATE, "rank %d: %s", first, text);
+}
+
+/* The deposits of every rank added together: a[0..na) and b[0..nb) (device arrays, b may be NULL), copied to
+ * the host, combined with one reduction, copied back. bad_rc != 0: this rank failed before (its arrays are not
+ * read); the flag travels with the sums and every rank then returns the failure (comm_agree). One rank: nothing
+ * to do. */
+static int deposit_sum(struct sphdem_cfd_s *m, double *a, int64_t na, double *b, int64_t nb, int bad_rc) {
+  if (rt_nranks(&m->rt) == 1) return bad_rc;
+  int64_t n = na + nb;
+  if (!m->hred || m->nhred < n + 1)
+    return comm_agree(m, bad_rc ? bad_rc : sphdem_cfd_fail(m, SPHDEM_ERR_STATE, "internal: no reduction buffer"));
+  double *h = m->hred;
+  int rc = bad_rc;
+  if (!rc) rc = rt_d2h(&m->rt, h, a, sizeof(double) * (size_t)na);
+  if (!rc && nb) rc = rt_d2h(&m->rt, h + na, b, sizeof(double) * (size_t)nb);
+  if (rc) memset(h, 0, sizeof(double) * (size_t)n);
+  h[n] = rc ? 1.0 : 0.0;
+  int rr = comm_reduce(m, h, n + 1, SPHDEM_RED_SUM);
+  if (rr) return rr;
+  if (h[n] > 0.0) return comm_agree(m, rc);
+  if ((rc = rt_h2d(&m->rt, a, h, sizeof(double) * (size_t)na))) return rc;
+  if (nb && (rc = rt_h2d(&m->rt, b, h + na, sizeof(double) * (size_t)nb))) return rc;
+  return SPHDEM_OK;
+}
+
 int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device dev, char *msg, size_t msglen) {
   if (!out) BAD("out: NULL");
   *out = NULL;
@@ -269,6 +341,7 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
     for (int k = 0; k < 5; k++) rt_free(&m->rt, lv[k], 0);
   }
   if (m->ops->release) m->ops->release(m);
+  free(m->hred);
   free(m);
   *c = NULL;
   return SPHDEM_OK;
@@ -395,37 +468,40 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
 int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
                     double *fdrag, double *fpg) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (!(dt > 0.0) || !isfinite(dt)) return sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "dt: gas step must be > 0 (got %g)", dt);
-  if (n < 0 || (n > 0 && (!x || !v || !radius)))
-    return sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "grains: n = %d with a NULL x, v or radius", n);
   struct sphdem_cfd_s *m = c;
   cfd_dev *D = &m->D;
   const cfd_ops *o = m->ops;
-  int rc;
-  for (int i = 0; i < n; i++)
+  /* a rank whose own input is bad still takes part in the first deposit sum (with its failure flag), so that
+   * every rank stops at the same point */
+  int rc = SPHDEM_OK;
+  if (!(dt > 0.0) || !isfinite(dt)) rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "dt: gas step must be > 0 (got %g)", dt);
+  else if (n < 0 || (n > 0 && (!x || !v || !radius)))
+    rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "grains: n = %d with a NULL x, v or radius", n);
+  for (int i = 0; !rc && i < n; i++)
     if (!(radius[i] > 0.0) || !isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
-      return sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[i]);
+      rc = sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[i]);
   double t0 = rt_now();
-  if ((rc = grow_grains(m, n))) return rc;
-  D->n = n;
-  D->dt = dt;
-  if (n) {
-    if ((rc = rt_h2d(&m->rt, D->gx, x, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = rt_h2d(&m->rt, D->gv, v, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = rt_h2d(&m->rt, D->grad, radius, sizeof(double) * (size_t)n)))
-      return rc;
+  if (!rc) rc = grow_grains(m, n);
+  if (!rc) {
+    D->n = n;
+    D->dt = dt;
   }
+  if (!rc && n) rc = rt_h2d(&m->rt, D->gx, x, sizeof(double) * 3 * (size_t)n);
+  if (!rc && n) rc = rt_h2d(&m->rt, D->gv, v, sizeof(double) * 3 * (size_t)n);
+  if (!rc && n) rc = rt_h2d(&m->rt, D->grad, radius, sizeof(double) * (size_t)n);
   double t1 = rt_now();
   m->timers[SPHDEM_CFD_T_TRANSFER] += t1 - t0;
-  /* voidage: the previous one becomes eps_old */
-  if ((rc = rt_d2d(&m->rt, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell))) return rc;
-  if ((rc = rt_zero(&m->rt, D->sol, sizeof(double) * (size_t)D->ncell))) return rc;
-  if (n && (rc = o->run(m, CFD_K_void_scatter, n))) return rc;
+  /* voidage: the previous one becomes eps_old; the solid volume of this rank's grains, summed over the ranks */
+  if (!rc) rc = rt_d2d(&m->rt, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell);
+  if (!rc) rc = rt_zero(&m->rt, D->sol, sizeof(double) * (size_t)D->ncell);
+  if (!rc && n) rc = o->run(m, CFD_K_void_scatter, n);
+  if ((rc = deposit_sum(m, D->sol, D->ncell, NULL, 0, rc))) return rc;
   if ((rc = o->run(m, CFD_K_void_finish, D->ncell))) return rc;
-  if ((rc = rt_zero(&m->rt, D->K, sizeof(double) * (size_t)D->nface)) ||
-      (rc = rt_zero(&m->rt, D->Kv, sizeof(double) * (size_t)D->nface)))
-    return rc;
-  if (n && (rc = o->run(m, CFD_K_drag, n))) return rc;
+  /* drag coefficients of this rank's grains to the faces, summed over the ranks */
+  rc = rt_zero(&m->rt, D->K, sizeof(double) * (size_t)D->nface);
+  if (!rc) rc = rt_zero(&m->rt, D->Kv, sizeof(double) * (size_t)D->nface);
+  if (!rc && n) rc = o->run(m, CFD_K_drag, n);
+  if ((rc = deposit_sum(m, D->K, D->nface, D->Kv, D->nface, rc))) return rc;
   double t2 = rt_now();
   m->timers[SPHDEM_CFD_T_COUPLE] += t2 - t1;
   if ((rc = o->run(m, CFD_K_predict, D->nface))) return rc;
@@ -473,25 +549,37 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
     S->f_grains[d] = S->f_pg[d] = 0.0;
   }
   D->first = 0;
+  /* the forces back to the caller; their sums (global values) over every rank's grains */
+  double fsum[7] = {0, 0, 0, 0, 0, 0, 0};
+  rc = SPHDEM_OK;
   if (n) {
-    /* forces back to the caller, the sums from the same host copies (scratch only for an array not asked for) */
+    /* scratch only for an array not asked for */
     double *hb = NULL;
     if (!fdrag || !fpg) {
       hb = (double *)malloc(sizeof(double) * 3 * (size_t)n * 2);
-      if (!hb) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
+      if (!hb) rc = sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %d grain forces", n);
     }
     double *hfd = fdrag ? fdrag : hb, *hfp = fpg ? fpg : hb + 3 * (size_t)n;
-    if ((rc = rt_d2h(&m->rt, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) ||
-        (rc = rt_d2h(&m->rt, hfp, D->gfp, sizeof(double) * 3 * (size_t)n))) {
-      free(hb);
-      return rc;
-    }
-    for (int i = 0; i < n; i++)
-      for (int d = 0; d < 3; d++) {
-        S->f_grains[d] += hfd[3 * i + d];
-        S->f_pg[d] += hfp[3 * i + d];
-      }
+    if (!rc && !(rc = rt_d2h(&m->rt, hfd, D->gfd, sizeof(double) * 3 * (size_t)n)) &&
+        !(rc = rt_d2h(&m->rt, hfp, D->gfp, sizeof(double) * 3 * (size_t)n)))
+      for (int i = 0; i < n; i++)
+        for (int d = 0; d < 3; d++) {
+          fsum[d] += hfd[3 * i + d];
+          fsum[3 + d] += hfp[3 * i + d];
+        }
     free(hb);
+  }
+  if (rt_nranks(&m->rt) > 1) {
+    fsum[6] = rc ? 1.0 : 0.0;
+    int rr = comm_reduce(m, fsum, 7, SPHDEM_RED_SUM);
+    if (rr) return rr;
+    if (fsum[6] > 0.0) return comm_agree(m, rc);
+  } else if (rc) {
+    return rc;
+  }
+  for (int d = 0; d < 3; d++) {
+    S->f_grains[d] = fsum[d];
+    S->f_pg[d] = fsum[3 + d];
   }
   m->timers[SPHDEM_CFD_T_TRANSFER] += rt_now() - t6;
   if (!isfinite(S->umax) || !isfinite(S->dp))
@@ -609,5 +697,17 @@ int sphdem_cfd_set_comm(sphdem_cfd c, const sphdem_comm *comm) {
   if (!c) return SPHDEM_ERR_ARG;
   if (comm) c->rt.comm = *comm;
   else memset(&c->rt.comm, 0, sizeof c->rt.comm);
+  if (rt_nranks(&c->rt) == 1) return SPHDEM_OK;
+  /* the host buffer of the deposit sums: the face sums K and Kv (the larger stage) and the failure flag */
+  int64_t need = 2 * c->D.nface > c->D.ncell ? 2 * c->D.nface : c->D.ncell;
+  need += 1;
+  if (c->hred && c->nhred >= need) return SPHDEM_OK;
+  free(c->hred);
+  c->nhred = 0;
+  c->hred = (double *)malloc(sizeof(double) * (size_t)need);
+  if (!c->hred)
+    return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %lld host doubles for the sums over the ranks",
+                           (long long)need);
+  c->nhred = need;
   return SPHDEM_OK;
 }

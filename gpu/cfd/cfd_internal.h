@@ -117,6 +117,9 @@ struct sphdem_cfd_s {
   double timers[SPHDEM_CFD_NTIMERS];
   sphdem_cfd_stats st;
   void *backend_data;
+  /* many ranks (rt.comm): host copy of the per-cell and per-face sums combined over the ranks, and a flag */
+  double *hred;
+  int64_t nhred;
 };
 
 #ifdef __cplusplus

@@ -22,6 +22,7 @@
 #include "sphdem_args.h"
 #include "sphdem_compat.h"
 #include "sphdem_grains.h"
+#include "sphdem_mpi.h"
 #include "sphdem_peratom.h"
 #include "update.h"
 #include "variable.h"
@@ -72,6 +73,10 @@ FixCFDGrid::FixCFDGrid(LAMMPS *lmp, int narg, char **arg)
   for (int s = 0; s < 6; s++) inlet_ivar_[s] = -1;
   for (int d = 0; d < 3; d++) init_u_[d] = 0.0;
   std::memset(&stats_, 0, sizeof stats_);
+  red_.world = &world;
+  red_.seconds = 0.0;
+  red_.calls = 0;
+  red_.values = 0;
   parse_args(narg, arg);
   time_ = update->atime + (double)(update->ntimestep - update->atimestep) * update->dt;
   clock_step_ = update->ntimestep;
@@ -88,6 +93,20 @@ int FixCFDGrid::setmask() { return POST_FORCE | POST_RUN; }
 
 void FixCFDGrid::fail(const std::string &msg) {
   sphdem_compat::error_all(error, FLERR, std::string("Fix cfd/grid: ") + msg);
+}
+void FixCFDGrid::fail_one(const std::string &msg) {
+  sphdem_compat::error_one(error, FLERR, std::string("Fix cfd/grid: ") + msg);
+}
+
+/* the core's reductions over the ranks (the deposit sums of the replicated grid), timed for the run summary */
+int FixCFDGrid::reduce_cb(void *user, double *buf, int n, int op) {
+  Reduce *r = (Reduce *)user;
+  const double t0 = MPI_Wtime();
+  const int rc = sphdem_mpi::allreduce_cb(r->world, buf, n, op);
+  r->seconds += MPI_Wtime() - t0;
+  r->calls++;
+  r->values += n;
+  return rc;
 }
 
 /* Every non-OK core code ends the run with the core's message. */
@@ -317,7 +336,6 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
 /* ---- run set-up ---------------------------------------------------------------------------------- */
 
 void FixCFDGrid::init() {
-  if (comm->nprocs > 1) fail("running on more than one MPI rank is not supported yet (use mpirun -np 1)");
   if (!restart_error_.empty()) fail(restart_error_);
   /* the gas has walls, inlets and outlets on all six sides, no periodic boundary */
   for (int d = 0; d < 3; d++)
@@ -370,6 +388,8 @@ void FixCFDGrid::init() {
       tmin = std::min(tmin, sphdem_stokes_time(rhop, 2.0 * r, prm_.mu_g));
       rhomax = std::max(rhomax, rhop);
     }
+    sphdem_mpi::min(world, &tmin, 1); /* over every rank's grains: every rank takes the same decision */
+    sphdem_mpi::max(world, &rhomax, 1);
     char m[512];
     if (rhomax > 0 && prm_.rho_g > 1000.0 * rhomax) {
       snprintf(m, sizeof m, "rho %g: the gas density is over 1000 times the grain density (largest %g); rho is the "
@@ -408,11 +428,22 @@ void FixCFDGrid::setup(int) {
     update_inlets(false);
     char msg[512] = "";
     if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
-    const int rc = sphdem_cfd_create(&ctx_, &prm_, device_, msg, sizeof msg);
-    if (rc != SPHDEM_OK) {
-      ctx_ = nullptr;
-      fail(*msg ? std::string(msg) : std::string("cannot create the gas grid: ") + sphdem_strerror(rc));
+    /* every rank holds the whole grid (see the doc: the grid is coarse); a device or memory failure may be
+     * one rank's alone: every rank stops with the first such message */
+    int rc = sphdem_cfd_create(&ctx_, &prm_, device_, msg, sizeof msg);
+    if (rc != SPHDEM_OK) ctx_ = nullptr;
+    std::string why = rc == SPHDEM_OK ? std::string()
+                      : *msg          ? std::string(msg)
+                                      : std::string("cannot create the gas grid: ") + sphdem_strerror(rc);
+    if (rc == SPHDEM_OK && comm->nprocs > 1) {
+      sphdem_comm c = sphdem_mpi::comm(&world);
+      c.user = &red_;
+      c.allreduce = reduce_cb;
+      rc = sphdem_cfd_set_comm(ctx_, &c);
+      if (rc != SPHDEM_OK) why = std::string("set_comm: ") + sphdem_cfd_last_error(ctx_);
     }
+    why = sphdem_mpi::first_failure(world, rc != SPHDEM_OK, why);
+    if (!why.empty()) fail(why);
     if (have_pending_) { /* a restart file: its gas state wins over init_u */
       const int64_t ns = sphdem_cfd_state_size(ctx_);
       if (ns != (int64_t)pending_state_.size())
@@ -432,6 +463,9 @@ void FixCFDGrid::setup(int) {
   keep_stats_ = false;
   sphdem_cfd_timers_reset(ctx_);
   host_time_ = 0.0;
+  red_.seconds = 0.0;
+  red_.calls = 0;
+  red_.values = 0;
 
   /* the held forces (an earlier run or a restart file) act from the first step on */
   const int *mask = atom->mask;
@@ -442,6 +476,7 @@ void FixCFDGrid::setup(int) {
     for (int d = 0; d < 3; d++) f[i][d] += fa_[i][C_FDRAG + d] + fa_[i][C_FPG + d];
     rmax = std::max(rmax, atom->radius[i]);
   }
+  sphdem_mpi::max(world, &rmax, 1);
 
   if (comm->me == 0 && !announced_) {
     double hc[3];
@@ -476,11 +511,16 @@ void FixCFDGrid::gas_step() {
   const double t1 = wall_seconds();
   const double dt_gas = (double)every_ * update->dt;
   const int rc = sphdem_cfd_step(ctx_, dt_gas, (int)n, gx_.data(), gv_.data(), grad_.data(), gfd_.data(), gfp_.data());
+  /* the core agrees on failures of its deposit stages itself; the same stop on every rank for any other */
+  std::string why;
   if (rc != SPHDEM_OK) {
     char where[128];
-    snprintf(where, sizeof where, "gas step at timestep " BIGINT_FORMAT " (gas dt %g)", update->ntimestep, dt_gas);
-    check(rc, where);
+    snprintf(where, sizeof where, "gas step at timestep " BIGINT_FORMAT " (gas dt %g): ", update->ntimestep, dt_gas);
+    const char *m = sphdem_cfd_last_error(ctx_);
+    why = std::string(where) + (m && *m ? m : sphdem_strerror(rc));
   }
+  if (comm->nprocs > 1) why = sphdem_mpi::first_failure(world, rc != SPHDEM_OK, why);
+  if (!why.empty()) fail(why);
   const double t2 = wall_seconds();
   for (size_t k = 0; k < n; k++) {
     double *row = fa_[gidx_[k]];
@@ -509,7 +549,31 @@ void FixCFDGrid::post_force(int) {
 
 void FixCFDGrid::post_run() {
   advance_clock(); /* before a timestep command of the next run changes dt */
+  check_replicas();
   print_timers();
+}
+
+/* Many ranks: the grid is advanced on every rank from the same sums, so the copies must be bit-identical; a
+ * warning if they are not (an MPI library whose reductions give different ranks different bits). Once a run. */
+void FixCFDGrid::check_replicas() {
+  if (!ctx_ || comm->nprocs < 2) return;
+  const int64_t ns = sphdem_cfd_state_size(ctx_);
+  std::vector<double> st((size_t)std::max<int64_t>(ns, 0));
+  double v[2] = {0.0, 0.0};
+  if (ns > 0 && sphdem_cfd_get_state(ctx_, st.data()) == SPHDEM_OK)
+    for (int64_t k = 0; k < ns; k++) {
+      v[0] += st[k];
+      v[1] += std::fabs(st[k]);
+    }
+  double lo[2] = {v[0], v[1]}, hi[2] = {v[0], v[1]};
+  sphdem_mpi::min(world, lo, 2);
+  sphdem_mpi::max(world, hi, 2);
+  if ((lo[0] != hi[0] || lo[1] != hi[1]) && comm->me == 0) {
+    char m[384];
+    snprintf(m, sizeof m, "Fix cfd/grid: the copies of the gas grid on the %d ranks differ (sum of the state %.17g to "
+             "%.17g): the reductions over the ranks did not give every rank the same sums", comm->nprocs, lo[0], hi[0]);
+    sphdem_compat::warning(error, FLERR, m);
+  }
 }
 
 /* simulation time: the engines' update->atime is not kept in restart files, this clock is */
@@ -532,9 +596,15 @@ void FixCFDGrid::print_timers() {
              k + 1 < SPHDEM_CFD_NTIMERS ? "," : "");
     line += buf;
   }
-  snprintf(buf, sizeof buf, "; fix host side %.4g s (%.1f%%); total %.4g s this run\n", host_time_,
+  snprintf(buf, sizeof buf, "; fix host side %.4g s (%.1f%%); total %.4g s this run", host_time_,
            total > 0 ? 100 * host_time_ / total : 0.0, total);
   line += buf;
+  if (comm->nprocs > 1) {
+    snprintf(buf, sizeof buf, "; sums over %d ranks (rank 0) %.4g s in %ld reductions of %.4g MB", comm->nprocs,
+             red_.seconds, red_.calls, 8e-6 * (double)red_.values);
+    line += buf;
+  }
+  line += "\n";
   sphdem_compat::logmesg(lmp, line);
 }
 
@@ -543,17 +613,18 @@ void FixCFDGrid::print_timers() {
 /* PREFIX_<step>.vti (VTK XML ImageData, ASCII cell data) and PREFIX.pvd listing every file with its time.
  * An existing PREFIX.pvd (a run continued from a restart file) keeps its entries of earlier times. */
 void FixCFDGrid::write_vtk() {
-  if (comm->me != 0) return;
+  advance_clock();
+  if (comm->me != 0) return; /* every rank holds the same grid: rank 0 writes it */
   const int nx = prm_.nc[0], ny = prm_.nc[1], nz = prm_.nc[2];
   const size_t nc = (size_t)nx * ny * nz;
   std::vector<double> eps(nc), p(nc), u(3 * nc);
-  check(sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data()), "get_fields");
-  advance_clock();
+  if (sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data()) != SPHDEM_OK)
+    fail_one(std::string("get_fields: ") + sphdem_cfd_last_error(ctx_));
   const double time = time_;
 
   const std::string file = vtk_prefix_ + "_" + std::to_string((long long)update->ntimestep) + ".vti";
   FILE *fp = fopen(file.c_str(), "w");
-  if (!fp) fail("vtk: cannot open " + file + " for writing");
+  if (!fp) fail_one("vtk: cannot open " + file + " for writing");
   double h[3];
   for (int d = 0; d < 3; d++) h[d] = (prm_.boxhi[d] - prm_.boxlo[d]) / prm_.nc[d];
   fprintf(fp, "<?xml version=\"1.0\"?>\n");
@@ -576,7 +647,7 @@ void FixCFDGrid::write_vtk() {
   scalars("pressure", p, 1);
   scalars("velocity", u, 3);
   fprintf(fp, "      </CellData>\n    </Piece>\n  </ImageData>\n</VTKFile>\n");
-  if (fclose(fp) != 0) fail("vtk: error writing " + file);
+  if (fclose(fp) != 0) fail_one("vtk: error writing " + file);
 
   const std::string pvd = vtk_prefix_ + ".pvd";
   if (!pvd_loaded_) { /* entries of earlier times from a previous run (restart) */
@@ -595,13 +666,13 @@ void FixCFDGrid::write_vtk() {
   const size_t slash = file.find_last_of('/');
   pvd_.emplace_back(time, slash == std::string::npos ? file : file.substr(slash + 1));
   FILE *fq = fopen(pvd.c_str(), "w");
-  if (!fq) fail("vtk: cannot open " + pvd + " for writing");
+  if (!fq) fail_one("vtk: cannot open " + pvd + " for writing");
   fprintf(fq, "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
               "  <Collection>\n");
   for (const auto &e : pvd_)
     fprintf(fq, "    <DataSet timestep=\"%.17g\" group=\"\" part=\"0\" file=\"%s\"/>\n", e.first, e.second.c_str());
   fprintf(fq, "  </Collection>\n</VTKFile>\n");
-  if (fclose(fq) != 0) fail("vtk: error writing " + pvd);
+  if (fclose(fq) != 0) fail_one("vtk: error writing " + pvd);
 }
 
 /* ---- output ------------------------------------------------------------------------------------------ */

@@ -70,9 +70,19 @@ class FixCFDGrid : public Fix {
   sphdem_cfd_stats stats_;
   bool keep_stats_;            /* stats_ came from a restart file: keep them at the next setup */
   double host_time_;           /* fix-side time of the gas steps (gather, scatter, VTK) this run */
+  /* many ranks: every rank holds the whole grid; the core's deposit sums go through this reduction, timed */
+  struct Reduce {
+    MPI_Comm *world;
+    double seconds;            /* in MPI_Allreduce this run */
+    long calls;
+    long long values;
+  } red_;
   std::string restart_error_;  /* a corrupted restart record, reported by init() */
 
   [[noreturn]] void fail(const std::string &msg);
+  [[noreturn]] void fail_one(const std::string &msg); /* a failure seen by this rank alone (rank 0's files) */
+  static int reduce_cb(void *user, double *buf, int n, int op);
+  void check_replicas();
   void check(int rc, const char *what);
   double parse_number(const char *kw, const char *s, const char *usage);
   void parse_args(int, char **);

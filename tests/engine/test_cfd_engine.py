@@ -22,7 +22,15 @@
                         3.8 mm high, no integrator) in an upward gas flow of 0.1 and 0.3 m/s: the pressure drop
                         over the column (f_ID[1], less the gas weight) vs the Ergun equation, within 5 %
                         (the bed edges cost ~0.7 cell of drop: -4.5 % measured by the core test)
-  mpi      EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
+  mpi_fixed EXE ENGINE MPIRUN  a fixed bed (1458 grains, 3 x 3 x 12 cells) at 1, 2 (cut along x, along z) and
+                        4 ranks: grain forces, thermo (dp, iterations, sums) and the VTK fields equal the 1-rank
+                        run within 1e-10 (the pressure solve's tol); a gas step beyond cfl at 2 ranks stops
+                        every rank with the message
+  mpi_bed  EXE ENGINE MPIRUN  a small bubbling bed (512 grains, 1000 steps, gas every 25) at 1, 2 (cut along x,
+                        along z) and 4 ranks: grain positions, velocities, gas forces and thermo equal the
+                        1-rank run within 10 x the growth of a 1e-17 m perturbation of the start (at most 1e-9)
+  mpi_restart EXE ENGINE MPIRUN  the bed written at 2 ranks at step 510 (between gas steps), read at 1 and at 4
+                        ranks, against the unbroken 2-rank run, same bound
   plugin   HOST PLUGIN LMP  the particle scene (shortened) through sphdemplugin.so: fix cfd/grid registered,
                         thermo identical to lmp_sphdem's
 Python 3 only; exits 0 on pass, 1 on failure.
@@ -415,17 +423,341 @@ def test_ergun(exe, engine):
     return 0
 
 
-def test_mpi(exe, engine, mpirun):
-    cmd = [mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", exe]
-    rc, out = run(cmd, "cfd_mpi_" + engine, column(engine, [(0.0015, 0.0015, 0.005)], steps=2), timeout=120)
-    want = "Fix cfd/grid: running on more than one MPI rank is not supported yet (use mpirun -np 1)"
+# ---- (6) many MPI ranks: the replicated grid ------------------------------------------------------------
+# Every rank holds the whole grid, deposits its own grains, the deposits are summed over the ranks, and every
+# rank advances the same gas: the answer at any rank count is the 1-rank answer up to the order of the sums.
+
+def mpirun_cmd(mpirun, np, exe):
+    return [mpirun, "-np", str(np), "--oversubscribe", "--allow-run-as-root", exe]
+
+
+def mpi_run(mpirun, np, exe, wd, script, timeout=120):
+    """run script on np ranks (np 1 without mpirun); exit 1 with its output where it fails"""
+    cmd = [exe] if np == 1 else mpirun_cmd(mpirun, np, exe)
+    return must_run(cmd, wd, script, timeout=timeout)
+
+
+def read_vti(path):
+    """the cell arrays of a .vti file written by the fix: {name: [values]}"""
+    img = ET.parse(path).getroot().find("ImageData")
+    return {a.get("Name"): [float(w) for w in a.text.split()]
+            for a in img.find("Piece").find("CellData").findall("DataArray")}
+
+
+def rel_diff(a, b):
+    """max |a - b| over max |a| of two equal-length lists"""
+    scale = max(max(abs(v) for v in a), 1e-300)
+    return max(abs(x - y) for x, y in zip(a, b)) / scale
+
+
+# (a) A fixed bed (Ergun scene, smaller: 1458 grains of 1 mm on a simple cubic lattice, voidage 0.40, no
+# integrator) in a 3 x 3 x 12 cell column: the grains do not move, so every difference between rank counts
+# is the order of the deposit sums (solid volume per cell, drag per face) and what the pressure solve makes of
+# it. Bound 1e-10 (relative to each column's largest value), from the physics of the solve: the deposits agree
+# to round-off (1e-16 relative per sum), the conjugate-gradient solve stops at relative residual tol 1e-10, so
+# two solves from right-hand sides equal up to round-off agree to about tol (times the few units of the
+# condition-number share the warm start leaves); the gas fields and the grain forces follow p linearly.
+MPI_FIXED = """# fixed bed of 1 mm grains, voidage 0.40, 6 cells high, in a 3 x 3 x 12 cell column
+units si
+atom_style sphere
+boundary f f f
+atom_modify map array sort 0 0.0
+{procs}
+region box block 0 {L} 0 {L} 0 {H} units box
+create_box 1 box
+lattice sc {s} origin 0.5 0.5 0.5
+region bed block 0 {L} 0 {L} {z0} {z1} units box
+create_atoms 1 region bed units box
+set type 1 diameter 0.001
+set type 1 density 2500
+pair_style none
+neighbor 0.001 bin
+neigh_modify every 1000 delay 0 check no
+timestep 1e-3
+fix gas all cfd/grid grid 3 3 12 rho 1.2 mu 1.8e-5 bc zlo inlet 0.3 bc zhi outlet bc xlo slip bc xhi slip &
+    bc ylo slip bc yhi slip vtk {steps} gas {extra}
+thermo_style custom step f_gas[1] f_gas[2] f_gas[3] f_gas[5] f_gas[8] f_gas[11] f_gas[14] f_gas[17] f_gas[20]
+thermo_modify format float %.17g
+thermo {steps}
+dump d all custom {steps} final.* id x y z f_gas[1] f_gas[2] f_gas[3] f_gas[4] f_gas[5] f_gas[6]
+{fmt}
+run {steps}
+"""
+FIXED_COLS = ["x", "y", "z", "fdx", "fdy", "fdz", "fpx", "fpy", "fpz"]
+# the residual where the solve stopped and the mass error are round-off (below tol), the iterations: printed, not bounded
+FIXED_THERMO = ["dp", "iters", "residual", "eps_mean", "mass_err", "f_grains_z", "f_gas_z", "f_bound_z", "f_pg_z"]
+FIXED_STEPS = 20
+
+
+def fixed_scene(engine, procs="", extra=""):
+    s = 0.001 * (math.pi / (6 * 0.6)) ** (1.0 / 3.0)
+    h = 3 * s
+    fmt = DUMPFMT[engine].replace(" %.17g" * 12, " %.17g" * 9)
+    return MPI_FIXED.format(L=repr(3 * h), H=repr(12 * h), s=repr(s), z0=repr(3 * h), z1=repr(9 * h), procs=procs,
+                            steps=FIXED_STEPS, fmt=fmt, extra=extra)
+
+
+# (b) A small bubbling bed (the examples/bubbling_bed scene cut down: 512 grains of 1.2 mm, 1000 kg/m^3, 20 mm
+# deep in a 12 x 6 x 32 mm box on 4 x 2 x 10 cells, inlet 0.6 m/s; the cuts at the box middle run through the bed; the example's stock spring-dashpot contacts and wall
+# planes, fix nve/sphere, gravity, gas every 25 steps): grains collide, move between subdomains and carry their
+# held gas forces with them. Here the DEM itself adds round-off of its own (the force sums on a grain are in
+# neighbour-list order, which changes with the decomposition), and collisions amplify any difference: the bound
+# is set against that amplification, measured in the same test: a 1-rank run from initial positions moved by
+# 1e-17 m (a few units of round-off of a position of 1e-2 m, 1.7e-18 m) grows apart from the plain 1-rank run by
+# G; the rank counts may differ from the 1-rank run by at most 10 G (round-off enters every step, not once), and
+# never more than 1e-9 (relative to each vector's largest component).
+BED = """# small bubbling bed (examples/bubbling_bed cut down)
+variable U equal 0.6
+variable Lx equal 0.012
+variable Ly equal 0.006
+variable Lz equal 0.032
+variable dp equal 0.0012
+variable rhop equal 1000.0
+variable kn equal 800.0
+variable e equal 0.97
+variable mu equal 0.1
+variable mp equal ${{rhop}}*PI/6*${{dp}}^3
+variable zeta equal -ln(${{e}})/sqrt(PI^2+ln(${{e}})^2)
+variable gn equal 2*${{zeta}}*sqrt(${{kn}}/(0.5*${{mp}}))
+units si
+atom_style sphere
+boundary f f f
+atom_modify map array sort 1000 0.004
+newton off
+{procs}
+region box block -0.001 $(v_Lx+0.001) -0.001 $(v_Ly+0.001) -0.001 $(v_Lz+0.001) units box
+create_box 1 box
+lattice sc 0.00125 origin 0 0 0
+region bed block 0.0002 0.0112 0.0002 0.005 0.0002 0.02 units box
+create_atoms 1 region bed units box
+group grains type 1
+set type 1 diameter ${{dp}}
+set type 1 density ${{rhop}}
+displace_atoms grains move -0.0006 -0.000625 -0.0006 units box
+{perturb}
+timestep 4e-6
+{dem}
+neighbor 0.0003 bin
+neigh_modify delay 0 every 1 check yes
+fix gas grains cfd/grid grid 4 2 10 box 0 ${{Lx}} 0 ${{Ly}} 0 ${{Lz}} rho 1.225 mu 1.8e-5 &
+    bc xlo noslip bc xhi noslip bc ylo noslip bc yhi noslip bc zlo inlet ${{U}} bc zhi outlet every 25 &
+    drag gidaspow voidage smooth {extra}
+fix grav grains gravity 9.81 vector 0 0 -1
+fix move grains nve/sphere
+compute zmax grains reduce max z
+thermo_style custom step f_gas[1] f_gas[2] f_gas[5] f_gas[11] f_gas[20] c_zmax
+thermo_modify format float %.17g
+thermo {thermo}
+dump d grains custom {dumpevery} final.* id x y z vx vy vz f_gas[1] f_gas[2] f_gas[3] f_gas[4] f_gas[5] f_gas[6]
+{fmt}
+{run}
+"""
+BED_DEM = {"lammps": """pair_style gran/hooke/history ${kn} NULL ${gn} NULL ${mu} 1
+pair_coeff * *
+comm_modify vel yes
+fix wx grains wall/gran hooke/history ${kn} NULL ${gn} NULL ${mu} 1 xplane 0 ${Lx}
+fix wy grains wall/gran hooke/history ${kn} NULL ${gn} NULL ${mu} 1 yplane 0 ${Ly}
+fix wz grains wall/gran hooke/history ${kn} NULL ${gn} NULL ${mu} 1 zplane 0 ${Lz}""",
+           "liggghts": """variable kt equal 2/7*${kn}
+variable gt equal 0.5*${gn}
+pair_style gran model hooke/stiffness tangential history
+pair_coeff * *
+communicate single vel yes
+fix m1 all property/global kn peratomtypepair 1 ${kn}
+fix m2 all property/global kt peratomtypepair 1 ${kt}
+fix m3 all property/global gamman peratomtypepair 1 ${gn}
+fix m4 all property/global gammat peratomtypepair 1 ${gt}
+fix m5 all property/global coefficientFriction peratomtypepair 1 ${mu}
+fix m6 all property/global youngsModulus peratomtype 1e7
+fix m7 all property/global poissonsRatio peratomtype 0.3
+fix wxl grains wall/gran model hooke/stiffness tangential history primitive type 1 xplane 0.0
+fix wxh grains wall/gran model hooke/stiffness tangential history primitive type 1 xplane ${Lx}
+fix wyl grains wall/gran model hooke/stiffness tangential history primitive type 1 yplane 0.0
+fix wyh grains wall/gran model hooke/stiffness tangential history primitive type 1 yplane ${Ly}
+fix wzl grains wall/gran model hooke/stiffness tangential history primitive type 1 zplane 0.0
+fix wzh grains wall/gran model hooke/stiffness tangential history primitive type 1 zplane ${Lz}"""}
+BED_STEPS = 1000
+BED_COLS = ["x", "y", "z", "vx", "vy", "vz", "fdx", "fdy", "fdz", "fpx", "fpy", "fpz"]
+
+
+def bed_scene(engine, procs="", steps=BED_STEPS, perturb="", extra="", run=None, dumpevery=None):
+    return BED.format(procs=procs, perturb=perturb, dem=BED_DEM[engine], extra=extra, thermo=steps // 4,
+                      dumpevery=dumpevery or steps, fmt=DUMPFMT[engine], run=run or "run %d" % steps)
+
+
+PROCS = {"x": "processors 2 1 1", "z": "processors 1 1 2", "xz": "processors 2 1 2", "": ""}
+CUT = {"x": "cut along x (vertical planes)", "z": "cut along z (a horizontal plane)", "xz": "cut along x and z",
+       "": "one rank"}
+
+
+def compare_thermo(a, b, names, skip=()):
+    """max over columns (but those in skip) of the relative difference of two thermo tables (same rows)"""
+    if len(a) != len(b) or not a:
+        print("  thermo: %d rows vs %d" % (len(a), len(b)))
+        return float("inf")
+    worst = 0.0
+    for c in range(1, len(a[0])):
+        scale = max(max(abs(r[c]) for r in a), 1e-300)
+        d = max(abs(x[c] - y[c]) for x, y in zip(a, b)) / scale
+        print("  %-10s max relative difference %.3e%s" % (names[c - 1], d, " (not bounded)" if c - 1 in skip else ""))
+        if c - 1 not in skip:
+            worst = max(worst, d)
+    return worst
+
+
+def compare_vec(a, b, names):
+    """max over the vectors (3 columns each: position, velocity, drag, pressure-gradient force) of max |a - b| over
+    the largest magnitude of that vector's components: a component that is round-off itself (the sideways drag in a
+    bed blown from below) is measured against the size of the force, not against its own noise"""
+    if sorted(a) != sorted(b):
+        print("FAIL: different grains (%d vs %d, %d in common)" % (len(a), len(b), len(set(a) & set(b))))
+        return float("inf")
+    worst = 0.0
+    for c0 in range(0, len(names), 3):
+        scale = max(max(abs(v) for r in a.values() for v in r[c0:c0 + 3]), 1e-300)
+        d = max(abs(a[t][c] - b[t][c]) for t in a for c in range(c0, c0 + 3)) / scale
+        print("  %-12s max difference / largest component %.3e" % ("/".join(names[c0:c0 + 3]), d))
+        worst = max(worst, d)
+    return worst
+
+
+def by_start(first, last):
+    """the rows of the last dump keyed by each grain's position in the first one (the engines number the atoms of
+    create_atoms by rank, so the same grain has another id at another rank count)"""
+    return {tuple(round(v, 9) for v in first[t][:3]): last[t] for t in last}
+
+
+def test_mpi_fixed(exe, engine, mpirun):
+    wd = "cfd_mpi_fixed_" + engine
+    runs = [(1, ""), (2, "x"), (2, "z"), (4, "xz")]
+    res = {}
+    for np_, cut in runs:
+        key = "np%d%s" % (np_, cut)
+        out = mpi_run(mpirun, np_, exe, wd + "/" + key, fixed_scene(engine, PROCS[cut]))
+        if np_ > 1 and ("differ" in out and "copies of the gas grid" in out):
+            print("FAIL: %s: the copies of the grid differ between ranks" % key)
+            return 1
+        last = read_dump(os.path.join(wd, key, "final.%d" % FIXED_STEPS))
+        res[key] = (thermo_rows(out), by_start(last, last),
+                    read_vti(os.path.join(wd, key, "gas_%d.vti" % FIXED_STEPS)), out)
+    t1, d1, v1, out1 = res["np1"]
+    if len(d1) != 1458 or not t1 or t1[-1][1] <= 0:
+        print("FAIL: the bed does not have 1458 grains or no pressure drop (%d grains, thermo %s)" % (len(d1), t1))
+        return 1
+    print("1 rank: dp %.10g Pa, %d PCG iterations, eps_mean %.10g, sum of drag z %.6g N" %
+          (t1[-1][1], t1[-1][2], t1[-1][4], t1[-1][6]))
+    fails = 0
+    bound = 1e-10
+    for key in res:
+        if key == "np1":
+            continue
+        t, d, v, out = res[key]
+        print("%s (%s) vs 1 rank:" % (key, CUT[key[3:]]))
+        wd_ = compare_vec(d1, d, FIXED_COLS)
+        wt = compare_thermo(t1, t, FIXED_THERMO, skip=(1, 2, 4))
+        wv = max(rel_diff(v1[k], v[k]) for k in ("voidage", "pressure", "velocity"))
+        iters = [r[2] for r in t]
+        ok = wd_ <= bound and wt <= bound and wv <= 1e-9 and len(t) == len(t1)
+        print("%s %s: grain forces %.3e, thermo %.3e (bound %.0e), VTK fields %.3e (bound 1e-9: the file has 10 "
+              "digits), PCG iterations %s vs %s" % ("PASS" if ok else "FAIL", key, wd_, wt, bound, wv, iters,
+                                                   [r[2] for r in t1]))
+        fails += 0 if ok else 1
+        if "sums over %d ranks" % int(key[2]) not in out:
+            print("FAIL: no line on the sums over the ranks in the run summary")
+            fails += 1
+    # a failure of the core during a gas step at 2 ranks: every rank stops with the message, no hang
+    rc, out = run(mpirun_cmd(mpirun, 2, exe), wd + "/stop", fixed_scene(engine, "", "cfl 1e-6"), timeout=120)
+    want = "gas step at timestep 1 (gas dt 0.001): gas CFL"
     crashed = rc < 0 or rc in (124, 134, 136, 137, 139) or "Segmentation" in out
     ok = rc != 0 and want in out and not crashed
-    print("%s mpirun -np 2 (%s): exit %d, message %s" % ("PASS" if ok else "FAIL", engine, rc,
-                                                         "found" if want in out else "MISSING"))
+    print("%s a gas step beyond cfl at 2 ranks: exit %d, message %s" % ("PASS" if ok else "FAIL", rc,
+                                                                       "found" if want in out else "MISSING: " + want))
     if not ok:
-        print(out[-3000:])
-    return 0 if ok else 1
+        print(out[-2000:])
+    fails += 0 if ok else 1
+    print("%s fixed bed at 1, 2 and 4 ranks (%s)" % ("PASS" if not fails else "FAIL", engine))
+    return 1 if fails else 0
+
+
+def bed_result(wd):
+    """the final dump of a bed run keyed by the grains' start positions"""
+    return by_start(read_dump(os.path.join(wd, "final.0")), read_dump(os.path.join(wd, "final.%d" % BED_STEPS)))
+
+
+def bed_growth(exe, engine, wd):
+    """the bed on one rank, and again from positions moved by 1e-17 m: how far round-off grows in BED_STEPS (the
+    bound of the rank-count comparisons), the 1-rank result and its thermo table"""
+    out1 = mpi_run(None, 1, exe, wd + "/np1", bed_scene(engine))
+    a = bed_result(wd + "/np1")
+    mpi_run(None, 1, exe, wd + "/perturbed",
+            bed_scene(engine, perturb="displace_atoms grains move 1e-17 0 1e-17 units box"))
+    print("1 rank, positions moved by 1e-17 m, vs 1 rank:")
+    growth = compare_vec(a, bed_result(wd + "/perturbed"), BED_COLS)
+    bound = min(max(10 * growth, 1e-13), 1e-9)
+    print("round-off growth over %d steps: %.3e -> bound %.3e" % (BED_STEPS, growth, bound))
+    return bound, a, thermo_rows(out1)
+
+
+BED_THERMO = ["dp", "iters", "eps_mean", "f_grains_z", "f_pg_z", "zmax"]
+
+
+def test_mpi_bed(exe, engine, mpirun):
+    wd = "cfd_mpi_bed_" + engine
+    bound, a, t1 = bed_growth(exe, engine, wd)
+    vmax = max(abs(r[5]) for r in a.values())
+    fz = sum(r[8] for r in a.values())
+    print("1 rank: %d grains, max |vz| %.4g m/s, sum of drag z %.4g N, thermo at the end %s" %
+          (len(a), vmax, fz, t1[-1] if t1 else None))
+    if len(a) != 512 or not (vmax > 1e-2 and fz > 0):
+        print("FAIL: the bed did not move or felt no gas")
+        return 1
+    fails = 0
+    for np_, cut in [(2, "x"), (2, "z"), (4, "xz")]:
+        key = "np%d%s" % (np_, cut)
+        out = mpi_run(mpirun, np_, exe, wd + "/" + key, bed_scene(engine, PROCS[cut]))
+        print("%s (%s) vs 1 rank:" % (key, CUT[cut]))
+        w = compare_vec(a, bed_result(wd + "/" + key), BED_COLS)
+        wt = compare_thermo(t1, thermo_rows(out), BED_THERMO, skip=(1,))
+        ok = w <= bound and wt <= bound and "copies of the gas grid" not in out
+        print("%s %s: grains %.3e, thermo %.3e (bound %.3e)" % ("PASS" if ok else "FAIL", key, w, wt, bound))
+        fails += 0 if ok else 1
+    print("%s bubbling bed at 1, 2 and 4 ranks (%s)" % ("PASS" if not fails else "FAIL", engine))
+    return 1 if fails else 0
+
+
+def test_mpi_restart(exe, engine, mpirun):
+    """the bed written at 2 ranks half way, read at 1 and at 4 ranks, against the unbroken 2-rank run"""
+    wd = "cfd_mpi_restart_" + engine
+    half = BED_STEPS // 2
+    # the split falls between gas steps (every 25: 500 is one; 510 is not), so the held forces come from the file
+    split = half + 10
+    unbroken = bed_scene(engine, PROCS["x"], dumpevery=BED_STEPS)
+    mpi_run(mpirun, 2, exe, wd + "/unbroken", unbroken)
+    a = read_dump(os.path.join(wd, "unbroken", "final.%d" % BED_STEPS))
+    first = bed_scene(engine, PROCS["x"], run="run %d\nwrite_restart half.restart" % split)
+    mpi_run(mpirun, 2, exe, wd + "/split", first)
+    bound = bed_growth(exe, engine, wd)[0]
+    fails = 0
+    for np_ in (1, 4):
+        # the second half: the contacts, the gas fix and the output again; the restart file holds the atoms, their
+        # held gas forces and contact history, the gas state
+        tail = bed_scene(engine, run="run %d" % (BED_STEPS - split))
+        tail = tail[tail.index("timestep 4e-6"):]
+        var = bed_scene(engine)
+        var = var[:var.index("units si")]
+        second = (var + (PROCS["xz"] + "\n" if np_ == 4 else "") + "read_restart ../split/half.restart\n" +
+                  "atom_modify sort 1000 0.004\nnewton off\n" + tail)
+        sub = "read%d" % np_
+        os.makedirs(os.path.join(wd, sub), exist_ok=True)
+        mpi_run(mpirun, np_, exe, os.path.join(wd, sub), second)
+        b = read_dump(os.path.join(wd, sub, "final.%d" % BED_STEPS))
+        print("written at 2 ranks (step %d), read at %d, vs the unbroken 2-rank run:" % (split, np_))
+        w = compare_vec(a, b, BED_COLS)
+        ok = w <= bound
+        print("%s restart 2 -> %d ranks: %.3e (bound %.3e)" % ("PASS" if ok else "FAIL", np_, w, bound))
+        fails += 0 if ok else 1
+    print("%s restart across rank counts (%s)" % ("PASS" if not fails else "FAIL", engine))
+    return 1 if fails else 0
 
 
 def test_plugin(host, plugin, lmp):
