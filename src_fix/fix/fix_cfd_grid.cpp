@@ -336,7 +336,9 @@ void FixCFDGrid::parse_args(int narg, char **arg) {
 /* ---- run set-up ---------------------------------------------------------------------------------- */
 
 void FixCFDGrid::init() {
-  if (!restart_error_.empty()) fail(restart_error_);
+  /* a bad per-atom restart record is seen by the rank that holds the atom: every rank stops with it */
+  const std::string bad_record = sphdem_mpi::first_failure(world, !restart_error_.empty(), restart_error_);
+  if (!bad_record.empty()) fail(bad_record);
   /* the gas has walls, inlets and outlets on all six sides, no periodic boundary */
   for (int d = 0; d < 3; d++)
     if (domain->periodicity[d])
