@@ -26,11 +26,13 @@
                         4 ranks: grain forces, thermo (dp, iterations, sums) and the VTK fields equal the 1-rank
                         run within 1e-10 (the pressure solve's tol); a gas step beyond cfl at 2 ranks stops
                         every rank with the message
-  mpi_bed  EXE ENGINE MPIRUN  a small bubbling bed (512 grains, 1000 steps, gas every 25) at 1, 2 (cut along x,
-                        along z) and 4 ranks: grain positions, velocities, gas forces and thermo equal the
-                        1-rank run within 10 x the growth of a 1e-17 m perturbation of the start (at most 1e-9)
-  mpi_restart EXE ENGINE MPIRUN  the bed written at 2 ranks at step 510 (between gas steps), read at 1 and at 4
-                        ranks, against the unbroken 2-rank run, same bound
+  mpi_bed  EXE ENGINE MPIRUN  a small bubbling bed (512 grains, stirred start, 1000 steps, gas every 25) at 1, 2
+                        (cut along x, along z) and 4 ranks, grains crossing every cut: grain positions,
+                        velocities, gas forces and thermo equal the 1-rank run within 10 x the growth of a
+                        1e-17 m perturbation of the start (at most 1e-9)
+  mpi_restart EXE ENGINE MPIRUN  the bed (not stirred) written at 2 ranks at step 510 (between gas steps), read at
+                        1 and at 4 ranks, against the unbroken 2-rank run, same bound (checked by hand: 0.98
+                        when the gas fix gets another ID and so no state from the file)
   plugin   HOST PLUGIN LMP  the particle scene (shortened) through sphdemplugin.so: fix cfd/grid registered,
                         thermo identical to lmp_sphdem's
 Python 3 only; exits 0 on pass, 1 on failure.
@@ -484,7 +486,8 @@ dump d all custom {steps} final.* id x y z f_gas[1] f_gas[2] f_gas[3] f_gas[4] f
 run {steps}
 """
 FIXED_COLS = ["x", "y", "z", "fdx", "fdy", "fdz", "fpx", "fpy", "fpz"]
-# the residual where the solve stopped and the mass error are round-off (below tol), the iterations: printed, not bounded
+# the residual where the solve stopped and the mass error are round-off (below tol); the iterations are printed,
+# not bounded
 FIXED_THERMO = ["dp", "iters", "residual", "eps_mean", "mass_err", "f_grains_z", "f_gas_z", "f_bound_z", "f_pg_z"]
 FIXED_STEPS = 20
 
@@ -498,14 +501,15 @@ def fixed_scene(engine, procs="", extra=""):
 
 
 # (b) A small bubbling bed (the examples/bubbling_bed scene cut down: 512 grains of 1.2 mm, 1000 kg/m^3, 20 mm
-# deep in a 12 x 6 x 32 mm box on 4 x 2 x 10 cells, inlet 0.6 m/s; the cuts at the box middle run through the bed; the example's stock spring-dashpot contacts and wall
-# planes, fix nve/sphere, gravity, gas every 25 steps): grains collide, move between subdomains and carry their
-# held gas forces with them. Here the DEM itself adds round-off of its own (the force sums on a grain are in
-# neighbour-list order, which changes with the decomposition), and collisions amplify any difference: the bound
-# is set against that amplification, measured in the same test: a 1-rank run from initial positions moved by
-# 1e-17 m (a few units of round-off of a position of 1e-2 m, 1.7e-18 m) grows apart from the plain 1-rank run by
-# G; the rank counts may differ from the 1-rank run by at most 10 G (round-off enters every step, not once), and
-# never more than 1e-9 (relative to each vector's largest component).
+# deep in a 12 x 6 x 32 mm gas box on 4 x 2 x 10 cells, inlet 0.6 m/s; the example's stock spring-dashpot contacts
+# and wall planes, fix nve/sphere, gravity, gas every 25 steps; a stirred start, 0.05 m/s): the cuts of the
+# processors grids run through the bed, grains collide, cross the cuts and carry their held gas forces with them.
+# Here the DEM adds round-off of its own (the force sums on a grain are in neighbour-list order, which changes with
+# the decomposition), and collisions amplify any difference: the bound is set against that amplification,
+# measured in the same test: a 1-rank run from initial positions moved by 1e-17 m (a few units of round-off of a
+# position of 1e-2 m, 1.7e-18 m) grows apart from the plain 1-rank run by G; the rank counts may differ from the
+# 1-rank run by at most 10 G (round-off enters every step, not once), and never more than 1e-9 (relative to each
+# vector's largest component).
 BED = """# small bubbling bed (examples/bubbling_bed cut down)
 variable U equal 0.6
 variable Lx equal 0.012
@@ -525,7 +529,7 @@ boundary f f f
 atom_modify map array sort 1000 0.004
 newton off
 {procs}
-region box block -0.001 $(v_Lx+0.001) -0.001 $(v_Ly+0.001) -0.001 $(v_Lz+0.001) units box
+region box block -0.001 $(v_Lx+0.00034) -0.001 $(v_Ly+0.001) -0.001 $(v_Lz+0.00276) units box
 create_box 1 box
 lattice sc 0.00125 origin 0 0 0
 region bed block 0.0002 0.0112 0.0002 0.005 0.0002 0.02 units box
@@ -534,6 +538,11 @@ group grains type 1
 set type 1 diameter ${{dp}}
 set type 1 density ${{rhop}}
 displace_atoms grains move -0.0006 -0.000625 -0.0006 units box
+# a stirred start (the same velocity for a grain at any rank count: a function of its position), so that grains
+# cross the subdomain boundaries within the run
+variable vx0 atom {stir}*sin(1300*y+2100*z)
+variable vz0 atom {stir}*cos(1700*x+900*z)
+velocity grains set v_vx0 0 v_vz0 units box
 {perturb}
 timestep 4e-6
 {dem}
@@ -577,12 +586,17 @@ fix wyh grains wall/gran model hooke/stiffness tangential history primitive type
 fix wzl grains wall/gran model hooke/stiffness tangential history primitive type 1 zplane 0.0
 fix wzh grains wall/gran model hooke/stiffness tangential history primitive type 1 zplane ${Lz}"""}
 BED_STEPS = 1000
+BED_STIR = 0.05  # m/s: the grains cross the cuts; at 0.2 m/s the round-off growth reaches 4e-10 in 1000 steps
+# the subdomain cuts of the processors grids (uniform): the box middle, at x = 5.67 mm and z = 16.88 mm (the box
+# reaches beyond the gas walls by as much as puts them 0.02 mm from a column and a layer of grains)
+BED_MID = {"x": 0.00567, "z": 0.01688}
 BED_COLS = ["x", "y", "z", "vx", "vy", "vz", "fdx", "fdy", "fdz", "fpx", "fpy", "fpz"]
 
 
-def bed_scene(engine, procs="", steps=BED_STEPS, perturb="", extra="", run=None, dumpevery=None):
+def bed_scene(engine, procs="", steps=BED_STEPS, perturb="", extra="", run=None, dumpevery=None, stir=BED_STIR):
     return BED.format(procs=procs, perturb=perturb, dem=BED_DEM[engine], extra=extra, thermo=steps // 4,
-                      dumpevery=dumpevery or steps, fmt=DUMPFMT[engine], run=run or "run %d" % steps)
+                      dumpevery=dumpevery or steps, fmt=DUMPFMT[engine], run=run or "run %d" % steps,
+                      stir=stir)
 
 
 PROCS = {"x": "processors 2 1 1", "z": "processors 1 1 2", "xz": "processors 2 1 2", "": ""}
@@ -684,13 +698,13 @@ def bed_result(wd):
     return by_start(read_dump(os.path.join(wd, "final.0")), read_dump(os.path.join(wd, "final.%d" % BED_STEPS)))
 
 
-def bed_growth(exe, engine, wd):
+def bed_growth(exe, engine, wd, stir=BED_STIR):
     """the bed on one rank, and again from positions moved by 1e-17 m: how far round-off grows in BED_STEPS (the
     bound of the rank-count comparisons), the 1-rank result and its thermo table"""
-    out1 = mpi_run(None, 1, exe, wd + "/np1", bed_scene(engine))
+    out1 = mpi_run(None, 1, exe, wd + "/np1", bed_scene(engine, stir=stir))
     a = bed_result(wd + "/np1")
     mpi_run(None, 1, exe, wd + "/perturbed",
-            bed_scene(engine, perturb="displace_atoms grains move 1e-17 0 1e-17 units box"))
+            bed_scene(engine, perturb="displace_atoms grains move 1e-17 0 1e-17 units box", stir=stir))
     print("1 rank, positions moved by 1e-17 m, vs 1 rank:")
     growth = compare_vec(a, bed_result(wd + "/perturbed"), BED_COLS)
     bound = min(max(10 * growth, 1e-13), 1e-9)
@@ -715,10 +729,22 @@ def test_mpi_bed(exe, engine, mpirun):
     for np_, cut in [(2, "x"), (2, "z"), (4, "xz")]:
         key = "np%d%s" % (np_, cut)
         out = mpi_run(mpirun, np_, exe, wd + "/" + key, bed_scene(engine, PROCS[cut]))
-        print("%s (%s) vs 1 rank:" % (key, CUT[cut]))
+        # grains on either side of each cut at the end, and grains that crossed a cut (they changed rank and took
+        # their held gas forces with them)
+        d0 = read_dump(os.path.join(wd, key, "final.0"))
+        d1 = read_dump(os.path.join(wd, key, "final.%d" % BED_STEPS))
+        axes = [(0 if c == "x" else 2, BED_MID[c]) for c in cut]
+        side = lambda r: tuple(r[a] > m for a, m in axes)  # noqa: E731
+        moved = sum(1 for t in d1 if side(d1[t]) != side(d0[t]))
+        per = {}
+        for r in d1.values():
+            per[side(r)] = per.get(side(r), 0) + 1
+        print("%s (%s) vs 1 rank: grains per subdomain %s, %d grains crossed a cut" %
+              (key, CUT[cut], sorted(per.values()), moved))
         w = compare_vec(a, bed_result(wd + "/" + key), BED_COLS)
         wt = compare_thermo(t1, thermo_rows(out), BED_THERMO, skip=(1,))
-        ok = w <= bound and wt <= bound and "copies of the gas grid" not in out
+        # every subdomain holds grains, and grains cross the cuts
+        ok = w <= bound and wt <= bound and "copies of the gas grid" not in out and len(per) == np_ and moved > 0
         print("%s %s: grains %.3e, thermo %.3e (bound %.3e)" % ("PASS" if ok else "FAIL", key, w, wt, bound))
         fails += 0 if ok else 1
     print("%s bubbling bed at 1, 2 and 4 ranks (%s)" % ("PASS" if not fails else "FAIL", engine))
@@ -729,21 +755,24 @@ def test_mpi_restart(exe, engine, mpirun):
     """the bed written at 2 ranks half way, read at 1 and at 4 ranks, against the unbroken 2-rank run"""
     wd = "cfd_mpi_restart_" + engine
     half = BED_STEPS // 2
-    # the split falls between gas steps (every 25: 500 is one; 510 is not), so the held forces come from the file
+    # the split falls between gas steps (every 25: 500 is one; 510 is not), so the held forces come from the file.
+    # Not stirred: no grain touches another or a wall before the split. (The stirred bed, contacts across the split,
+    # continues from a restart file 6e-4 off its unbroken run at one rank already, with the gas forces off: the
+    # stock DEM styles' contact state, not the gas.)
     split = half + 10
-    unbroken = bed_scene(engine, PROCS["x"], dumpevery=BED_STEPS)
+    unbroken = bed_scene(engine, PROCS["x"], dumpevery=BED_STEPS, stir=0.0)
     mpi_run(mpirun, 2, exe, wd + "/unbroken", unbroken)
     a = read_dump(os.path.join(wd, "unbroken", "final.%d" % BED_STEPS))
-    first = bed_scene(engine, PROCS["x"], run="run %d\nwrite_restart half.restart" % split)
+    first = bed_scene(engine, PROCS["x"], run="run %d\nwrite_restart half.restart" % split, stir=0.0)
     mpi_run(mpirun, 2, exe, wd + "/split", first)
-    bound = bed_growth(exe, engine, wd)[0]
+    bound = bed_growth(exe, engine, wd, stir=0.0)[0]
     fails = 0
     for np_ in (1, 4):
         # the second half: the contacts, the gas fix and the output again; the restart file holds the atoms, their
         # held gas forces and contact history, the gas state
-        tail = bed_scene(engine, run="run %d" % (BED_STEPS - split))
+        tail = bed_scene(engine, run="run %d" % (BED_STEPS - split), stir=0.0)
         tail = tail[tail.index("timestep 4e-6"):]
-        var = bed_scene(engine)
+        var = bed_scene(engine, stir=0.0)
         var = var[:var.index("units si")]
         second = (var + (PROCS["xz"] + "\n" if np_ == 4 else "") + "read_restart ../split/half.restart\n" +
                   "atom_modify sort 1000 0.004\nnewton off\n" + tail)
