@@ -489,6 +489,7 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   if (!(dt >= 0.0) || !isfinite(dt)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "dt: must be finite and >= 0 (got %g)", dt);
   double t0 = rt_now(), t1;
   double rmax = 0.0;
+  int has_ghosts = 0;
   for (int i = 0; i < n; i++) {
     if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
@@ -502,12 +503,15 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
                              x[3 * i], x[3 * i + 1], x[3 * i + 2]);
     if (radius[i] > rmax) rmax = radius[i];
+    if (flags && (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE))) has_ghosts = 1;
     if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= (D->nmat > 0 ? D->nmat : 1)))
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
                              flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, D->nmat > 0 ? D->nmat : 1,
                              D->nmat > 1 ? "s are" : " is");
   }
   TRY(ensure_grains(m, n));
+  if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
+  m->has_ghosts = has_ghosts;
   /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */
   int new_tags = !m->tags_valid || n != D->n || (n && memcmp(m->htag, tag, sizeof(int64_t) * n));
   if (new_tags) m->need_build = 1;
@@ -611,6 +615,17 @@ void sphdem_dem_timers_reset(sphdem_dem m) {
 int sphdem_dem_stats_get(sphdem_dem m, sphdem_dem_stats *s) {
   if (!m || !s) return SPHDEM_ERR_ARG;
   s->npairs = m->D.np;
+  if (m->has_ghosts && m->D.np > 0 && m->D.n > 0) { /* the pairs this rank counts (dem_pair_counted) */
+    int64_t np = m->D.np, n = m->D.n, c = 0;
+    int32_t *a = (int32_t *)malloc(sizeof(int32_t) * (size_t)np), *fl = (int32_t *)malloc(sizeof(int32_t) * (size_t)n);
+    int rc = (!a || !fl) ? SPHDEM_ERR_ALLOC : rt_d2h(&m->rt, a, m->D.pa, sizeof(int32_t) * (size_t)np);
+    if (!rc) rc = rt_d2h(&m->rt, fl, m->D.flags, sizeof(int32_t) * (size_t)n);
+    for (int64_t p = 0; !rc && p < np; p++) c += !(fl[a[p]] & SPHDEM_DEM_GHOST);
+    free(a);
+    free(fl);
+    if (rc) return sphdem_dem_fail(m, rc, "stats: cannot read the pair list");
+    s->npairs = c;
+  }
   s->ncontacts = m->ncontacts;
   s->nbuilds = m->nbuilds;
   return SPHDEM_OK;

@@ -128,6 +128,28 @@ SPHDEM_HD uint32_t dem_wall_code(int w) { return 0xffffffffu - (uint32_t)w; }
  * slot (each pair once) closer than r_i + r_j + skin, then the walls closer than r_i + skin. With
  * write = 0 it only counts; with write = 1 it stores the pairs from off[s] on, the grain of lower tag
  * first. Returns the count. */
+/* Grains of other MPI ranks (SPHDEM_DEM_GHOST) and periodic images of this rank's grains
+ * (SPHDEM_DEM_IMAGE) take part only in pairs with a grain of this rank; a pair with an image is kept once,
+ * as the image of the grain of higher tag (its twin, the image of the other grain, is dropped). */
+SPHDEM_HD int dem_pair_kept(const dem_dev *D, int32_t i, int32_t j) {
+  const int32_t away = SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE, fi = D->flags[i] & away, fj = D->flags[j] & away;
+  if (!fi && !fj) return 1;
+  if (fi && fj) return 0;
+  if (fi & SPHDEM_DEM_IMAGE) return D->tag[j] < D->tag[i];
+  if (fj & SPHDEM_DEM_IMAGE) return D->tag[i] < D->tag[j];
+  return 1;
+}
+
+/* A pair evaluated on two ranks (one grain a SPHDEM_DEM_GHOST) counts half in the virial of each. */
+SPHDEM_HD void dem_pair_virial_shared(const dem_dev *D, int32_t a, int32_t b, double *vir) {
+  if ((D->flags[a] | D->flags[b]) & SPHDEM_DEM_GHOST)
+    for (int d = 0; d < 6; d++) vir[d] *= 0.5;
+}
+
+/* The counters (touching contacts, candidate pairs) take a pair on the rank that owns its grain of lower
+ * tag (a), so that their sums over the ranks count each pair once. */
+SPHDEM_HD int dem_pair_counted(const dem_dev *D, int32_t a) { return !(D->flags[a] & SPHDEM_DEM_GHOST); }
+
 SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
   int32_t i = D->sidx[s];
   const double *xi = D->x + 3 * (int64_t)i;
@@ -142,6 +164,7 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
       int32_t j = D->sidx[t];
       double cut = ri + D->rad[j] + D->P.skin;
       if (dem_sep(D, xi, D->x + 3 * (int64_t)j, r) >= cut * cut) continue;
+      if (!dem_pair_kept(D, i, j)) continue;
       if (write) {
         int64_t p = o + k;
         int lo = D->tag[i] < D->tag[j];
@@ -152,7 +175,8 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
       k++;
     }
   }
-  for (int w = 0; w < D->nw; w++) {
+  const int own = !(D->flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)); /* walls: this rank's grains */
+  for (int w = 0; w < D->nw && own; w++) {
     if (dem_wall_dist(D, w, xi) >= ri + D->P.skin) continue;
     if (write) {
       int64_t p = o + k;
@@ -521,7 +545,7 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
   if (model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
     dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
     if (D->want_virial) {
-      if (!wall) dem_pair_virial(del, Fa, vir);
+      if (!wall) dem_pair_virial(del, Fa, vir), dem_pair_virial_shared(D, a, b, vir);
       else for (int d = 0; d < 6; d++) vir[d] = 0.0;
     }
     return 1;
@@ -636,7 +660,7 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
     }
   }
   if (D->want_virial) {
-    if (!wall) dem_pair_virial(del, Fa, vir);
+    if (!wall) dem_pair_virial(del, Fa, vir), dem_pair_virial_shared(D, D->pa[p], D->pb[p], vir);
     else for (int d = 0; d < 6; d++) vir[d] = 0.0;
   }
   if (hout) {
@@ -765,7 +789,7 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
       continue;
     }
     dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-    nt++;
+    nt += dem_pair_counted(D, (int32_t)i);
     for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
     if (D->want_virial)
       for (int d = 0; d < 6; d++) vs[d] += vir[d];
@@ -801,7 +825,9 @@ SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const doub
 }
 
 /* Touching pairs are the ones with the touch flag > 0 in the new history (< 0: kept, not touching). */
-SPHDEM_HD int dem_touching(const dem_dev *D, int64_t p) { return D->hout[SPHDEM_DEM_NHIST * p + 3] > 0.0; }
+SPHDEM_HD int dem_touching(const dem_dev *D, int64_t p) {
+  return D->hout[SPHDEM_DEM_NHIST * p + 3] > 0.0 && dem_pair_counted(D, D->pa[p]);
+}
 
 /* Cell range tables from the cell of each sorted slot. */
 SPHDEM_HD void dem_cell_range_body(const int32_t *cell, int64_t n, int64_t s, int32_t *cs, int32_t *ce) {
@@ -810,7 +836,26 @@ SPHDEM_HD void dem_cell_range_body(const int32_t *cell, int64_t n, int64_t s, in
   if (s == n - 1 || cell[s + 1] != c) ce[c] = (int32_t)(s + 1);
 }
 
-/* CSR ranges of a pair array sorted by grain index g[] (pa for the forward, pb copy for the reverse). */
+/* Forward ranges of the particle-parallel pass: the pairs of a grain as a are one run of the key-sorted
+ * list (the keys begin with its tag). Several copies of another rank's grain (SPHDEM_DEM_GHOST periodic
+ * images) share a tag: their pairs make one run, given to the copy of its first pair (the force on the copies
+ * is dropped; each pair's history and F are still written once, for the reverse pass of its grain b). */
+SPHDEM_HD void dem_forward_range_body(const dem_dev *D, int64_t p) {
+  const int64_t np = D->np;
+  const uint64_t ta = D->key[p] >> 32;
+  const int first = p == 0 || (D->key[p - 1] >> 32) != ta, last = p == np - 1 || (D->key[p + 1] >> 32) != ta;
+  if (!first && !last) return;
+  int64_t lo = 0, hi = p; /* the run's first pair */
+  while (lo < hi) {
+    const int64_t mid = lo + (hi - lo) / 2;
+    if ((D->key[mid] >> 32) < ta) lo = mid + 1; else hi = mid;
+  }
+  const int32_t g = D->pa[lo];
+  if (first) D->fstart[g] = (int32_t)p;
+  if (last) D->fend[g] = (int32_t)(p + 1);
+}
+
+/* CSR ranges of a pair array sorted by grain index g[] (the pb copy for the reverse). */
 SPHDEM_HD void dem_range_body(const int32_t *g, int64_t n, int64_t k, int32_t *st, int32_t *en) {
   int32_t c = g[k];
   if (c < 0) return;

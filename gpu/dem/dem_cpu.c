@@ -95,7 +95,7 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->fend, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
-  for (int64_t p = 0; p < np; p++) dem_range_body(D->pa, np, p, D->fstart, D->fend);
+  for (int64_t p = 0; p < np; p++) dem_forward_range_body(D, p);
   for (int64_t p = 0; p < np; p++) D->rlist[p] = (int32_t)p;
 #pragma omp critical(sphdem_dem_qsort)
   {

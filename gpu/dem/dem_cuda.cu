@@ -44,6 +44,8 @@ __global__ void k_dem_ranges(const int32_t *g, int64_t n, int32_t *st, int32_t *
   if (k < n) dem_range_body(g, n, k, st, en);
 }
 
+RT_KERNEL_EACH(k_dem_forward_ranges, dem_dev, D.np, dem_forward_range_body)
+
 RT_KERNEL_EACH(k_dem_pair_forces, dem_dev, D.np, dem_pair_force_body)
 
 RT_KERNEL_EACH(k_dem_particle_forces, dem_dev, D.n, dem_particle_force_body)
@@ -117,7 +119,7 @@ static int g_csr(struct sphdem_dem_s *m) {
   RT_CK(&m->rt, cudaMemset(D->rstart, 0, nb), "memset");
   RT_CK(&m->rt, cudaMemset(D->rend, 0, nb), "memset");
   if (np == 0) return SPHDEM_OK;
-  k_dem_ranges<<<nblk(np), DEM_BLOCK>>>(D->pa, np, D->fstart, D->fend);
+  k_dem_forward_ranges<<<nblk(np), DEM_BLOCK>>>(*D);
   RT_LAUNCHED(&m->rt, "DEM forward range kernel");
   thrust::device_ptr<int32_t> rl(D->rlist), rk(D->rkey);
   thrust::sequence(thrust::device, rl, rl + np);

@@ -107,6 +107,7 @@ struct sphdem_dem_s {
   int zero_copy;               /* CPU backend: x, v, om, rad, mass, f, tq point at the caller's arrays
                                   during sphdem_dem_compute (no copies) */
   int64_t nbuilds, ncontacts;
+  int has_ghosts;              /* the last grains had SPHDEM_DEM_GHOST or SPHDEM_DEM_IMAGE flags */
   /* host copies for the rebuild decision */
   double *hx0;
   int64_t *htag;

@@ -439,6 +439,14 @@ typedef struct sphdem_dem_s *sphdem_dem;
 
 /* Per-grain flag bits (sphdem_dem_compute flags array). */
 #define SPHDEM_DEM_FROZEN 1     /* effective mass of its contacts is the partner's (LAMMPS fix freeze) */
+/* Many MPI ranks (the engine's ghost atoms given after the rank's own grains): GHOST a copy of a grain that
+ * another rank owns, IMAGE a periodic image of a grain given here too. They take part only in pairs with a
+ * grain of this rank (no wall contacts); a pair with an IMAGE is kept once (as the image of the grain of
+ * higher tag); the force and torque computed on them are the caller's to drop (GHOST) or to add to the
+ * grain they are an image of (IMAGE). A pair with a GHOST counts half in the virial, and the stats count a
+ * pair on the rank that owns its grain of lower tag, so both sum over the ranks. */
+#define SPHDEM_DEM_GHOST 2
+#define SPHDEM_DEM_IMAGE 4
 /* flags >> SPHDEM_DEM_MATERIAL_SHIFT: the grain's material (0-based) in the table of
  * sphdem_dem_set_materials; 0 without a table */
 #define SPHDEM_DEM_MATERIAL_SHIFT 8

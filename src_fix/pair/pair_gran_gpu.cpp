@@ -216,6 +216,9 @@ void PairGranGPU::init_style() {
     if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
     if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
   }
+  if (ghosts_ && (rolling_ == 2 || rolling_ == 3))
+    fail(std::string("rolling_friction ") + (rolling_ == 2 ? "epsd2" : "epsd") + " keeps a rolling torque per "
+         "contact that is not handed over between MPI ranks: run it on one rank (cdt runs on any number)");
   if (neighbor->contactDistanceFactor != 1.0)
     fail("contact_distance_factor " + std::to_string(neighbor->contactDistanceFactor) +
          " (neigh_modify, or a cohesion model) is not supported: only 1");
@@ -247,7 +250,7 @@ void PairGranGPU::write_restart(FILE *fp) {
 void PairGranGPU::read_restart(FILE *fp, const int, const int) {
   begin_read_restart();
   int iv[6];
-  read_restart_tail(fp, sphdem_restart::read_items(fp, iv, sizeof(int), 6));
+  read_restart_tail(fp, read_head(fp, iv, sizeof(int), 6));
   rolling_ = iv[0], limit_force_ = iv[1], device_ = iv[2], algo_ = iv[3], hooke_ = iv[4], kt_to_kn_ = iv[5] & 1;
   tangential_damping_ = (iv[5] & 2) ? 0 : 1;
   cohesion_ = (iv[5] >> 2) & 3;

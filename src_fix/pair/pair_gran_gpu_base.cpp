@@ -2,19 +2,25 @@
  * context, grains in, forces out, timers, contact-history restart, messages. No physics here. */
 #include "pair_gran_gpu_base.h"
 
+#include <algorithm>
+#include <unordered_map>
+
 #include "atom.h"
 #include "comm.h"
 #include "domain.h"
 #include "memory.h"
 #include "neighbor.h"
+#include "output.h"
 #include "sphdem_compat.h"
+#include "sphdem_mpi.h"
 #include "update.h"
 
 using namespace LAMMPS_NS;
 
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      freeze_group_bit_(0), dem_(nullptr) {
+      freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), nall_mapped_(-1), owned_prev_set_(false),
+      gathered_(false) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
@@ -63,15 +69,12 @@ bool PairGranGPUBase::common_keyword(const std::string &kw, const std::string &v
   return true;
 }
 
-void PairGranGPUBase::require_one_rank() {
-  if (comm->nprocs > 1)
-    fail("runs on one MPI rank only in this version (got " + std::to_string(comm->nprocs) + " ranks)");
-}
-
 void PairGranGPUBase::check_atoms(const char *atom_styles) {
   if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
     fail(std::string("requires atom attributes radius, rmass, omega, torque (") + atom_styles + ")");
-  require_one_rank();
+  if (ghosts_ && !comm->ghost_velocity)
+    fail("on more than one MPI rank needs the velocities of ghost atoms: comm_modify vel yes (LIGGGHTS: "
+         "communicate single vel yes), as the stock granular styles");
   if (domain->triclinic) fail("triclinic boxes are not supported");
 }
 
@@ -87,8 +90,8 @@ void PairGranGPUBase::reduce_maxrad(std::vector<double> &dyn, std::vector<double
   MPI_Allreduce(&frz[1], &maxrad_frozen_[1], nt, MPI_DOUBLE, MPI_MAX, world);
 }
 
-/* Ghost atoms are not used (one rank, minimum image in the core); the cutoff sizes atom sorting,
- * communication and the neighbour lists' bins, as with the stock style. */
+/* The cutoff sizes atom sorting, the ghost atoms' shell and the neighbour lists' bins, as with the stock
+ * style. One rank: ghost atoms are not used (minimum image in the core). */
 double PairGranGPUBase::init_one(int i, int j) {
   if ((int)maxrad_dynamic_.size() <= (i > j ? i : j)) return 0.0;
   const double *d = maxrad_dynamic_.data(), *z = maxrad_frozen_.data();
@@ -103,7 +106,8 @@ void PairGranGPUBase::set_box(sphdem_dem_params &p) {
   for (int d = 0; d < 3; d++) {
     p.boxlo[d] = box_lo_[d] = domain->boxlo[d];
     p.boxhi[d] = box_hi_[d] = domain->boxhi[d];
-    p.periodic[d] = box_per_[d] = domain->periodicity[d];
+    box_per_[d] = domain->periodicity[d];
+    p.periodic[d] = ghosts_ ? 0 : box_per_[d]; /* many ranks: the ghost atoms are the periodic images */
   }
 }
 
@@ -127,42 +131,209 @@ void PairGranGPUBase::restore_history() {
   if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
 }
 
-/* The history is written as pair keys made of atom tags, so it does not depend on the atom order at
- * read time. One rank. */
+/* The history is written as pair keys made of atom tags, so it does not depend on the atom order or the
+ * number of ranks at read time. Rank 0 only (the engines write the pair style's part there). Many ranks:
+ * the history gathered at the last step (gather_history), or the one read by read_restart if no step ran. */
 void PairGranGPUBase::write_restart_tail(FILE *fp) {
   sphdem_restart::write_setflag(fp, setflag, atom->ntypes);
-  if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
+  if (!ghosts_) {
+    if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
+  } else if (gathered_) {
+    sphdem_restart::write_history(fp, gkeys_, ghist_);
+  } else {
+    sphdem_restart::write_history(fp, pending_history_.keys, pending_history_.hist);
+  }
 }
 
 void PairGranGPUBase::begin_read_restart() {
-  require_one_rank();
   if (!allocated) allocate();
 }
 
+bool PairGranGPUBase::read_head(FILE *fp, void *p, size_t size, size_t n) {
+  int ok = comm->me == 0 ? (int)sphdem_restart::read_items(fp, p, size, n) : 1;
+  if (comm->nprocs > 1) {
+    MPI_Bcast(&ok, 1, MPI_INT, 0, world);
+    if (ok && n) MPI_Bcast(p, (int)(size * n), MPI_BYTE, 0, world);
+  }
+  return ok != 0;
+}
+
+/* Rank 0 reads; every rank gets the flags and the whole history (its core's builds carry the pairs it has). */
 void PairGranGPUBase::read_restart_tail(FILE *fp, bool head_read) {
-  if (!head_read || !sphdem_restart::read_setflag(fp, setflag, atom->ntypes) ||
-      !pending_history_.read(fp, (int64_t)atom->natoms))
-    fail(pending_history_.error_or("restart file ends inside the pair style's data"));
+  int ok = 1;
+  std::string err;
+  if (comm->me == 0) {
+    ok = head_read && sphdem_restart::read_setflag(fp, setflag, atom->ntypes) &&
+         pending_history_.read(fp, (int64_t)atom->natoms);
+    if (!ok) err = pending_history_.error_or("restart file ends inside the pair style's data");
+  }
+  if (comm->nprocs > 1) {
+    err = sphdem_mpi::first_failure(world, !ok, err);
+    if (!err.empty()) fail(err.substr(err.find(") ") + 2)); /* the message of rank 0, without its rank */
+    for (int i = 1; i <= atom->ntypes; i++) MPI_Bcast(&setflag[i][1], atom->ntypes, MPI_INT, 0, world);
+    int64_t np = (int64_t)pending_history_.keys.size();
+    int have = pending_history_.have ? 1 : 0;
+    MPI_Bcast(&have, 1, MPI_INT, 0, world);
+    MPI_Bcast(&np, 1, MPI_INT64_T, 0, world);
+    pending_history_.have = have != 0;
+    pending_history_.keys.resize((size_t)np);
+    pending_history_.hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
+    if (np) {
+      MPI_Bcast(pending_history_.keys.data(), (int)np, MPI_UINT64_T, 0, world);
+      MPI_Bcast(pending_history_.hist.data(), (int)(np * SPHDEM_DEM_HIST_DOUBLES), MPI_DOUBLE, 0, world);
+    }
+  } else if (!ok) {
+    fail(err);
+  }
+}
+
+void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
+  std::unordered_map<int64_t, int> own;
+  own.reserve((size_t)nlocal * 2 + 1);
+  for (int i = 0; i < nlocal; i++) own.emplace((int64_t)atom->tag[i], i);
+  image_of_.assign((size_t)(nall - nlocal), -1);
+  for (int g = nlocal; g < nall; g++) {
+    auto it = own.find((int64_t)atom->tag[g]);
+    if (it != own.end()) image_of_[g - nlocal] = it->second;
+  }
+  nall_mapped_ = nall;
+}
+
+namespace {
+bool has_tag(const std::vector<int64_t> &sorted, int64_t t) { return std::binary_search(sorted.begin(), sorted.end(), t); }
+/* one of the pair's atoms is in sorted */
+bool pair_has(const std::vector<int64_t> &sorted, uint64_t key) {
+  return has_tag(sorted, (int64_t)(key >> 32)) ||
+         (!sphdem_restart::wall_key(key) && has_tag(sorted, (int64_t)(key & 0xffffffffu)));
+}
+}  // namespace
+
+/* Stock LAMMPS and LIGGGHTS keep a contact's history with the atom that owns it and move it with the atom
+ * (fix neigh/history, fix contacthistory). Here a rank holds every pair with one of its own atoms; an atom
+ * that changes rank finds on the new rank the pairs with that rank's atoms already (evaluated there too), and
+ * the others (its partners stayed behind, or moved too) come from the rank it left. */
+void PairGranGPUBase::hand_over_history() {
+  const int nlocal = atom->nlocal, H = SPHDEM_DEM_HIST_DOUBLES;
+  std::vector<int64_t> now((size_t)nlocal);
+  for (int i = 0; i < nlocal; i++) now[i] = (int64_t)atom->tag[i];
+  std::sort(now.begin(), now.end());
+  if (!owned_prev_set_) { /* the core has no pair yet (or the one of read_restart, which every rank has) */
+    owned_prev_.swap(now);
+    owned_prev_set_ = true;
+    return;
+  }
+  std::vector<int64_t> left, arrived;
+  std::set_difference(owned_prev_.begin(), owned_prev_.end(), now.begin(), now.end(), std::back_inserter(left));
+  std::set_difference(now.begin(), now.end(), owned_prev_.begin(), owned_prev_.end(), std::back_inserter(arrived));
+  owned_prev_.swap(now);
+  std::vector<uint64_t> keys, sk;
+  std::vector<double> hist, sh;
+  int bad = 0;
+  if (!left.empty()) {
+    if (!sphdem_restart::get_history(dem_, keys, hist)) bad = 1;
+    for (size_t p = 0; p < keys.size(); p++)
+      if (sphdem_restart::has_history(&hist[p * H]) && pair_has(left, keys[p])) {
+        sk.push_back(keys[p]);
+        sh.insert(sh.end(), hist.begin() + p * H, hist.begin() + (p + 1) * H);
+      }
+  }
+  const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
+                                                                    sphdem_dem_last_error(dem_));
+  if (!err.empty()) fail(err);
+  const int nr = comm->nprocs, ns = (int)sk.size();
+  std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
+  MPI_Allgather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
+  int total = 0;
+  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * H, dsph[r] = dsp[r] * H;
+  if (total == 0) return;
+  std::vector<uint64_t> rk((size_t)total);
+  std::vector<double> rh((size_t)total * H);
+  MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
+  MPI_Allgatherv(sh.data(), ns * H, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
+  if (arrived.empty()) return;
+  /* the pairs of atoms that joined this rank, each once, that the core does not hold already */
+  std::vector<std::pair<uint64_t, int>> take;
+  for (int k = 0; k < total; k++)
+    if (pair_has(arrived, rk[k])) take.emplace_back(rk[k], k);
+  if (take.empty()) return;
+  if (keys.empty() && !sphdem_restart::get_history(dem_, keys, hist))
+    fail(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
+  std::vector<uint64_t> have(keys);
+  std::sort(have.begin(), have.end());
+  std::stable_sort(take.begin(), take.end(),
+                   [](const std::pair<uint64_t, int> &a, const std::pair<uint64_t, int> &b) { return a.first < b.first; });
+  size_t added = 0;
+  for (size_t t = 0; t < take.size(); t++) {
+    if (t && take[t].first == take[t - 1].first) continue;
+    if (std::binary_search(have.begin(), have.end(), take[t].first)) continue;
+    keys.push_back(take[t].first);
+    hist.insert(hist.end(), rh.begin() + (size_t)take[t].second * H, rh.begin() + (size_t)(take[t].second + 1) * H);
+    added++;
+  }
+  if (added && sphdem_dem_set_history(dem_, (int64_t)keys.size(), keys.data(), hist.data()))
+    fail(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
+}
+
+void PairGranGPUBase::gather_history() {
+  const int H = SPHDEM_DEM_HIST_DOUBLES;
+  std::vector<uint64_t> keys, sk;
+  std::vector<double> hist, sh;
+  const bool bad = !sphdem_restart::get_history(dem_, keys, hist);
+  const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
+                                                                    sphdem_dem_last_error(dem_));
+  if (!err.empty()) fail(err);
+  for (size_t p = 0; p < keys.size(); p++)
+    if (sphdem_restart::has_history(&hist[p * H])) {
+      sk.push_back(keys[p]);
+      sh.insert(sh.end(), hist.begin() + p * H, hist.begin() + (p + 1) * H);
+    }
+  const int nr = comm->nprocs, ns = (int)sk.size();
+  std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
+  MPI_Gather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, 0, world);
+  int total = 0;
+  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * H, dsph[r] = dsp[r] * H;
+  std::vector<uint64_t> rk(comm->me == 0 ? (size_t)total : 0);
+  std::vector<double> rh(comm->me == 0 ? (size_t)total * H : 0);
+  MPI_Gatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, 0, world);
+  MPI_Gatherv(sh.data(), ns * H, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, 0, world);
+  gathered_ = true;
+  gkeys_.clear();
+  ghist_.clear();
+  if (comm->me != 0) return;
+  /* a pair split between two ranks is held by both (the same values): once, from the lower rank */
+  std::vector<int> order((size_t)total);
+  for (int k = 0; k < total; k++) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return rk[a] < rk[b]; });
+  for (size_t t = 0; t < order.size(); t++) {
+    if (t && rk[order[t]] == rk[order[t - 1]]) continue;
+    gkeys_.push_back(rk[order[t]]);
+    ghist_.insert(ghist_.end(), rh.begin() + (size_t)order[t] * H, rh.begin() + (size_t)(order[t] + 1) * H);
+  }
 }
 
 void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_builds) {
-  const int n = atom->nlocal;
+  const int nlocal = atom->nlocal;
+  const int n = ghosts_ ? nlocal + atom->nghost : nlocal; /* many ranks: own atoms, then the ghost atoms */
   bool box_changed = false;
   for (int d = 0; d < 3; d++)
     box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
   if (box_changed) sync_params();
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
+  if (ghosts_ && (neighbor->ago == 0 || n != nall_mapped_)) map_ghosts(nlocal, n);
+  /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */
+  if (ghosts_ && neighbor->ago == 0) hand_over_history();
   tags_.resize(n);
   fbuf_.resize(3 * (size_t)n);
   tbuf_.resize(3 * (size_t)n);
   for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
-  const int *fl = nullptr; /* NULL: no grain frozen, one material */
-  if (freeze_group_bit_ || material_types) {
+  const int *fl = nullptr; /* NULL: no grain frozen, one material, one rank */
+  if (freeze_group_bit_ || material_types || ghosts_) {
     flags_.resize(n);
     const int *type = atom->type;
     for (int i = 0; i < n; i++)
       flags_[i] = ((atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0) |
                   (material_types ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0);
+    for (int i = nlocal; i < n; i++) flags_[i] |= image_of_[i - nlocal] >= 0 ? SPHDEM_DEM_IMAGE : SPHDEM_DEM_GHOST;
     fl = flags_.data();
   }
   /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core
@@ -170,27 +341,52 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
   double vir[6];
   const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps */
-  if (follow_list_builds && neighbor->ago == 0) sphdem_dem_request_build(dem_);
+  /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps; many
+   * ranks: on every one (the ghost atoms are new) */
+  if ((follow_list_builds || ghosts_) && neighbor->ago == 0) sphdem_dem_request_build(dem_);
   /* during setup the forces are evaluated without advancing the shear history (as the stock style) */
   int rc = sphdem_dem_compute(dem_, n, tags_.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
                               update->setupflag ? 0 : 1, fbuf_.data(), tbuf_.data(), vflag_global ? vir : nullptr);
-  if (rc) fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
+  if (ghosts_) {
+    const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? sphdem_dem_last_error(dem_) : "");
+    if (!err.empty()) fail("DEM core: " + err);
+  } else if (rc) {
+    fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
+  }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   double **f = atom->f, **t = atom->torque;
-  for (int i = 0; i < n; i++)
+  for (int i = 0; i < nlocal; i++)
     for (int d = 0; d < 3; d++) {
       f[i][d] += fbuf_[3 * i + d];
       t[i][d] += tbuf_[3 * i + d];
     }
+  /* a periodic image's share goes to the atom itself; other ranks' atoms get theirs there */
+  for (int i = nlocal; i < n; i++) {
+    const int o = image_of_[i - nlocal];
+    if (o < 0) continue;
+    for (int d = 0; d < 3; d++) {
+      f[o][d] += fbuf_[3 * i + d];
+      t[o][d] += tbuf_[3 * i + d];
+    }
+  }
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
+  /* many ranks: rank 0 keeps every rank's history for a restart file written after the run or at this step */
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+  const bool restart_step = output->restart_requested(update->ntimestep);
+#else
+  const bool restart_step = output->restart_flag && update->ntimestep == output->next_restart;
+#endif
+  if (ghosts_ && (update->ntimestep == update->laststep || restart_step)) gather_history();
   if (timers_.on) {
     timers_.pack += tp1 - tp0;
     timers_.unpack += sphdem_pair_timers::now() - tp2;
-    if (update->setupflag) timers_.reset(dem_);
-    else if (update->ntimestep == update->laststep && comm->me == 0)
-      sphdem_compat::logmesg(lmp, timers_.line(dem_, style_));
+    if (update->setupflag) {
+      timers_.reset(dem_);
+    } else if (update->ntimestep == update->laststep) {
+      const std::string line = timers_.line(dem_, style_, world); /* collective */
+      if (comm->me == 0) sphdem_compat::logmesg(lmp, line);
+    }
   }
 }
 

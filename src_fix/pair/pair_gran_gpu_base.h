@@ -40,6 +40,18 @@ class PairGranGPUBase : public Pair {
   std::vector<int> flags_;
   sphdem_pair_timers::RunTimers timers_;           /* keyword timers on */
   sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
+  /* Many MPI ranks: the core gets the owned atoms and then the ghost atoms (flags SPHDEM_DEM_GHOST or
+   * SPHDEM_DEM_IMAGE); every rank evaluates each pair that has one of its own atoms and adds the force to its
+   * own atoms only, so a pair split between two ranks is evaluated on both with the same operands and both
+   * keep the same history. */
+  bool ghosts_;
+  std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, or -1 */
+  int nall_mapped_;                   /* atoms when image_of_ was made */
+  std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build, sorted (history hand-over) */
+  bool owned_prev_set_;
+  std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
+  std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
+  bool gathered_;
 
   /* the engine's arguments -> sphdem_dem_params; ends with set_box and push_params */
   virtual void sync_params() = 0;
@@ -48,7 +60,15 @@ class PairGranGPUBase : public Pair {
   void allocate();
   /* keywords device, algo, timers: true when kw is one of them (a bad value ends the run) */
   bool common_keyword(const std::string &kw, const std::string &val);
-  void require_one_rank();
+  /* many ranks: image_of_ from the atoms' tags (after each exchange of ghost atoms) */
+  void map_ghosts(int nlocal, int nall);
+  /* many ranks, collective, at the engine's list builds (after atoms changed rank): the history of the pairs of
+   * atoms that left a rank goes to the rank they joined, where the core's next build carries it */
+  void hand_over_history();
+  /* many ranks, collective: the history of every rank to rank 0 (each pair once), for write_restart */
+  void gather_history();
+  /* read_restart: rank 0 reads n items, every rank gets them; false (on every rank) when the file ends */
+  bool read_head(FILE *fp, void *p, size_t size, size_t n);
   /* the checks of init_style common to both engines; atom_styles names the styles that fit */
   void check_atoms(const char *atom_styles);
   /* the largest radius per type of the local grains (frozen ones apart) added to dyn/frz (nt + 1 each,

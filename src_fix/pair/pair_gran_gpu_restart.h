@@ -1,6 +1,8 @@
 /* pair_gran_gpu_restart.h - restart-file part shared by the GPU granular pair styles of both engines:
  * pair_coeff flags and the DEM core's tag-keyed contact history, written by write_restart and read
- * back into a pending copy that init_style hands to the core once it exists. One rank. */
+ * back into a pending copy that init_style hands to the core once it exists. Many ranks: rank 0 writes the
+ * history gathered from every rank and reads the file; every rank gets all of it and its core carries the
+ * pairs it has. */
 #ifndef SPHDEM_PAIR_GRAN_GPU_RESTART_H
 #define SPHDEM_PAIR_GRAN_GPU_RESTART_H
 
@@ -46,19 +48,37 @@ inline long long bytes_left(FILE *fp) {
  * xyz, touch flag, largest overlap of hooke/hysteresis). Files written before the values-per-pair field
  * have keys right after the count and 4 values per pair (no largest overlap: 0, no hysteresis then). */
 constexpr uint64_t SPHDEM_HIST_LEGACY_DOUBLES = 4;
-inline bool write_history(FILE *fp, sphdem_dem dem) {
+/* the core's whole pair list and its history; false when the core cannot give it */
+inline bool get_history(sphdem_dem dem, std::vector<uint64_t> &keys, std::vector<double> &hist) {
   int64_t np = dem ? sphdem_dem_get_history(dem, nullptr, nullptr, 0) : 0;
   if (np < 0) return false;
-  std::vector<uint64_t> keys((size_t)np);
-  std::vector<double> hist((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  if (np > 0 && sphdem_dem_get_history(dem, keys.data(), hist.data(), np) != np) return false;
+  keys.resize((size_t)np);
+  hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
+  return np == 0 || sphdem_dem_get_history(dem, keys.data(), hist.data(), np) == np;
+}
+/* a pair key whose second half is a wall code (sphdem_dem_get_history) */
+inline bool wall_key(uint64_t key) { return (key & 0xffffffffu) > 0xffffffffu - SPHDEM_DEM_MAX_WALL_CONTACTS; }
+/* a pair with a history to keep (a pair whose values are all 0 is a pair with none) */
+inline bool has_history(const double *h) {
+  for (int q = 0; q < SPHDEM_DEM_HIST_DOUBLES; q++)
+    if (h[q] != 0.0) return true;
+  return false;
+}
+inline void write_history(FILE *fp, const std::vector<uint64_t> &keys, const std::vector<double> &hist) {
+  const int64_t np = (int64_t)keys.size();
   fwrite(&np, sizeof(int64_t), 1, fp);
   if (np > 0) {
     const uint64_t per = SPHDEM_DEM_HIST_DOUBLES;
     fwrite(&per, sizeof(uint64_t), 1, fp);
     fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
-    fwrite(hist.data(), sizeof(double), hist.size(), fp);
+    fwrite(hist.data(), sizeof(double), (size_t)np * SPHDEM_DEM_HIST_DOUBLES, fp);
   }
+}
+inline bool write_history(FILE *fp, sphdem_dem dem) {
+  std::vector<uint64_t> keys;
+  std::vector<double> hist;
+  if (!get_history(dem, keys, hist)) return false;
+  write_history(fp, keys, hist);
   return true;
 }
 

@@ -1,6 +1,7 @@
 /* pair_gran_gpu_timers.h - per-run time split of the GPU granular pair styles of both engines (keyword
  * "timers on"): the host loops that map the atoms to the core's arrays and add the results back, and
- * the core's own split (sphdem_dem_timers); one line at the last step of each run. */
+ * the core's own split (sphdem_dem_timers); one line at the last step of each run. Many MPI ranks: the times,
+ * calls and builds are the largest of the ranks, pairs and contacts their sums (each pair counted once). */
 #ifndef SPHDEM_PAIR_GRAN_GPU_TIMERS_H
 #define SPHDEM_PAIR_GRAN_GPU_TIMERS_H
 
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "sphdem.h"
+#include "sphdem_mpi.h"
 
 namespace sphdem_pair_timers {
 
@@ -24,17 +26,28 @@ struct RunTimers {
     pack = unpack = 0.0;
     sphdem_dem_timers_reset(dem);
   }
-  std::string line(sphdem_dem dem, const std::string &style) const {
+  /* collective over world */
+  std::string line(sphdem_dem dem, const std::string &style, MPI_Comm world) const {
     double t[SPHDEM_DEM_NTIMERS];
-    long long calls = (long long)sphdem_dem_timers(dem, t);
+    double calls_d = (double)sphdem_dem_timers(dem, t);
     sphdem_dem_stats s;
     sphdem_dem_stats_get(dem, &s);
+    double mx[SPHDEM_DEM_NTIMERS + 4], sm[2] = {(double)s.npairs, (double)s.ncontacts};
+    for (int k = 0; k < SPHDEM_DEM_NTIMERS; k++) mx[k] = t[k];
+    mx[SPHDEM_DEM_NTIMERS] = pack, mx[SPHDEM_DEM_NTIMERS + 1] = unpack, mx[SPHDEM_DEM_NTIMERS + 2] = calls_d;
+    mx[SPHDEM_DEM_NTIMERS + 3] = (double)s.nbuilds;
+    sphdem_mpi::max(world, mx, SPHDEM_DEM_NTIMERS + 4);
+    sphdem_mpi::sum(world, sm, 2);
+    for (int k = 0; k < SPHDEM_DEM_NTIMERS; k++) t[k] = mx[k];
+    const double pk = mx[SPHDEM_DEM_NTIMERS], upk = mx[SPHDEM_DEM_NTIMERS + 1];
+    const long long calls = (long long)mx[SPHDEM_DEM_NTIMERS + 2];
+    s.nbuilds = (int64_t)mx[SPHDEM_DEM_NTIMERS + 3], s.npairs = (int64_t)sm[0], s.ncontacts = (int64_t)sm[1];
     char buf[768];
     std::snprintf(buf, sizeof buf,
                   "Pair %s timers: calls=%lld pack_s=%.6g upload_s=%.6g check_s=%.6g detect_s=%.6g force_s=%.6g "
                   "download_s=%.6g unpack_s=%.6g builds_total=%lld pairs=%lld contacts=%lld\n",
-                  style.c_str(), calls, pack, t[SPHDEM_DEM_T_UPLOAD], t[SPHDEM_DEM_T_CHECK], t[SPHDEM_DEM_T_DETECT],
-                  t[SPHDEM_DEM_T_FORCE], t[SPHDEM_DEM_T_DOWNLOAD], unpack, (long long)s.nbuilds, (long long)s.npairs,
+                  style.c_str(), calls, pk, t[SPHDEM_DEM_T_UPLOAD], t[SPHDEM_DEM_T_CHECK], t[SPHDEM_DEM_T_DETECT],
+                  t[SPHDEM_DEM_T_FORCE], t[SPHDEM_DEM_T_DOWNLOAD], upk, (long long)s.nbuilds, (long long)s.npairs,
                   (long long)s.ncontacts);
     return buf;
   }

@@ -118,8 +118,7 @@ void PairGranHookeHistoryGPU::read_restart(FILE *fp) {
   begin_read_restart();
   double d[5];
   int iv[4];
-  read_restart_tail(fp, sphdem_restart::read_items(fp, d, sizeof(double), 5) &&
-                            sphdem_restart::read_items(fp, iv, sizeof(int), 4));
+  read_restart_tail(fp, read_head(fp, d, sizeof(double), 5) && read_head(fp, iv, sizeof(int), 4));
   kn = d[0], kt = d[1], gamman = d[2], gammat = d[3], xmu = d[4];
   dampflag = iv[0], limit_damping = iv[1], device_ = iv[2], algo_ = iv[3];
 }

@@ -32,8 +32,8 @@
                10000 LIGGGHTS): the final x, v, omega of the /gpu run within twice the distance of a stock
                run with the grains displaced by 1e-15 m (the packing amplifies round-off; exact equality
                depends on the order of the stock style's arithmetic, which differs between versions)
-  errors LMP [MPIRUN]  an unsupported argument, a bad dampflag and 2 MPI ranks stop with a message
-               naming the cause
+  errors LMP [MPIRUN]  an unsupported argument and a bad dampflag stop with a message naming the cause;
+               on 2 MPI ranks the head-on pair runs, and stops naming comm_modify vel yes without it
   pile   LMP   ~1000 grains settling (150000 steps): stock vs /gpu packing fraction within 1 %, KE decayed, and
                the KE decay of /gpu within twice the stock style's run-to-run scatter (two more stock runs
                with the grains displaced by up to 1e-12 m)
@@ -262,10 +262,16 @@ def errors(lmp, mpirun=None):
         print("bad arguments '%s': %s" % (args, "stops naming it" if good else "FAIL\n" + out[-800:]))
         ok &= good
     if mpirun:
-        rc, out = run([mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp], os.path.join("dem_err", "mpi"),
-                      script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"]))
-        good = rc != 0 and "one MPI rank only" in out
-        print("2 MPI ranks: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
+        mpi = [mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp]
+        text = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"])
+        rc, out = run(mpi, os.path.join("dem_err", "mpi"), text)
+        good = rc == 0 and "ERROR" not in out and re.search(r"Loop time of \S+ on 2 procs", out) is not None
+        print("2 MPI ranks: %s" % ("runs" if good else "FAIL\n" + out[-800:]))
+        ok &= good
+        rc, out = run(mpi, os.path.join("dem_err", "mpi_novel"), text.replace("comm_modify vel yes\n", ""))
+        good = rc != 0 and "ERROR" in out and "comm_modify vel yes" in out
+        print("2 MPI ranks without ghost velocities: %s" % ("stops naming comm_modify vel yes" if good else
+                                                            "FAIL\n" + out[-800:]))
         ok &= good
     return ok
 

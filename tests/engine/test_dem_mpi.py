@@ -1,0 +1,279 @@
+#!/usr/bin/env python3
+"""test_dem_mpi.py - the GPU granular pair styles on several MPI ranks (the engine's domain decomposition).
+
+The scene: frictional Hertz grains (d = 2 mm) created on a loose lattice over a floor, thrown sideways
+(bulk vx, vz varying along x) under gravity in a box periodic in x and y, 'processors N 1 1': the bed
+collides, settles and slides across the subdomain boundaries, so grains change rank while they touch
+(the contact history must go with them) and pairs straddle two ranks. Positions are compared sorted by
+atom ID after the stated number of steps; every bound is about round-off growth (the reference is stock
+vs stock at another rank count, printed alongside).
+
+  lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
+                       stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
+                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run
+  liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
+                       LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
+                       np 2 -> np 1
+Python 3 only; exits 0 on pass, 1 on failure.
+"""
+import math
+import os
+import shutil
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import engine_test as E  # noqa: E402  (the run helper)
+
+D = 2e-3       # grain diameter
+STEPS = 2000   # steps compared (dt 2e-6: 4 ms; the bed slides by ~1 mm)
+BOUND = 1e-8   # max |dx| / d after STEPS steps, /gpu vs stock and /gpu vs /gpu at other rank counts
+
+LMP = """units si
+atom_style sphere
+boundary p p f
+newton {newton}
+processors {px} 1 1
+atom_modify map array sort 100 0.002
+comm_modify vel yes
+read_data ../bed.data
+neighbor 0.0004 bin
+neigh_modify delay 0 every 1 check yes
+pair_style {style} 2e8 NULL 2e4 NULL 0.5 1
+pair_coeff * *
+fix floor all wall/gran hertz/history 2e8 NULL 2e4 NULL 0.5 1 zplane 0 NULL
+fix g all gravity 9.81 vector 0 0 -1
+fix 1 all nve/sphere
+timestep 2e-6
+thermo_style custom step atoms ke press
+thermo 500
+{run}
+"""
+DUMP = """write_dump all custom {name} id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+LIG = """units si
+atom_style granular
+boundary p p f
+newton off
+processors {px} 1 1
+atom_modify map array sort 100 0.002
+communicate single vel yes
+read_data ../bed.data
+neighbor 0.0004 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 5e7
+fix m2 all property/global poissonsRatio peratomtype 0.3
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.6
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+pair_style {style} model hertz tangential history
+pair_coeff * *
+fix floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0
+fix g all gravity 9.81 vector 0 0 -1
+fix 1 all nve/sphere
+timestep 2e-6
+thermo_style custom step atoms ke
+thermo 500
+{run}
+"""
+LIG_DUMP = """dump d all custom 1 {name} id x y z vx vy vz omegax omegay omegaz
+dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+run 0
+undump d
+"""
+
+
+NX, NY, NZ, A = 14, 6, 12, 2.15e-3  # lattice of the bed (spacing A > D: no grain touches another at the start)
+
+
+def bed_data(path):
+    """the bed as a data file (atom IDs do not depend on the rank count, as they would with create_atoms):
+    grains on a loose lattice, each displaced and given a velocity from its ID (a fixed hash), a bulk
+    sideways velocity and a vertical one that varies along x: they collide at once and slide"""
+    def h(i, k):  # deterministic in [-1, 1)
+        v = (i * 2654435761 + k * 40503) % 4294967296
+        return v / 2147483648.0 - 1.0
+    atoms, vel = [], []
+    i = 0
+    for z in range(NZ):
+        for y in range(NY):
+            for x in range(NX):
+                i += 1
+                px, py, pz = (x + 0.5 + 0.03 * h(i, 1)) * A, (y + 0.5 + 0.03 * h(i, 2)) * A, (z + 0.5 + 0.03 * h(i, 3)) * A
+                atoms.append("%d 1 %.17g 2500 %.17g %.17g %.17g" % (i, D, px, py, pz))
+                vx = 0.4 + 0.1 * h(i, 4)
+                vz = 0.3 * math.sin(2 * 3.141592653589793 * px / (NX * A)) + 0.1 * h(i, 5)
+                vel.append("%d %.17g %.17g %.17g 0 0 0" % (i, vx, 0.1 * h(i, 6), vz))
+    with open(path, "w") as f:
+        f.write("bed of %d grains\n\n%d atoms\n1 atom types\n\n0 %.17g xlo xhi\n0 %.17g ylo yhi\n0 0.04 zlo zhi\n\n"
+                % (i, i, NX * A, NY * A))
+        f.write("Atoms\n\n" + "\n".join(atoms) + "\n\nVelocities\n\n" + "\n".join(vel) + "\n")
+
+
+def load(path):
+    lines = [l.strip() for l in open(path).read().splitlines()]
+    i = next(k for k, l in enumerate(lines) if l.startswith("ITEM: ATOMS"))
+    return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
+
+
+def max_dx(a, b):
+    """largest |x_a - x_b| / d over the grains (rows id x y z ...), None if the ids differ"""
+    if len(a) != len(b) or [r[0] for r in a] != [r[0] for r in b]:
+        return None
+    return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) / D
+
+
+def fmt(v):
+    return "%.3g" % v if v is not None else "(ids differ)"
+
+
+class Runner:
+    def __init__(self, mpirun, exe, liggghts, root):
+        self.mpirun, self.exe, self.lig, self.root = mpirun, exe, liggghts, root
+        self.out = {}
+
+    def cmd(self, np):
+        return [self.mpirun, "-np", str(np), "--oversubscribe", "--allow-run-as-root", self.exe]
+
+    def script(self, style, np, newton, run):
+        t = LIG if self.lig else LMP
+        return t.format(style=style, px=np, newton=newton, run=run)
+
+    def dump(self, name):
+        return (LIG_DUMP if self.lig else DUMP).format(name=name)
+
+    def go(self, tag, np, text, files=()):
+        wd = os.path.join(self.root, tag)
+        os.makedirs(wd, exist_ok=True)
+        for f in files:
+            shutil.copy(f, wd)
+        if not os.path.exists(os.path.join(self.root, "bed.data")):
+            bed_data(os.path.join(self.root, "bed.data"))
+        text = text.replace("../bed.data", os.path.abspath(os.path.join(self.root, "bed.data")))
+        rc, out = E.run(self.cmd(np), wd, text, timeout=300)
+        self.out[tag] = out
+        if rc != 0 or "ERROR" in out:
+            print("FAIL %s (np %d): rc %d\n%s" % (tag, np, rc, out[-2500:]))
+            return None
+        return wd
+
+    def final(self, tag, style, np, newton="off"):
+        """positions after STEPS steps"""
+        wd = self.go(tag, np, self.script(style, np, newton, "run %d\n" % STEPS + self.dump("final.dump")))
+        return load(os.path.join(wd, "final.dump")) if wd else None
+
+
+def crossings(out):
+    """the largest number of grains in the box (a sanity check that the run did something) from thermo"""
+    return out.count("\n")
+
+
+def compare(results, label, a, b, bound=BOUND):
+    dx = max_dx(a, b) if a is not None and b is not None else None
+    ok = dx is not None and dx < bound
+    print("  %-58s max |dx| = %s d %s" % (label, fmt(dx), "(bound %g)" % bound if bound else "(reference)"))
+    results.append(ok if bound else True)
+    return dx
+
+
+def restart_pair(r, results, style, np_write, np_read, newton):
+    """STEPS/2 steps at np_write, write_restart, read at np_read, STEPS/2 more: vs the same two runs in one
+    input at np_write (a new run's setup alone moves the grains by ~3e-8 d here, with the stock style too:
+    the stock fix wall/gran, the sorting and the reneighbouring of the setup)"""
+    half = STEPS // 2
+    tag = "restart_%d_%d_%s" % (np_write, np_read, newton)
+    u = r.go(tag + "/unbroken", np_write, r.script(style, np_write, newton, "run %d\nrun %d\n" % (half, half) +
+                                                   r.dump("final.dump")))
+    unbroken = load(os.path.join(u, "final.dump")) if u else None
+    w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, "run %d\nwrite_restart bed.restart\n" % half))
+    if not w:
+        results.append(False)
+        return
+    if r.lig:
+        cont = ("processors %d 1 1\nread_restart bed.restart\nneighbor 0.0004 bin\nneigh_modify delay 0\n"
+                "communicate single vel yes\n" % np_read +
+                "\n".join(l for l in LIG.splitlines() if l.startswith("fix m")) + "\n" +
+                "fix floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0\n"
+                "fix g all gravity 9.81 vector 0 0 -1\nfix 1 all nve/sphere\ntimestep 2e-6\n"
+                "thermo 500\nrun %d\n" % half + r.dump("final.dump"))
+    else:
+        cont = ("processors %d 1 1\nread_restart bed.restart\nnewton %s\nneighbor 0.0004 bin\n"
+                "neigh_modify delay 0 every 1 check yes\ncomm_modify vel yes\n"
+                "fix floor all wall/gran hertz/history 2e8 NULL 2e4 NULL 0.5 1 zplane 0 NULL\n"
+                "fix g all gravity 9.81 vector 0 0 -1\nfix 1 all nve/sphere\ntimestep 2e-6\n"
+                "thermo 500\nrun %d\n" % (np_read, newton, half) + r.dump("final.dump"))
+    c = r.go(tag + "/read", np_read, cont, files=[os.path.join(w, "bed.restart")])
+    b = load(os.path.join(c, "final.dump")) if c else None
+    compare(results, "restart np %d -> np %d vs unbroken np %d" % (np_write, np_read, np_write), unbroken, b)
+
+
+def lammps(mpirun, lmp):
+    r = Runner(mpirun, lmp, False, "dem_mpi_lmp")
+    res = []
+    print("LAMMPS: %d steps, positions sorted by atom ID" % STEPS)
+    for newton in ("on", "off"):
+        s1 = r.final("stock_np1_" + newton, "gran/hertz/history", 1, newton)
+        s2 = r.final("stock_np2_" + newton, "gran/hertz/history", 2, newton)
+        g1 = r.final("gpu_np1_" + newton, "gran/hertz/history/gpu", 1, newton)
+        g2 = r.final("gpu_np2_" + newton, "gran/hertz/history/gpu", 2, newton)
+        if s2 is None or g2 is None:
+            return False
+        print(" newton %s, %d grains:" % (newton, len(s2)))
+        compare(res, "stock np 1 vs stock np 2", s1, s2, bound=0)
+        compare(res, "/gpu np 2 vs stock np 2", g2, s2)
+        compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
+        compare(res, "/gpu np 1 vs stock np 1", g1, s1)
+        if newton == "on":
+            s4 = r.final("stock_np4_on", "gran/hertz/history", 4, newton)
+            g4 = r.final("gpu_np4_on", "gran/hertz/history/gpu", 4, newton)
+            compare(res, "/gpu np 4 vs stock np 4", g4, s4)
+            restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton)
+            restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
+    moved = migrated(r.out.get("gpu_np2_on", ""))
+    ok = all(res) and moved
+    print("%s LAMMPS /gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
+    return ok
+
+
+def migrated(out):
+    """the run rebuilt its lists (so atoms changed rank) and kept its grains"""
+    good = "Neighbor list builds" in out and "Dangerous builds = 0" in out
+    if not good:
+        print("  the /gpu np 2 run reports no neighbour-list builds or dangerous builds:\n" + out[-1500:])
+    return good
+
+
+def liggghts(mpirun, lig):
+    r = Runner(mpirun, lig, True, "dem_mpi_lig")
+    res = []
+    print("LIGGGHTS: %d steps, positions sorted by atom ID" % STEPS)
+    s1 = r.final("stock_np1", "gran", 1)
+    s2 = r.final("stock_np2", "gran", 2)
+    g1 = r.final("gpu_np1", "gran/gpu", 1)
+    g2 = r.final("gpu_np2", "gran/gpu", 2)
+    if s2 is None or g2 is None:
+        return False
+    print(" %d grains:" % len(s2))
+    compare(res, "stock np 1 vs stock np 2", s1, s2, bound=0)
+    compare(res, "/gpu np 2 vs stock np 2", g2, s2)
+    compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
+    compare(res, "/gpu np 1 vs stock np 1", g1, s1)
+    restart_pair(r, res, "gran/gpu", 2, 1, "off")
+    ok = all(res)
+    print("%s LIGGGHTS gran/gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
+    return ok
+
+
+def main():
+    if len(sys.argv) < 4:
+        print(__doc__)
+        return 2
+    mode, mpirun, exe = sys.argv[1:4]
+    ok = lammps(mpirun, exe) if mode == "lammps" else liggghts(mpirun, exe) if mode == "liggghts" else None
+    if ok is None:
+        print("unknown mode " + mode)
+        return 2
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
