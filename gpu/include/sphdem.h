@@ -130,6 +130,17 @@ int sphdem_get_params(sphdem_ctx ctx, sphdem_params *p);
  * order is kept (so a download/upload round trip changes nothing); otherwise the fluid is rebuilt. */
 int sphdem_set_fluid(sphdem_ctx ctx, int n, const int64_t *tag, const double *x, const double *v,
                      const double *rho, const double *mass, const double *state);
+/* Many ranks: the last nghost fluid and nwghost wall particles of the last sphdem_set_fluid / sphdem_set_walls
+ * are ghost copies (other ranks' particles within the communication cutoff, periodic images): they enter every
+ * pair sum; the statistics, stability checks and kinetic energy count the owned particles only, reduced over
+ * the ranks (sphdem_set_comm). Valid until the next sphdem_set_fluid / sphdem_set_walls; a negative count leaves
+ * that set as it is. */
+int sphdem_set_ghosts(sphdem_ctx ctx, int nghost, int nwghost);
+/* Replace the ghost fluid particles' x, v, rho and state (drho, a: SPHDEM_NSTATE per particle, only the first
+ * four used; NULL keeps them) in place, same set and caller order as the last sphdem_set_fluid (nghost values
+ * each, for the caller indices n - nghost .. n - 1); the owned particles are left as they are. */
+int sphdem_update_ghosts(sphdem_ctx ctx, int nghost, const double *x, const double *v, const double *rho,
+                         const double *state);
 /* Upload wall (dummy) particles: positions, prescribed velocity, acceleration (NULL = 0), mass. */
 int sphdem_set_walls(sphdem_ctx ctx, int n, const double *x, const double *v, const double *a,
                      const double *mass);
@@ -641,6 +652,11 @@ double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double 
  * bad index or phase, SPHDEM_ERR_ALLOC. */
 int sphdem_initial_density(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf, int n,
                            const double *x, const int *phase, int nout, const int *which, double *rho);
+/* The same on many ranks: n, x, phase are this rank's owned particles; the layers are binned over every rank
+ * (collective when the multiphase hydrostatic start is on: every rank calls it, with or without fresh particles). */
+int sphdem_initial_density_ranks(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf,
+                                 int n, const double *x, const int *phase, int nout, const int *which, double *rho,
+                                 const sphdem_comm *comm);
 /* Fixed ghost walls (Shi & Huang 2022 §3.4): xi (3n) of each of n wall particles (x 3n) is its mirror image
  * across the faces of the fluid box [lo, hi] it lies outside of (unbounded axes: -1e300, 1e300). A particle
  * inside the box: SPHDEM_ERR_ARG with *inside its index (xi written up to it); else *inside = -1. */

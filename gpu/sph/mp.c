@@ -232,6 +232,7 @@ static int mp_prepare(struct sphdem_ctx_s *c) {
   if (D->M.shifting) {
     sphdem_red r;
     TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
+    TRYM(sphdem_rt_allreduce(&c->rt, r.v2ph, SPHDEM_MAX_PHASES, SPHDEM_RED_MAX)); /* over the ranks' owned */
     for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
   }
   TRYM(c->ops->mp_grad(c));

@@ -576,6 +576,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
   } else {
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }
+  D->nown = n;
   if (n > 0) {
     TRY(upload_vec(c, D->x, x, n, 3, order));
     TRY(upload_vec(c, D->v, v, n, 3, order));
@@ -609,6 +610,7 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   TRY(ensure_walls(c, n));
   TRY(ensure_host(c, n));
   D->nw = n;
+  c->nwown = n;
   if (n > 0) {
     TRY(up(c, D->wx, x, 24 * (size_t)n));
     TRY(up(c, D->wmass, mass, 8 * (size_t)n));
@@ -625,6 +627,58 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   c->need_wall_sort = 1;
   D->wmls = 0; /* Adami walls until sphdem_set_wall_mirror */
+  return SPHDEM_OK;
+}
+
+int sphdem_set_ghosts(sphdem_ctx c, int nghost, int nwghost) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (nghost > D->nf || nwghost > D->nw)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "set_ghosts: %d fluid and %d wall ghosts for %lld fluid and %lld wall "
+                       "particles", nghost, nwghost, (long long)D->nf, (long long)D->nw);
+  if (nghost >= 0) D->nown = D->nf - nghost;
+  if (nwghost >= 0) c->nwown = D->nw - nwghost;
+  return SPHDEM_OK;
+}
+
+/* The ghost slots get new values: download, replace the ghosts' entries (device slot s holds caller index
+ * uidx[s]), upload. Whole arrays travel (simple and backend-independent); the owned entries are unchanged. */
+int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double *v, const double *rho,
+                         const double *state) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  const int64_t n = D->nf, n0 = D->nown;
+  if (nghost != n - n0)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "update_ghosts: %d values for %lld ghost particles", nghost,
+                       (long long)(n - n0));
+  if (nghost == 0) return SPHDEM_OK;
+  if (!x || !v || !rho) return sphdem_fail(c, SPHDEM_ERR_ARG, "update_ghosts: x, v and rho are required");
+  TRY(check_positions(c, "update_ghosts", nghost, NULL, x));
+  double t0 = rt_now();
+  TRY(ensure_host(c, n));
+  TRY(rt_sync(&c->rt));
+  TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
+  const int32_t *ui = c->huidx;
+  double *h = c->hbuf;
+  struct { double *dst; const double *src; int ncomp; int off; int stride; } f[] = {
+    {D->x, x, 3, 0, 3}, {D->v, v, 3, 0, 3}, {D->rho, rho, 1, 0, 1},
+    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE},
+  };
+  for (size_t k = 0; k < sizeof f / sizeof f[0]; k++) {
+    if (!f[k].src) continue;
+    TRY(down(c, h, f[k].dst, 8 * (size_t)f[k].ncomp * (size_t)n));
+    for (int64_t s = 0; s < n; s++) {
+      const int64_t g = (int64_t)ui[s] - n0;
+      if (g < 0) continue;
+      for (int d = 0; d < f[k].ncomp; d++) h[f[k].ncomp * s + d] = f[k].src[g * f[k].stride + f[k].off + d];
+    }
+    TRY(up(c, f[k].dst, h, 8 * (size_t)f[k].ncomp * (size_t)n));
+  }
+  D->ks_ok = 0;
+  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
+  sphdem_red r;
+  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (!(r.disp2max <= 0.25 * D->P.skin * D->P.skin)) c->need_sort = 1;
   return SPHDEM_OK;
 }
 
@@ -861,11 +915,20 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   if (!c || !s) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
   memset(s, 0, sizeof *s);
-  s->nfluid = D->nf;
-  s->nwall = D->nw;
   sphdem_red r;
   if (D->nf > 0) TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
   else red_init(&r);
+  /* many ranks: the owned particles of every rank (collective) */
+  double gmax[4] = {r.v2max, r.a2max, r.rhoerr, r.numax};
+  double gsum[5] = {r.ke, (double)r.nnan, (double)r.nlost, (double)D->nown, (double)c->nwown};
+  if (rt_nranks(&c->rt) > 1) {
+    TRY(sphdem_rt_allreduce(&c->rt, gmax, 4, SPHDEM_RED_MAX));
+    TRY(sphdem_rt_allreduce(&c->rt, gsum, 5, SPHDEM_RED_SUM));
+  }
+  r.v2max = gmax[0]; r.a2max = gmax[1]; r.rhoerr = gmax[2]; r.numax = gmax[3];
+  r.ke = gsum[0]; r.nnan = (int64_t)gsum[1]; r.nlost = (int64_t)gsum[2];
+  s->nfluid = (int64_t)gsum[3];
+  s->nwall = (int64_t)gsum[4];
   const sphdem_params *P = &D->P;
   s->vmax = sqrt(r.v2max);
   s->amax = sqrt(r.a2max);

@@ -538,6 +538,11 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
   for (int d = 0; d < D->P.dim; d++) { r->lo[d] = fmin(r->lo[d], x[d]); r->hi[d] = fmax(r->hi[d], x[d]); }
   if (set != SPHDEM_SET_FLUID) return;
   double v2 = 0.0, a2 = 0.0, s2 = 0.0, rr[3];
+  if (D->uidx[i] >= D->nown) { /* a ghost copy: its displacement decides a resort, its state is its owner's */
+    if (isfinite(x[0] + x[1] + x[2])) r->disp2max = fmax(r->disp2max, separation(D, x, D->x0 + 3 * i, rr));
+    else r->disp2max = 1e300;
+    return;
+  }
   int bad = !isfinite(D->rho[i]), lost = 0;
   for (int d = 0; d < D->P.dim; d++) {
     double vd = D->v[3 * i + d], ad = D->a[3 * i + d];

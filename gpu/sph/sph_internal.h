@@ -31,6 +31,8 @@ typedef struct {
   int64_t ncells;
   /* fluid */
   int64_t nf;
+  int64_t nown;        /* particles with uidx < nown are owned; the rest are ghost copies of other ranks' (or
+                        * periodic images): they enter the pair sums, not the statistics (= nf on one rank) */
   double *x, *v, *rho, *mass, *drho, *a, *u, *p, *x0;
   double *rhop, *ve;   /* density and velocity predicted to the force time (velocity Verlet) */
   double *pr2;         /* P / rho^2 at the force time */
@@ -132,6 +134,7 @@ typedef struct {
 struct sphdem_ctx_s {
   sphdem_dev D;
   sphdem_rt rt;                 /* memory, device bytes held, error text */
+  int64_t nwown;                /* owned wall particles (the rest of the last set_walls are ghost copies) */
   const sphdem_ops *ops;
   int backend;                  /* SPHDEM_DEVICE_CPU / _GPU */
   char note[600];

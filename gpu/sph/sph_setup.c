@@ -20,7 +20,8 @@ static int gravity_axis(const sphdem_params *p, double *down_sign) {
  * the nb + 1 bin edges z[b] = b dx. Exact for horizontal layers; an estimate elsewhere (the fluid settles
  * from it). *z and *pres are allocated here (the caller frees them). */
 static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, double zsurf, int n,
-                            const double *x, const int *phase, size_t *nb_out, double **z_out, double **p_out) {
+                            const double *x, const int *phase, const sphdem_comm *comm, size_t *nb_out,
+                            double **z_out, double **p_out) {
   double down_sign;
   const int axis = gravity_axis(p, &down_sign);
   const double g = fabs(p->gravity[axis]), bw = p->dx;
@@ -29,6 +30,8 @@ static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, d
     const double depth = down_sign * (zsurf - x[3 * i + axis]);
     if (dmax < depth) dmax = depth;
   }
+  const int many = comm && comm->allreduce && comm->nranks > 1; /* the bins of every rank's particles */
+  if (many && comm->allreduce(comm->user, &dmax, 1, SPHDEM_RED_MAX) != 0) return SPHDEM_ERR_STATE;
   const size_t nb = (size_t)(dmax / bw) + 2;
   double *srho = calloc(nb, sizeof(double)), *cnt = calloc(nb, sizeof(double));
   double *z = calloc(nb + 1, sizeof(double)), *pr = calloc(nb + 1, sizeof(double));
@@ -44,6 +47,11 @@ static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, d
     srho[b] += m->phase[phase[i]].rho0;
     cnt[b] += 1.0;
   }
+  if (many && (comm->allreduce(comm->user, srho, (int)nb, SPHDEM_RED_SUM) != 0 ||
+               comm->allreduce(comm->user, cnt, (int)nb, SPHDEM_RED_SUM) != 0)) {
+    free(srho), free(cnt), free(z), free(pr);
+    return SPHDEM_ERR_STATE;
+  }
   for (size_t b = 0; b < nb; b++) {
     z[b + 1] = (double)(b + 1) * bw;
     pr[b + 1] = pr[b] + (cnt[b] > 0 ? srho[b] / cnt[b] : 0.0) * g * bw;
@@ -55,6 +63,12 @@ static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, d
 
 int sphdem_initial_density(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf, int n,
                            const double *x, const int *phase, int nout, const int *which, double *rho) {
+  return sphdem_initial_density_ranks(p, m, hydrostatic, zsurf, n, x, phase, nout, which, rho, NULL);
+}
+
+int sphdem_initial_density_ranks(const sphdem_params *p, const sphdem_mp_params *m, int hydrostatic, double zsurf,
+                                 int n, const double *x, const int *phase, int nout, const int *which, double *rho,
+                                 const sphdem_comm *comm) {
   const int mp = m && m->enabled;
   if (!p || n < 0 || nout < 0 || (nout > 0 && (!x || !which || !rho)) || (mp && n > 0 && !phase))
     return SPHDEM_ERR_ARG;
@@ -64,14 +78,21 @@ int sphdem_initial_density(const sphdem_params *p, const sphdem_mp_params *m, in
   if (mp)
     for (int i = 0; i < n; i++)
       if (phase[i] < 0 || phase[i] >= m->nphase) return SPHDEM_ERR_ARG;
-  if (nout == 0) return SPHDEM_OK;
+  const int layered = mp && hydrostatic;
+  if (layered && comm && comm->allreduce && comm->nranks > 1) { /* collective: is a fresh particle anywhere? */
+    double any = nout > 0 ? 1.0 : 0.0;
+    if (comm->allreduce(comm->user, &any, 1, SPHDEM_RED_MAX) != 0) return SPHDEM_ERR_STATE;
+    if (any == 0.0) return SPHDEM_OK;
+  } else if (nout == 0) {
+    return SPHDEM_OK;
+  }
 
   double down_sign;
   const int axis = gravity_axis(p, &down_sign);
   size_t nb = 0;
   double *z = NULL, *pr = NULL;
   if (mp && hydrostatic) {
-    const int rc = layered_pressure(p, m, zsurf, n, x, phase, &nb, &z, &pr);
+    const int rc = layered_pressure(p, m, zsurf, n, x, phase, comm, &nb, &z, &pr);
     if (rc != SPHDEM_OK) return rc;
   }
   for (int j = 0; j < nout; j++) {

@@ -169,6 +169,19 @@ inline ComputeCreatorMap *compute_map(LAMMPS_NS::Modify *modify) {
 #endif
 }
 
+/* The communication cutoff (comm->cutghostuser) that brings every ghost atom within `band` of a subdomain.
+ * LAMMPS: the band itself. LIGGGHTS: with per-atom radii and an orthogonal box its granular border optimisation
+ * sends only atoms within cutoff/2 + skin/2 + radius (comm.cpp, Comm::decide), so twice the band less the skin. */
+inline double comm_cutoff_for_band(double band, double skin, bool radius_and_orthogonal) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  (void)skin;
+  (void)radius_and_orthogonal;
+  return band;
+#else
+  return radius_and_orthogonal ? 2.0 * band - skin : band;
+#endif
+}
+
 }  // namespace sphdem_compat
 
 /* Fix methods whose signatures differ. Declare them in a class body with these macros and
@@ -182,9 +195,11 @@ inline ComputeCreatorMap *compute_map(LAMMPS_NS::Modify *modify) {
   void unpack_forward_comm(int n, int first, double *buf) override { sphdem_unpack_forward(n, first, buf); }
 #else
 #define SPHDEM_RESTART_FILE_ARG char *
+/* LIGGGHTS' (older LAMMPS') Comm::forward_comm_fix takes pack_comm's return value as the count per atom */
 #define SPHDEM_FORWARD_COMM_METHODS                                                            \
   int pack_comm(int n, int *list, double *buf, int pbc_flag, int *pbc) override {              \
-    return sphdem_pack_forward(n, list, buf, pbc_flag, pbc);                                   \
+    sphdem_pack_forward(n, list, buf, pbc_flag, pbc);                                          \
+    return comm_forward;                                                                       \
   }                                                                                            \
   void unpack_comm(int n, int first, double *buf) override { sphdem_unpack_forward(n, first, buf); }
 #endif

@@ -2,17 +2,20 @@
  * from the fluid fix's device state (no host sync). Global array: one row per point. */
 #include "compute_sph_probe.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
+#include "comm.h"
 #include "domain.h"
 #include "fix_sph_fluid.h"
 #include "memory.h"
 #include "modify.h"
 #include "sphdem.h"
 #include "sphdem_compat.h"
+#include "sphdem_mpi.h"
 #include "update.h"
 
 using namespace LAMMPS_NS;
@@ -95,8 +98,35 @@ void ComputeSPHProbe::compute_array() {
   invoked_array = update->ntimestep;
   sphdem_ctx ctx = fix_ ? fix_->context() : nullptr;
   if (!ctx) fail("fix '" + fix_id_ + "' has no fluid on the device yet (probe after the run's setup)");
-  int rc = sphdem_probe(ctx, npts_, pts_.data(), out_.data());
-  if (rc != SPHDEM_OK) fail(sphdem_last_error(ctx));
+  if (!fix_->many_ranks()) {
+    int rc = sphdem_probe(ctx, npts_, pts_.data(), out_.data());
+    if (rc != SPHDEM_OK) fail(sphdem_last_error(ctx));
+  } else {
+    /* many ranks: each point is sampled by the rank whose subdomain holds it (its fluid and ghost fluid cover
+     * the point's support; a point outside the box goes to the nearest subdomain), the others add zeros */
+    std::vector<double> mine;
+    std::vector<int> idx;
+    for (int k = 0; k < npts_; k++) {
+      bool in = true;
+      for (int d = 0; d < domain->dimension; d++) {
+        const double c = pts_[3 * k + d];
+        if (c < domain->sublo[d] && comm->myloc[d] > 0) in = false;
+        if (c >= domain->subhi[d] && comm->myloc[d] < comm->procgrid[d] - 1) in = false;
+      }
+      if (!in) continue;
+      idx.push_back(k);
+      for (int d = 0; d < 3; d++) mine.push_back(pts_[3 * k + d]);
+    }
+    std::vector<double> got((size_t)SPHDEM_NPROBE * idx.size() + 1);
+    int rc = sphdem_probe(ctx, (int)idx.size(), mine.data(), got.data());
+    std::string m = rc == SPHDEM_OK ? std::string() : std::string(sphdem_last_error(ctx));
+    m = sphdem_mpi::first_failure(world, rc != SPHDEM_OK, m);
+    if (!m.empty()) fail(m);
+    std::fill(out_.begin(), out_.end(), 0.0);
+    for (size_t j = 0; j < idx.size(); j++)
+      for (int c = 0; c < SPHDEM_NPROBE; c++) out_[(size_t)SPHDEM_NPROBE * idx[j] + c] = got[SPHDEM_NPROBE * j + c];
+    sphdem_mpi::sum(world, out_.data(), (int)out_.size());
+  }
   for (int k = 0; k < npts_; k++)
     for (int j = 0; j < SPHDEM_NPROBE; j++) array[k][j] = out_[(size_t)SPHDEM_NPROBE * k + j];
 }

@@ -14,9 +14,11 @@
 #include "group.h"
 #include "memory.h"
 #include "modify.h"
+#include "neighbor.h"
 #include "output.h"
 #include "sphdem_args.h"
 #include "sphdem_compat.h"
+#include "sphdem_mpi.h"
 #include "sphdem_peratom.h"
 #include "update.h"
 
@@ -62,6 +64,8 @@ FixSPHFluid::FixSPHFluid(LAMMPS *lmp, int narg, char **arg)
       couple_on_(false), sa_(nullptr), nmax_(0), stats_step_(-1), run_step0_(0), run_t0_(0.0), failure_dump_(true),
       have_dx_(false), scene_checked_(false) {
   std::memset(&stats_, 0, sizeof stats_);
+  std::memset(&comm_, 0, sizeof comm_);
+  comm_forward = GCOMM;
   parse_args(narg, arg);
 
   time_integrate = 1;
@@ -87,7 +91,19 @@ void FixSPHFluid::fail(const std::string &msg) {
 /* Every non-OK core code ends the run with the core's message. */
 void FixSPHFluid::check(int rc, const char *what) {
   if (rc == SPHDEM_OK) return;
-  fail(std::string(what) + ": " + sphdem_last_error(ctx_) + " (" + sphdem_strerror(rc) + ")");
+  const std::string m = std::string("Fix sph/fluid: ") + what + ": " + sphdem_last_error(ctx_) + " (" +
+                        sphdem_strerror(rc) + ")";
+  if (multi_) sphdem_compat::error_one(error, FLERR, m); /* may fail on this rank alone: stops every rank */
+  sphdem_compat::error_all(error, FLERR, m);
+}
+
+void FixSPHFluid::fail_any(bool bad, const std::string &msg) {
+  if (!multi_) {
+    if (bad) fail(msg);
+    return;
+  }
+  const std::string first = sphdem_mpi::first_failure(world, bad, msg);
+  if (!first.empty()) fail(first);
 }
 
 /* ---- arguments --------------------------------------------------------------------------------- */
@@ -384,14 +400,42 @@ void FixSPHFluid::box_to_params() {
     prm_.boxlo[d] = domain->boxlo[d];
     prm_.boxhi[d] = domain->boxhi[d];
     prm_.periodic[d] = domain->periodicity[d];
+    if (multi_ && prm_.periodic[d]) {
+      /* many ranks: the engine's ghost images are the periodic neighbours; owned atoms may be outside the box
+       * by up to half a skin until the next neighbour build */
+      const double L = domain->boxhi[d] - domain->boxlo[d];
+      prm_.periodic[d] = 0;
+      prm_.boxlo[d] -= L;
+      prm_.boxhi[d] += L;
+    }
   }
+}
+
+/* How many pair sums deep one rate evaluation reaches: the rates (1); the wall state or the kernel sums that the
+ * rates read at the neighbours (+1); the delta-plus gradients and shifting read at the neighbours and themselves
+ * built on the wall state (+1); mirror ghost walls interpolate at a mirror point up to two supports inside (+2). */
+int FixSPHFluid::ghost_levels() const {
+  int levels = 1;
+  if (wall_groupbit_ || prm_.isolated > 0.0) levels++;
+  if (mp_.enabled) levels++;
+  if (ghost_) levels += 2;
+  return levels;
 }
 
 /* ---- run set-up ---------------------------------------------------------------------------------- */
 
 void FixSPHFluid::init() {
-  if (comm->nprocs > 1)
-    fail("running on more than one MPI rank is not supported yet (use mpirun -np 1)");
+  multi_ = comm->nprocs > 1;
+  if (multi_) {
+    if (rk4_)
+      fail("integrator rk4 runs on one MPI rank only (its four stages would each need the ghost fluid's state); "
+           "use integrator verlet or mpirun -np 1");
+    /* the ghost fluid and walls must reach as deep as the chain of pair sums of one rate evaluation */
+    cut_need_ = 2.0 * prm_.h * ghost_levels() + neighbor->skin;
+    const double cut = sphdem_compat::comm_cutoff_for_band(cut_need_, neighbor->skin,
+                                                           atom->radius_flag && !domain->triclinic);
+    if (comm->cutghostuser < cut) comm->cutghostuser = cut;
+  }
   if (!atom->rmass_flag && !atom->mass)
     fail("the atom style must define a per-atom mass (rmass) or per-type masses");
   if (update->dt <= 0) fail("the timestep must be > 0");
@@ -448,6 +492,11 @@ void FixSPHFluid::setup(int) {
   } else {
     check(sphdem_set_params(ctx_, &prm_), "set_params");
   }
+  if (multi_) comm_ = sphdem_mpi::comm(&world);
+  check(sphdem_set_comm(ctx_, multi_ ? &comm_ : nullptr), "set_comm");
+  if (multi_ && coupler_)
+    fail("fix sph/couple runs on one MPI rank only in this version (the fluid alone, fix sph/fluid, runs on many; "
+         "use mpirun -np 1 for the coupled scene)");
   if (rk4_ && coupler_) fail("integrator rk4 cannot be used with fix sph/couple (grains need velocity Verlet)");
   if (mp_.enabled) {
     if (coupler_ && mp_.single) fail(std::string("fix sph/couple: ") + SPHDEM_MP_COUPLE_WHY);
@@ -487,7 +536,7 @@ void FixSPHFluid::setup(int) {
 
   if (comm->me == 0 && !announced_) {
     const char *note = sphdem_backend_note(ctx_);
-    const size_t n = fidx_.size();
+    const size_t n = (size_t)s.nfluid;
     char line[768];
     char stepnote[128] = "";
     if (every_ > 1) snprintf(stepnote, sizeof stepnote, "; fluid step %g = every %ld x", dt_nominal, every_);
@@ -495,9 +544,18 @@ void FixSPHFluid::setup(int) {
              "Fix sph/fluid: %s backend%s%s%s; %zu fluid + %zu wall particles; %.0f device bytes per fluid "
              "particle; stable dt %g (timestep %g%s)\n",
              sphdem_backend(ctx_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU", *note ? " (" : "", note,
-             *note ? ")" : "", n, widx_.size(), n ? (double)sphdem_device_bytes(ctx_) / (double)n : 0.0,
+             *note ? ")" : "", n, (size_t)s.nwall,
+             fidx_.empty() ? 0.0 : (double)sphdem_device_bytes(ctx_) / (double)fidx_.size(),
              s.dt_stable, update->dt, stepnote);
     sphdem_compat::logmesg(lmp, line);
+    if (multi_) {
+      snprintf(line, sizeof line,
+               "Fix sph/fluid: %d MPI ranks (processors %d %d %d); ghost fluid and walls within %g = %d x 2h + "
+               "neighbor skin %g (communication cutoff %g)\n",
+               comm->nprocs, comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], cut_need_, ghost_levels(),
+               neighbor->skin, comm->cutghostuser);
+      sphdem_compat::logmesg(lmp, line);
+    }
     announced_ = true;
   }
   run_step0_ = update->ntimestep;
@@ -525,6 +583,20 @@ void FixSPHFluid::build_map() {
     if (mask[i] & groupbit) fidx_.push_back(i);
     else if (mask[i] & wall_groupbit_) widx_.push_back(i);
   }
+  nfown_ = fidx_.size();
+  nwown_ = widx_.size();
+  if (multi_) {
+    const int nall = nlocal + atom->nghost;
+    for (int i = nlocal; i < nall; i++) {
+      if (mask[i] & groupbit) fidx_.push_back(i);
+      else if (mask[i] & wall_groupbit_) widx_.push_back(i);
+    }
+    xhold_.resize(3 * (nfown_ + nwown_));
+    for (size_t k = 0; k < nfown_ + nwown_; k++) {
+      const int i = k < nfown_ ? fidx_[k] : widx_[k - nfown_];
+      for (int d = 0; d < 3; d++) xhold_[3 * k + d] = atom->x[i][d];
+    }
+  }
   mapping_dirty_ = false;
 }
 
@@ -547,15 +619,17 @@ bool FixSPHFluid::upload_fluid() {
   fresh_.clear();
   if (mp_.enabled) {
     fphase_.resize(n);
-    for (size_t k = 0; k < n; k++) {
+    std::string bad;
+    for (size_t k = 0; k < n && bad.empty(); k++) {
       const int t = atom->type[fidx_[k]];
       if (type_phase_[t] < 0)
-        fail("fluid atom " + std::to_string((long long)atom->tag[fidx_[k]]) + " has type " + std::to_string(t) +
-             ", which no phase keyword names (phase TYPE RHO0 ...)");
-      fphase_[k] = type_phase_[t];
+        bad = "fluid atom " + std::to_string((long long)atom->tag[fidx_[k]]) + " has type " + std::to_string(t) +
+              ", which no phase keyword names (phase TYPE RHO0 ...)";
+      else fphase_[k] = type_phase_[t];
     }
+    fail_any(!bad.empty(), bad);
   }
-  for (size_t k = 0; k < n; k++) {
+  for (size_t k = 0; k < nfown_; k++) {
     const int i = fidx_[k];
     ftag_[k] = (int64_t)atom->tag[i];
     for (int d = 0; d < 3; d++) fx_[3 * k + d] = x[i][d], fv_[3 * k + d] = v[i][d];
@@ -569,10 +643,14 @@ bool FixSPHFluid::upload_fluid() {
     }
   }
   std::vector<double> rho(fresh_.size());
-  const int rc = sphdem_initial_density(&prm_, mp_.enabled ? &mp_ : nullptr, hydrostatic_, zsurf_, (int)n,
-                                        fx_.data(), mp_.enabled ? fphase_.data() : nullptr, (int)fresh_.size(),
-                                        fresh_.data(), rho.data());
-  if (rc != SPHDEM_OK) fail(std::string("initial_density: ") + sphdem_strerror(rc));
+  const int rc = sphdem_initial_density_ranks(&prm_, mp_.enabled ? &mp_ : nullptr, hydrostatic_, zsurf_,
+                                              (int)nfown_, fx_.data(), mp_.enabled ? fphase_.data() : nullptr,
+                                              (int)fresh_.size(), fresh_.data(), rho.data(), multi_ ? &comm_ : nullptr);
+  if (rc != SPHDEM_OK) {
+    const std::string m = std::string("Fix sph/fluid: initial_density: ") + sphdem_strerror(rc);
+    if (multi_) sphdem_compat::error_one(error, FLERR, m);
+    sphdem_compat::error_all(error, FLERR, m);
+  }
   for (size_t j = 0; j < fresh_.size(); j++) {
     const int k = fresh_[j], i = fidx_[k];
     frho_[k] = rho[j];
@@ -584,12 +662,27 @@ bool FixSPHFluid::upload_fluid() {
       scaled_any = true;
     }
   }
+  if (multi_) { /* a fresh atom anywhere: every rank computes the rates (a collective evaluation) */
+    double mine[2] = {all_valid ? 1.0 : 0.0, scaled_any ? 1.0 : 0.0};
+    double lo = mine[0], hi = mine[1];
+    sphdem_mpi::min(world, &lo, 1);
+    sphdem_mpi::max(world, &hi, 1);
+    all_valid = lo > 0.5;
+    scaled_any = hi > 0.5;
+  }
   if (scaled_any) mass_scaled_ = true;
   /* a state that went bad between two checks (the last download): the regular blow-up message */
-  for (size_t k = 0; k < n; k++) {
+  long long bad_tag = -1;
+  double bad_rho = 0.0;
+  for (size_t k = 0; k < nfown_ && bad_tag < 0; k++) {
     if (frho_[k] > 0 && std::isfinite(frho_[k]) && std::isfinite(fx_[3 * k] + fx_[3 * k + 1] + fx_[3 * k + 2]) &&
         std::isfinite(fv_[3 * k] + fv_[3 * k + 1] + fv_[3 * k + 2]))
       continue;
+    bad_tag = (long long)ftag_[k], bad_rho = frho_[k];
+  }
+  double any_bad = bad_tag >= 0 ? 1.0 : 0.0;
+  if (multi_) sphdem_mpi::max(world, &any_bad, 1);
+  if (any_bad > 0.5) {
     sphdem_stats s;
     const int rc = sphdem_stats_get(ctx_, 0.0, &s);
     if (rc != SPHDEM_OK) blowup(stats_message(rc, s), false); /* the device holds the previous upload's order */
@@ -598,14 +691,104 @@ bool FixSPHFluid::upload_fluid() {
              BIGINT_FORMAT ": the fluid blew "
              "up after the last check (check %ld; check 1 stops at the first bad step). Likely causes: a time step "
              "above the stable one, c0 too low for the flow, or particles entering the walls",
-             (long long)ftag_[k], frho_[k], update->ntimestep, check_every_);
-    blowup(m, false);
+             bad_tag, bad_rho, update->ntimestep, check_every_);
+    std::string msg = m;
+    if (multi_) msg = sphdem_mpi::first_failure(world, bad_tag >= 0, msg);
+    blowup(msg, false);
+  }
+  if (multi_) { /* the ghosts: positions from the engine, the rest from their owners */
+    fill_gcomm(true, false);
+    for (size_t k = nfown_; k < n; k++) {
+      const int i = fidx_[k];
+      const double *g = &gcomm_[(size_t)GCOMM * i];
+      ftag_[k] = (int64_t)atom->tag[i];
+      for (int d = 0; d < 3; d++) fx_[3 * k + d] = x[i][d], fv_[3 * k + d] = g[d];
+      frho_[k] = g[3];
+      fstate_[SPHDEM_NSTATE * k] = g[4];
+      for (int d = 0; d < 3; d++) fstate_[SPHDEM_NSTATE * k + 1 + d] = g[5 + d];
+      fmass_[k] = g[8];
+    }
   }
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
+  if (multi_) check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
   if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   return all_valid;
+}
+
+/* Many ranks: the owned entries of the forward-communication buffer from the staging arrays (fluid: v, rho,
+ * drho, a, mass of the last upload or download; walls: v, acceleration, mass of the last staging), then the
+ * engine's forward communication fills the ghosts' entries. Collective. */
+void FixSPHFluid::fill_gcomm(bool fluid, bool walls) {
+  const size_t nall = (size_t)(atom->nlocal + atom->nghost);
+  if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
+  if (fluid)
+    for (size_t k = 0; k < nfown_; k++) {
+      double *g = &gcomm_[(size_t)GCOMM * fidx_[k]];
+      for (int d = 0; d < 3; d++) g[d] = fv_[3 * k + d], g[5 + d] = fstate_[SPHDEM_NSTATE * k + 1 + d];
+      g[3] = frho_[k];
+      g[4] = fstate_[SPHDEM_NSTATE * k];
+      g[8] = fmass_[k];
+    }
+  if (walls)
+    for (size_t k = 0; k < nwown_; k++) {
+      double *g = &gcomm_[(size_t)GCOMM * widx_[k]];
+      for (int d = 0; d < 3; d++) g[d] = wv_[3 * k + d], g[5 + d] = wa_[3 * k + d];
+      g[3] = g[4] = 0.0;
+      g[8] = wmass_[k];
+    }
+  comm->forward_comm_fix(this);
+}
+
+int FixSPHFluid::sphdem_pack_forward(int n, int *list, double *buf, int, int *) {
+  int m = 0;
+  for (int j = 0; j < n; j++) {
+    const double *g = &gcomm_[(size_t)GCOMM * list[j]];
+    for (int c = 0; c < GCOMM; c++) buf[m++] = g[c];
+  }
+  return m;
+}
+
+void FixSPHFluid::sphdem_unpack_forward(int n, int first, double *buf) {
+  const size_t need = (size_t)GCOMM * (size_t)(first + n);
+  if (gcomm_.size() < need) gcomm_.resize(need, 0.0);
+  int m = 0;
+  for (int i = first; i < first + n; i++)
+    for (int c = 0; c < GCOMM; c++) gcomm_[(size_t)GCOMM * i + c] = buf[m++];
+}
+
+/* Many ranks, each fluid step: the ghosts' new state (their owners' after the half kick and drift) into the
+ * core, positions from the engine's forward communication. Collective. */
+void FixSPHFluid::ghost_state_to_core() {
+  const size_t n = fidx_.size(), ng = n - nfown_;
+  fill_gcomm(true, false);
+  std::vector<double> gx(3 * ng), gv(3 * ng), gr(ng), gs(SPHDEM_NSTATE * ng, 0.0);
+  double **x = atom->x;
+  for (size_t j = 0; j < ng; j++) {
+    const int i = fidx_[nfown_ + j];
+    const double *g = &gcomm_[(size_t)GCOMM * i];
+    for (int d = 0; d < 3; d++) gx[3 * j + d] = x[i][d], gv[3 * j + d] = g[d], gs[SPHDEM_NSTATE * j + 1 + d] = g[5 + d];
+    gr[j] = g[3];
+    gs[SPHDEM_NSTATE * j] = g[4];
+  }
+  check(sphdem_update_ghosts(ctx_, (int)ng, gx.data(), gv.data(), gr.data(), gs.data()), "update_ghosts");
+}
+
+/* Many ranks: the ghost fluid and walls reach cut_need_ = levels 2h + skin beyond each subdomain, enough while no
+ * owned atom has moved more than skin/2 since the last neighbour build; a larger move anywhere asks the engine
+ * for a neighbour build on this step (collective). */
+void FixSPHFluid::check_displacement() {
+  double d2max = 0.0;
+  double **x = atom->x;
+  for (size_t k = 0; k < nfown_ + nwown_ && 3 * k + 2 < xhold_.size(); k++) {
+    const int i = k < nfown_ ? fidx_[k] : widx_[k - nfown_];
+    double d2 = 0.0;
+    for (int d = 0; d < 3; d++) d2 += (x[i][d] - xhold_[3 * k + d]) * (x[i][d] - xhold_[3 * k + d]);
+    if (!(d2 <= d2max)) d2max = std::isfinite(d2) ? d2 : 1e300;
+  }
+  sphdem_mpi::max(world, &d2max, 1);
+  if (d2max > 0.25 * neighbor->skin * neighbor->skin) next_reneighbor = update->ntimestep;
 }
 
 /* Superficial coupling: the fluid density variable is eps rho_f (He 2018 eq 6). Fluid particles created
@@ -671,7 +854,7 @@ void FixSPHFluid::upload_walls(bool each_step) {
   wa_.resize(3 * n);
   wmass_.resize(n);
   const double inv_dt = each_step ? 1.0 / dt_fluid_ : 0.0;
-  for (size_t k = 0; k < n; k++) {
+  for (size_t k = 0; k < nwown_; k++) {
     const int i = widx_[k];
     wmass_[k] = atom_mass(atom, i);
     for (int d = 0; d < 3; d++) {
@@ -681,21 +864,35 @@ void FixSPHFluid::upload_walls(bool each_step) {
       sa_[i][C_WALLV + d] = v[i][d];
     }
   }
+  if (multi_) { /* ghost walls: positions from the engine, velocity and acceleration from their owners */
+    fill_gcomm(false, true);
+    for (size_t k = nwown_; k < n; k++) {
+      const int i = widx_[k];
+      const double *g = &gcomm_[(size_t)GCOMM * i];
+      for (int d = 0; d < 3; d++) wx_[3 * k + d] = x[i][d], wv_[3 * k + d] = g[d], wa_[3 * k + d] = g[5 + d];
+      wmass_[k] = g[8];
+    }
+  }
   check(sphdem_set_walls(ctx_, (int)n, wx_.data(), wv_.data(), wa_.data(), wmass_.data()), "set_walls");
+  if (multi_) check(sphdem_set_ghosts(ctx_, -1, (int)(n - nwown_)), "set_ghosts");
   if (!ghost_) return;
   /* fixed ghost walls (Shi & Huang §3.4): each wall particle's interpolation point is its mirror image
    * across the faces of the fluid box it lies outside of */
   wxi_.resize(3 * n);
   int inside = -1;
+  std::string bad;
   if (sphdem_mirror_points((int)n, wx_.data(), ghost_lo_, ghost_hi_, wxi_.data(), &inside) != SPHDEM_OK) {
-    if (inside < 0) fail("mirror_points: invalid argument");
-    const size_t k = (size_t)inside;
-    char m[256];
-    snprintf(m, sizeof m, "ghost mirror: wall atom %lld at (%g, %g, %g) lies inside the fluid box; mirror ghosts "
-             "need every wall atom outside it (use the Adami walls, i.e. no ghost keyword, for other shapes)",
-             (long long)atom->tag[widx_[k]], wx_[3 * k], wx_[3 * k + 1], wx_[3 * k + 2]);
-    fail(m);
+    if (inside < 0) bad = "mirror_points: invalid argument";
+    else {
+      const size_t k = (size_t)inside;
+      char m[256];
+      snprintf(m, sizeof m, "ghost mirror: wall atom %lld at (%g, %g, %g) lies inside the fluid box; mirror ghosts "
+               "need every wall atom outside it (use the Adami walls, i.e. no ghost keyword, for other shapes)",
+               (long long)atom->tag[widx_[k]], wx_[3 * k], wx_[3 * k + 1], wx_[3 * k + 2]);
+      bad = m;
+    }
   }
+  fail_any(!bad.empty(), bad);
   check(sphdem_set_wall_mirror(ctx_, (int)n, wxi_.data()), "set_wall_mirror");
 }
 
@@ -726,7 +923,7 @@ void FixSPHFluid::download() {
     have_mp = rc == SPHDEM_OK;
   }
   double **x = atom->x, **v = atom->v;
-  for (size_t k = 0; k < n; k++) {
+  for (size_t k = 0; k < nfown_; k++) { /* the ghosts' rows belong to their owners */
     const int i = fidx_[k];
     for (int d = 0; d < 3; d++) x[i][d] = fx_[3 * k + d], v[i][d] = fv_[3 * k + d];
     sa_[i][C_RHO] = frho_[k];
@@ -762,11 +959,16 @@ void FixSPHFluid::initial_integrate(int) {
   }
   check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   check(sphdem_drift(ctx_, dt_fluid_), "drift");
+  if (multi_) { /* the engine's forward communication and exchange read the moved fluid */
+    download();
+    check_displacement();
+  }
 }
 
 void FixSPHFluid::post_force(int) {
   if (!fluid_step_ || rk4_) return;
   if (walls_move_) upload_walls(true);
+  if (multi_) ghost_state_to_core();
   rates();
 }
 
@@ -848,7 +1050,7 @@ std::string FixSPHFluid::write_failure_dump(bool from_device) {
   sphdem_stats st; /* the device's particle counts (the error code does not matter here) */
   std::memset(&st, 0, sizeof st);
   if (from_device && ctx_) sphdem_stats_get(ctx_, 0.0, &st);
-  if (from_device && ctx_ && n > 0 && st.nfluid == (int64_t)n) {
+  if (from_device && ctx_ && n > 0 && (multi_ || st.nfluid == (int64_t)n)) {
     std::vector<double> fx(3 * n), fv(3 * n), frho(n), fp(n), fe(n, 1.0);
     if (sphdem_get_fluid(ctx_, fx.data(), fv.data(), frho.data(), fp.data(), nullptr) == SPHDEM_OK) {
       if (couple_on_ && sphdem_get_porosity(ctx_, fe.data()) != SPHDEM_OK) fe.assign(n, 1.0);
@@ -860,7 +1062,7 @@ std::string FixSPHFluid::write_failure_dump(bool from_device) {
       }
     }
   }
-  if (from_device && ctx_ && nw > 0 && st.nwall == (int64_t)nw) {
+  if (from_device && ctx_ && nw > 0 && (multi_ || st.nwall == (int64_t)nw)) {
     std::vector<double> wp(nw, 0.0), wr(nw, 0.0);
     if (sphdem_get_wall_state(ctx_, wp.data(), wr.data()) != SPHDEM_OK) wp.assign(nw, 0.0), wr.assign(nw, 0.0);
     for (size_t k = 0; k < nw; k++) {
@@ -878,18 +1080,47 @@ std::string FixSPHFluid::write_failure_dump(bool from_device) {
   }
   std::string file = failure_file_;
   if (file.empty()) file = "sphdem_failure." + std::to_string((long long)update->ntimestep) + ".dump";
-  FILE *fp = fopen(file.c_str(), "w");
-  if (!fp) return "";
-  fprintf(fp, "ITEM: TIMESTEP\n" BIGINT_FORMAT "\nITEM: NUMBER OF ATOMS\n%d\nITEM: BOX BOUNDS %s %s %s\n",
-          update->ntimestep, nlocal, domain->periodicity[0] ? "pp" : "ff", domain->periodicity[1] ? "pp" : "ff",
-          domain->periodicity[2] ? "pp" : "ff");
-  for (int d = 0; d < 3; d++) fprintf(fp, "%.17g %.17g\n", domain->boxlo[d], domain->boxhi[d]);
-  fprintf(fp, "ITEM: ATOMS id type x y z vx vy vz density pressure porosity\n");
-  for (int i = 0; i < nlocal; i++)
-    fprintf(fp, "%lld %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", (long long)atom->tag[i],
-            atom->type[i], xx[3 * i], xx[3 * i + 1], xx[3 * i + 2], vv[3 * i], vv[3 * i + 1], vv[3 * i + 2], rho[i],
-            p[i], eps[i]);
-  const bool ok = fclose(fp) == 0;
+  /* every rank's atoms, one file written by rank 0 (collective on many ranks) */
+  std::string lines;
+  char row[512];
+  for (int i = 0; i < nlocal; i++) {
+    snprintf(row, sizeof row, "%lld %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n",
+             (long long)atom->tag[i], atom->type[i], xx[3 * i], xx[3 * i + 1], xx[3 * i + 2], vv[3 * i],
+             vv[3 * i + 1], vv[3 * i + 2], rho[i], p[i], eps[i]);
+    lines += row;
+  }
+  long long natoms = nlocal;
+  if (multi_) {
+    int len = (int)lines.size(), nr = comm->nprocs;
+    std::vector<int> lens(nr), offs(nr, 0);
+    MPI_Gather(&len, 1, MPI_INT, lens.data(), 1, MPI_INT, 0, world);
+    std::string all;
+    if (comm->me == 0) {
+      for (int r = 1; r < nr; r++) offs[r] = offs[r - 1] + lens[r - 1];
+      all.resize((size_t)offs[nr - 1] + (size_t)lens[nr - 1]);
+    }
+    MPI_Gatherv(lines.data(), len, MPI_CHAR, comm->me == 0 ? &all[0] : nullptr, lens.data(), offs.data(), MPI_CHAR,
+                0, world);
+    double na = (double)nlocal;
+    sphdem_mpi::sum(world, &na, 1);
+    natoms = (long long)na;
+    lines.swap(all);
+  }
+  int ok = 1;
+  if (comm->me == 0) {
+    FILE *fp = fopen(file.c_str(), "w");
+    if (!fp) ok = 0;
+    else {
+      fprintf(fp, "ITEM: TIMESTEP\n" BIGINT_FORMAT "\nITEM: NUMBER OF ATOMS\n%lld\nITEM: BOX BOUNDS %s %s %s\n",
+              update->ntimestep, natoms, domain->periodicity[0] ? "pp" : "ff", domain->periodicity[1] ? "pp" : "ff",
+              domain->periodicity[2] ? "pp" : "ff");
+      for (int d = 0; d < 3; d++) fprintf(fp, "%.17g %.17g\n", domain->boxlo[d], domain->boxhi[d]);
+      fprintf(fp, "ITEM: ATOMS id type x y z vx vy vz density pressure porosity\n");
+      fputs(lines.c_str(), fp);
+      ok = fclose(fp) == 0;
+    }
+  }
+  if (multi_) MPI_Bcast(&ok, 1, MPI_INT, 0, world);
   return ok ? file : "";
 }
 
@@ -899,13 +1130,19 @@ std::string FixSPHFluid::write_failure_dump(bool from_device) {
  * close), particles on top of each other or of wall particles (the core's cell search, closer than 0.5 dx). */
 void FixSPHFluid::check_scene(bool fresh) {
   scene_checked_ = true;
-  const size_t n = fidx_.size();
-  if (n == 0) return;
-  double sum = 0.0;
-  for (int i : fidx_) {
+  double sum = 0.0, cnt = (double)nfown_;
+  for (size_t k = 0; k < nfown_; k++) {
+    const int i = fidx_[k];
     const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
     sum += atom_mass(atom, i) / rho0;
   }
+  if (multi_) {
+    double v[2] = {sum, cnt};
+    sphdem_mpi::sum(world, v, 2);
+    sum = v[0], cnt = v[1];
+  }
+  const double n = cnt;
+  if (n == 0) return;
   const double vol = std::pow(prm_.dx, prm_.dim);
   const double ratio = sum / (double)n / vol;
   char msg[768];
@@ -920,13 +1157,19 @@ void FixSPHFluid::check_scene(bool fresh) {
   if (!fresh) return;
   double r[8];
   check(sphdem_check_spacing(ctx_, 0.5 * prm_.dx, r), "check_spacing");
-  if (r[0] > 0) {
+  msg[0] = 0;
+  if (r[0] > 0)
     snprintf(msg, sizeof msg,
              "%.0f pairs of fluid particles closer than 0.5 dx (%g), e.g. atoms %.0f and %.0f at distance %g: atoms "
              "created twice or on top of each other (check the regions of create_atoms)",
              r[0], 0.5 * prm_.dx, r[2], r[3], r[4]);
-    fail(msg);
+  fail_any(r[0] > 0, msg);
+  if (r[1] > 0 && multi_) { /* the wall of the pair may be a ghost: name it by its tag only */
+    snprintf(msg, sizeof msg,
+             "fluid-wall pairs closer than 0.5 dx (%g), e.g. fluid atom %.0f at distance %g from a wall atom: fluid "
+             "created inside the walls (check the regions of create_atoms)", 0.5 * prm_.dx, r[5], r[7]);
   }
+  if (multi_) fail_any(r[1] > 0, msg);
   if (r[1] > 0) {
     const int w = (int)r[6];
     const long long wt = w >= 0 && w < (int)widx_.size() ? (long long)atom->tag[widx_[w]] : -1;

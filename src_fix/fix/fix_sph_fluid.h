@@ -12,6 +12,7 @@ FixStyle(sph/fluid,FixSPHFluid)
 
 #include "fix.h"
 #include "sphdem.h"
+#include "sphdem_compat.h"
 #include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
@@ -65,6 +66,11 @@ class FixSPHFluid : public Fix {
   [[noreturn]] void fail_with_dump(const std::string &msg);
 
   SPHDEM_PERATOM_METHODS(sa_, NCOL, "sph/fluid", "sph/fluid:sa")
+  SPHDEM_FORWARD_COMM_METHODS
+  int sphdem_pack_forward(int n, int *list, double *buf, int pbc_flag, int *pbc);
+  void sphdem_unpack_forward(int n, int first, double *buf);
+  /* many ranks: the ghost fluid and walls enter the core (the communication cutoff is set for them) */
+  bool many_ranks() const { return multi_; }
 
  private:
   /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
@@ -115,6 +121,23 @@ class FixSPHFluid : public Fix {
   std::vector<int64_t> ftag_;
   std::vector<double> fx_, fv_, frho_, fp_, fmass_, fstate_, feps_, fmu_, fgd_, flam_;
   std::vector<double> wx_, wv_, wa_, wmass_;
+
+  /* many ranks (DESIGN: the engine's decomposition): fidx_/widx_ hold the owned atoms first, then the ghost
+   * atoms of the fluid and wall groups; the core computes every pair sum over both and integrates the owned.
+   * Per fluid step one forward communication of GCOMM values per atom (v, rho, drho, a, mass; walls: v, the
+   * wall acceleration) brings the ghosts' state (x through the engine's own forward communication). */
+  enum { GCOMM = 9 };
+  bool multi_ = false;
+  size_t nfown_ = 0, nwown_ = 0; /* owned entries at the front of fidx_ / widx_ */
+  std::vector<double> gcomm_; /* GCOMM values per local + ghost atom */
+  std::vector<double> xhold_; /* owned fluid and wall positions at the last neighbour build */
+  double cut_need_ = 0.0;     /* the communication cutoff the ghost fluid needs */
+  sphdem_comm comm_;
+  int ghost_levels() const;
+  void fill_gcomm(bool fluid, bool walls);
+  void ghost_state_to_core();
+  void check_displacement();
+  void fail_any(bool bad, const std::string &msg); /* collective: every rank stops with the first message */
 
   sphdem_stats stats_;
   bigint stats_step_;

@@ -5,7 +5,6 @@ A tiny 2D dam break (204 fluid particles, 282 wall particles, 200 steps) run as
   same    LMP LIG          LAMMPS and LIGGGHTS give the same final x, v, density (1e-10)
   restart EXE ENGINE       write_restart at 100 + read_restart + 100 steps == 200 steps (1e-9)
   sync    EXE ENGINE       'sync 1' == default (1e-12)
-  mpi     EXE ENGINE MPIRUN  2 ranks stop with the 'not supported yet' message, no crash
   badkw   EXE ENGINE       bad input stops with a message naming the keyword and the choices
   plugin  HOST PLUGIN LMP  sphdemplugin.so loaded through lammpsplugin_init == lmp_sphdem (1e-12)
   couette EXE ENGINE       lid moved by 'fix move linear' (moving walls detected, uploaded each step):
@@ -218,20 +217,6 @@ def test_sync(exe, engine):
     a, b = final_dump(wd + "/default"), final_dump(wd + "/sync1")
     fails = check_timing(out, STEPS, "end-of-run timing (%s)" % engine)
     return fails + verdict(compare(a, b, "sync"), 1e-12, "sync 1 vs default (%s)" % engine)
-
-
-def test_mpi(exe, engine, mpirun):
-    wd = "mpi_" + engine
-    cmd = [mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", exe]
-    rc, out = run(cmd, wd, scene(engine, steps=10), timeout=120)
-    want = "running on more than one MPI rank is not supported yet (use mpirun -np 1)"
-    crashed = rc < 0 or rc in (124, 134, 136, 137, 139) or "Segmentation" in out or "signal" in out.lower()
-    ok = rc != 0 and want in out and not crashed
-    print("%s mpirun -np 2 (%s): exit %d, message %s, crash %s" %
-          ("PASS" if ok else "FAIL", engine, rc, "found" if want in out else "MISSING", crashed))
-    if not ok:
-        print(out[-3000:])
-    return 0 if ok else 1
 
 
 def test_badkw(exe, engine):
