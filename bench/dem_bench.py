@@ -7,9 +7,9 @@ from the start), nx * nx columns periodic in x and y, nz layers on a floor (fix 
 velocities of about 0.01 m/s, skin 1 mm, dt 2e-6 s, atoms sorted every 1000 steps.
   LIGGGHTS: pair_style gran model hertz tangential history (E 5e6, nu 0.45, e 0.7, mu 0.5 from
             fix property/global) - stock, 1 MPI rank and 2 ranks - and pair_style gran/gpu with
-            the same words (sphdem CPU backend; GPU backend when a GPU is usable).
+            the same words (sphdem CPU backend, 1 and 2 ranks; GPU backend when a GPU is usable).
   LAMMPS:   pair_style gran/hertz/history 2e7 NULL 5e3 NULL 0.5 1 - stock, 1 and 2 ranks - and
-            gran/hertz/history/gpu with the same arguments (CPU backend; GPU when usable).
+            gran/hertz/history/gpu with the same arguments (CPU backend, 1 and 2 ranks; GPU when usable).
 Our styles run with OMP_NUM_THREADS=1 and the keyword `timers on`, which prints the split of the
 pair time: pack (atoms -> core arrays), upload, rebuild check, detection (cell grid, candidate
 pairs, history carry), forces, download, unpack. For the stock styles the split is the engine's own
@@ -180,6 +180,9 @@ def main():
                               gen(nx, nz, steps, ours_style, "device cpu")))
             cases.append(("%s CPU 1 thr" % ours_style, [os.path.join(a.build, "src_fix", exe)],
                           gen(nx, nz, steps, ours_style, "device cpu timers on")))
+            if mpirun:
+                cases.append(("%s CPU 1 thr 2 ranks" % ours_style, [mpirun, "-np", "2", os.path.join(a.build, "src_fix", exe)],
+                              gen(nx, nz, steps, ours_style, "device cpu timers on")))
             if gpu:
                 cases.append(("%s GPU" % ours_style, [os.path.join(a.build, "src_fix", exe)],
                               gen(nx, nz, steps, ours_style, "device gpu timers on")))

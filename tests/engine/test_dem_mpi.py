@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """test_dem_mpi.py - the GPU granular pair styles on several MPI ranks (the engine's domain decomposition).
 
-The scene: frictional Hertz grains (d = 2 mm) created on a loose lattice over a floor, thrown sideways
-(bulk vx, vz varying along x) under gravity in a box periodic in x and y, 'processors N 1 1': the bed
-collides, settles and slides across the subdomain boundaries, so grains change rank while they touch
-(the contact history must go with them) and pairs straddle two ranks. Positions are compared sorted by
+The scene: 1008 frictional Hertz grains (d = 2 mm) on a lattice of touching grains over a floor, thrown
+sideways (bulk vx, vz varying along x) under gravity in a box periodic in x and y, 'processors N 1 1': the
+dense bed shears, settles and slides across the subdomain boundaries, so grains change rank while they
+touch (the contact history must go with them) and pairs straddle two ranks. Positions are compared sorted by
 atom ID after the stated number of steps; every bound is about round-off growth (the reference is stock
 vs stock at another rank count, printed alongside).
 
@@ -38,13 +38,14 @@ comm_modify vel yes
 read_data ../bed.data
 neighbor 0.0004 bin
 neigh_modify delay 0 every 1 check yes
-pair_style {style} 2e8 NULL 2e4 NULL 0.5 1
+pair_style {style} 2e8 NULL 2e4 NULL 0.5 1{extra}
 pair_coeff * *
 fix floor all wall/gran hertz/history 2e8 NULL 2e4 NULL 0.5 1 zplane 0 NULL
 fix g all gravity 9.81 vector 0 0 -1
 fix 1 all nve/sphere
 timestep 2e-6
 thermo_style custom step atoms ke press
+thermo_modify format float %.15g
 thermo 500
 {run}
 """
@@ -82,13 +83,15 @@ undump d
 """
 
 
-NX, NY, NZ, A = 14, 6, 12, 2.15e-3  # lattice of the bed (spacing A > D: no grain touches another at the start)
+NX, NY, NZ, A = 14, 6, 12, 2.0e-3  # lattice of the bed (spacing A = D: neighbours touch or nearly)
+JIT, DV, VZ = 2e-4, 0.05, 0.05     # lattice jitter / A (overlaps below 1e-3 D), velocity scatter, vertical amplitude (m/s)
 
 
 def bed_data(path):
     """the bed as a data file (atom IDs do not depend on the rank count, as they would with create_atoms):
-    grains on a loose lattice, each displaced and given a velocity from its ID (a fixed hash), a bulk
-    sideways velocity and a vertical one that varies along x: they collide at once and slide"""
+    grains on a lattice of touching grains, each displaced and given a velocity from its ID (a fixed hash), a
+    bulk sideways velocity and a vertical one that varies along x: a dense bed that shears, settles and slides
+    over the frictional floor (about 900 touching contacts at the end)"""
     def h(i, k):  # deterministic in [-1, 1)
         v = (i * 2654435761 + k * 40503) % 4294967296
         return v / 2147483648.0 - 1.0
@@ -98,11 +101,11 @@ def bed_data(path):
         for y in range(NY):
             for x in range(NX):
                 i += 1
-                px, py, pz = (x + 0.5 + 0.03 * h(i, 1)) * A, (y + 0.5 + 0.03 * h(i, 2)) * A, (z + 0.5 + 0.03 * h(i, 3)) * A
+                px, py, pz = (x + 0.5 + JIT * h(i, 1)) * A, (y + 0.5 + JIT * h(i, 2)) * A, (z + 0.5 + JIT * h(i, 3)) * A
                 atoms.append("%d 1 %.17g 2500 %.17g %.17g %.17g" % (i, D, px, py, pz))
-                vx = 0.4 + 0.1 * h(i, 4)
-                vz = 0.3 * math.sin(2 * 3.141592653589793 * px / (NX * A)) + 0.1 * h(i, 5)
-                vel.append("%d %.17g %.17g %.17g 0 0 0" % (i, vx, 0.1 * h(i, 6), vz))
+                vx = 0.4 + DV * h(i, 4)
+                vz = VZ * math.sin(2 * math.pi * px / (NX * A)) + DV * h(i, 5)
+                vel.append("%d %.17g %.17g %.17g 0 0 0" % (i, vx, DV * h(i, 6), vz))
     with open(path, "w") as f:
         f.write("bed of %d grains\n\n%d atoms\n1 atom types\n\n0 %.17g xlo xhi\n0 %.17g ylo yhi\n0 0.04 zlo zhi\n\n"
                 % (i, i, NX * A, NY * A))
@@ -130,13 +133,15 @@ class Runner:
     def __init__(self, mpirun, exe, liggghts, root):
         self.mpirun, self.exe, self.lig, self.root = mpirun, exe, liggghts, root
         self.out = {}
+        os.makedirs(root, exist_ok=True)
+        bed_data(os.path.join(root, "bed.data"))  # written afresh: a folder left by an earlier version is reused
 
     def cmd(self, np):
         return [self.mpirun, "-np", str(np), "--oversubscribe", "--allow-run-as-root", self.exe]
 
-    def script(self, style, np, newton, run):
+    def script(self, style, np, newton, run, extra=""):
         t = LIG if self.lig else LMP
-        return t.format(style=style, px=np, newton=newton, run=run)
+        return t.format(style=style, px=np, newton=newton, run=run, extra=extra)
 
     def dump(self, name):
         return (LIG_DUMP if self.lig else DUMP).format(name=name)
@@ -146,8 +151,6 @@ class Runner:
         os.makedirs(wd, exist_ok=True)
         for f in files:
             shutil.copy(f, wd)
-        if not os.path.exists(os.path.join(self.root, "bed.data")):
-            bed_data(os.path.join(self.root, "bed.data"))
         text = text.replace("../bed.data", os.path.abspath(os.path.join(self.root, "bed.data")))
         rc, out = E.run(self.cmd(np), wd, text, timeout=300)
         self.out[tag] = out
@@ -156,15 +159,23 @@ class Runner:
             return None
         return wd
 
-    def final(self, tag, style, np, newton="off"):
+    def final(self, tag, style, np, newton="off", extra=""):
         """positions after STEPS steps"""
-        wd = self.go(tag, np, self.script(style, np, newton, "run %d\n" % STEPS + self.dump("final.dump")))
+        wd = self.go(tag, np, self.script(style, np, newton, "run %d\n" % STEPS + self.dump("final.dump"), extra))
         return load(os.path.join(wd, "final.dump")) if wd else None
 
-
-def crossings(out):
-    """the largest number of grains in the box (a sanity check that the run did something) from thermo"""
-    return out.count("\n")
+    def press(self, tag):
+        """the thermo pressure column (LAMMPS: the pair virial summed over the ranks)"""
+        rows, on = [], False
+        for l in self.out.get(tag, "").splitlines():
+            w = l.split()
+            if w[:1] == ["Step"]:
+                on = True
+            elif on and len(w) == 4 and w[0].isdigit():
+                rows.append(float(w[3]))
+            elif w[:2] == ["Loop", "time"]:
+                on = False
+        return rows
 
 
 def compare(results, label, a, b, bound=BOUND):
@@ -213,8 +224,8 @@ def lammps(mpirun, lmp):
     for newton in ("on", "off"):
         s1 = r.final("stock_np1_" + newton, "gran/hertz/history", 1, newton)
         s2 = r.final("stock_np2_" + newton, "gran/hertz/history", 2, newton)
-        g1 = r.final("gpu_np1_" + newton, "gran/hertz/history/gpu", 1, newton)
-        g2 = r.final("gpu_np2_" + newton, "gran/hertz/history/gpu", 2, newton)
+        g1 = r.final("gpu_np1_" + newton, "gran/hertz/history/gpu", 1, newton, " timers on")
+        g2 = r.final("gpu_np2_" + newton, "gran/hertz/history/gpu", 2, newton, " timers on")
         if s2 is None or g2 is None:
             return False
         print(" newton %s, %d grains:" % (newton, len(s2)))
@@ -222,7 +233,20 @@ def lammps(mpirun, lmp):
         compare(res, "/gpu np 2 vs stock np 2", g2, s2)
         compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
         compare(res, "/gpu np 1 vs stock np 1", g1, s1)
+        def dpress(a, b):
+            pa, pb = r.press(a), r.press(b)
+            return max(abs(x - y) for x, y in zip(pa, pb)) / max(abs(y) for y in pb) if pa and len(pa) == len(pb) else 1.0
+        print("  %-58s max |dp| / max |p| = %.3g (reference)" % ("stock np 1 vs stock np 2 pressure",
+                                                                 dpress("stock_np1_" + newton, "stock_np2_" + newton)))
+        dp = dpress("gpu_np2_" + newton, "stock_np2_" + newton)
+        print("  %-58s max |dp| / max |p| = %.3g (bound 1e-7)" % ("/gpu np 2 vs stock np 2 pressure (virial)", dp))
+        res.append(dp < 1e-7)
+        c1, c2 = contacts(r.out.get("gpu_np1_" + newton, "")), contacts(r.out.get("gpu_np2_" + newton, ""))
+        print("  %-58s %s, %s" % ("touching contacts at the end (timers line) np 1, np 2", c1, c2))
+        res.append(c1 is not None and c1 > 500 and c1 == c2)  # the bed is dense: most grains touch
         if newton == "on":
+            gp = r.final("gpu_np2_pair_on", "gran/hertz/history/gpu", 2, newton, " algo pair")
+            compare(res, "/gpu algo pair np 2 vs stock np 2", gp, s2)
             s4 = r.final("stock_np4_on", "gran/hertz/history", 4, newton)
             g4 = r.final("gpu_np4_on", "gran/hertz/history/gpu", 4, newton)
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
@@ -232,6 +256,14 @@ def lammps(mpirun, lmp):
     ok = all(res) and moved
     print("%s LAMMPS /gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
     return ok
+
+
+def contacts(out):
+    """the contact count of the timers line (summed over the ranks, each pair once)"""
+    for l in out.splitlines():
+        if " timers: " in l and "contacts=" in l:
+            return int(l.split("contacts=")[1].split()[0])
+    return None
 
 
 def migrated(out):
