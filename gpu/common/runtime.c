@@ -72,4 +72,8 @@ int sphdem_rt_gpu_probe(char *msg, size_t msglen) {
   if (msg && msglen) snprintf(msg, msglen, "built without CUDA");
   return SPHDEM_ERR_NO_GPU;
 }
+int sphdem_gpu_select(int local_rank, char *msg, size_t msglen) {
+  (void)local_rank;
+  return sphdem_rt_gpu_probe(msg, msglen);
+}
 #endif

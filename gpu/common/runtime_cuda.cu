@@ -42,11 +42,36 @@ int sphdem_rt_gpu_probe(char *msg, size_t msglen) {
     return SPHDEM_ERR_NO_GPU;
   }
   if (n == 0) { snprintf(msg, msglen, "no CUDA device found"); return SPHDEM_ERR_NO_GPU; }
+  int dev = 0;
+  if (cudaGetDevice(&dev) != cudaSuccess) { cudaGetLastError(); dev = 0; }
   cudaDeviceProp prop;
-  if (cudaGetDeviceProperties(&prop, 0) != cudaSuccess) { snprintf(msg, msglen, "cannot query device 0"); return SPHDEM_ERR_NO_GPU; }
-  snprintf(msg, msglen, "GPU 0: %s (sm_%d%d, %.1f GiB)", prop.name, prop.major, prop.minor,
+  if (cudaGetDeviceProperties(&prop, dev) != cudaSuccess) {
+    snprintf(msg, msglen, "cannot query device %d", dev);
+    return SPHDEM_ERR_NO_GPU;
+  }
+  snprintf(msg, msglen, "GPU %d: %s (sm_%d%d, %.1f GiB)", dev, prop.name, prop.major, prop.minor,
            prop.totalGlobalMem / 1073741824.0);
   return SPHDEM_OK;
+}
+
+int sphdem_gpu_select(int local_rank, char *msg, size_t msglen) {
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess || n == 0) {
+    cudaGetLastError();
+    if (msg && msglen) snprintf(msg, msglen, "no CUDA device found");
+    return SPHDEM_ERR_NO_GPU;
+  }
+  const int dev = (local_rank < 0 ? 0 : local_rank) % n;
+  cudaError_t e = cudaSetDevice(dev);
+  if (e != cudaSuccess) {
+    if (msg && msglen) snprintf(msg, msglen, "cudaSetDevice(%d): %s", dev, cudaGetErrorString(e));
+    cudaGetLastError();
+    return SPHDEM_ERR_NO_GPU;
+  }
+  char m[256];
+  const int rc = sphdem_rt_gpu_probe(m, sizeof m);
+  if (msg && msglen) snprintf(msg, msglen, "%s (of %d on this node)", m, n);
+  return rc;
 }
 
 }

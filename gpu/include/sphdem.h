@@ -117,6 +117,9 @@ const char *sphdem_last_error(sphdem_ctx ctx);
 int sphdem_backend(sphdem_ctx ctx);          /* SPHDEM_DEVICE_CPU or SPHDEM_DEVICE_GPU */
 const char *sphdem_backend_note(sphdem_ctx ctx); /* "" or one line: why AUTO fell back, GPU name */
 int sphdem_gpu_available(void);              /* 1 if the CUDA backend is built and a device is usable */
+/* Many ranks: this process uses GPU local_rank mod (GPUs on the node) for every context created afterwards
+ * (several ranks may share one); msg gets "GPU k: name ..." or why there is none (SPHDEM_ERR_NO_GPU). */
+int sphdem_gpu_select(int local_rank, char *msg, size_t msglen);
 
 /* Change parameters that may vary between runs (box, gravity, coefficients); not dim or h. */
 int sphdem_set_params(sphdem_ctx ctx, const sphdem_params *p);

@@ -487,6 +487,10 @@ void FixSPHFluid::setup(int) {
   box_to_params();
   if (!ctx_) {
     char msg[512] = "";
+    if (multi_ && device_ != SPHDEM_DEVICE_CPU) { /* one GPU per rank on its node, shared when fewer */
+      const std::string map = sphdem_mpi::select_gpus(world);
+      if (comm->me == 0 && !map.empty()) sphdem_compat::logmesg(lmp, "Fix sph/fluid: GPUs: " + map + "\n");
+    }
     int rc = sphdem_create(&ctx_, &prm_, device_, msg, sizeof msg);
     if (rc != SPHDEM_OK) fail(std::string(msg) + " (" + sphdem_strerror(rc) + ")");
   } else {
