@@ -42,8 +42,8 @@ class PairGranGPUBase : public Pair {
   sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
   /* Many MPI ranks: the core gets the owned atoms and then the ghost atoms (flags SPHDEM_DEM_GHOST or
    * SPHDEM_DEM_IMAGE); every rank evaluates each pair that has one of its own atoms and adds the force to its
-   * own atoms only, so a pair split between two ranks is evaluated on both with the same operands and both
-   * keep the same history. */
+   * own atoms only, so a pair split between two ranks is evaluated on both (same atom order, the same
+   * operands unless one atom is seen through a periodic shift) and both keep its history. */
   bool ghosts_;
   std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, or -1 */
   int nall_mapped_;                   /* atoms when image_of_ was made */
