@@ -13,7 +13,8 @@ vs stock at another rank count, printed alongside).
                        np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
-                       np 2 -> np 1; rolling_friction epsd2 on 2 ranks stops naming it
+                       np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) /gpu vs stock at
+                       np 2; rolling_friction epsd2 on 2 ranks stops naming it
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
@@ -76,6 +77,11 @@ thermo_style custom step atoms ke
 thermo 500
 {run}
 """
+HYSTERESIS = """fix m6 all property/global characteristicVelocity scalar 0.5
+fix m7 all property/global coefficientMaxElasticStiffness peratomtypepair 1 1.5
+fix m8 all property/global coefficientAdhesionStiffness peratomtypepair 1 0.3
+fix m9 all property/global coefficientPlasticityDepth peratomtypepair 1 0.5
+"""
 LIG_DUMP = """dump d all custom 1 {name} id x y z vx vy vz omegax omegay omegaz
 dump_modify d sort id format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
 run 0
@@ -133,6 +139,7 @@ class Runner:
     def __init__(self, mpirun, exe, liggghts, root):
         self.mpirun, self.exe, self.lig, self.root = mpirun, exe, liggghts, root
         self.out = {}
+        self.text = None  # another input than LMP / LIG
         os.makedirs(root, exist_ok=True)
         bed_data(os.path.join(root, "bed.data"))  # written afresh: a folder left by an earlier version is reused
 
@@ -140,7 +147,7 @@ class Runner:
         return [self.mpirun, "-np", str(np), "--oversubscribe", "--allow-run-as-root", self.exe]
 
     def script(self, style, np, newton, run, extra=""):
-        t = LIG if self.lig else LMP
+        t = self.text or (LIG if self.lig else LMP)
         return t.format(style=style, px=np, newton=newton, run=run, extra=extra)
 
     def dump(self, name):
@@ -290,6 +297,13 @@ def liggghts(mpirun, lig):
     compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
     compare(res, "/gpu np 1 vs stock np 1", g1, s1)
     restart_pair(r, res, "gran/gpu", 2, 1, "off")
+    # model hooke/hysteresis: the largest overlap of each contact is a history value too
+    hyst = Runner(mpirun, lig, True, os.path.join("dem_mpi_lig", "hysteresis"))
+    hyst.text = LIG.replace("model hertz tangential history\n", "model hooke/hysteresis tangential history\n").replace(
+        "pair_style", HYSTERESIS + "pair_style", 1)
+    h2 = hyst.final("stock_np2", "gran", 2)
+    hg2 = hyst.final("gpu_np2", "gran/gpu", 2)
+    compare(res, "model hooke/hysteresis: /gpu np 2 vs stock np 2", hg2, h2)
     # rolling_friction epsd2 keeps a rolling torque per contact that is not handed over: refused on 2 ranks
     text = r.script("gran/gpu", 2, "off", "run 10\n").replace(
         "tangential history\n", "tangential history rolling_friction epsd2\n", 1).replace(
