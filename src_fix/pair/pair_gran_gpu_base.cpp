@@ -118,9 +118,19 @@ void PairGranGPUBase::push_params(const sphdem_dem_params &p) {
 
 void PairGranGPUBase::create_core() {
   if (dem_) return;
-  char msg[512];
+  /* many ranks: each takes GPU (rank on its node) mod (GPUs on the node); several ranks may share one */
+  if (ghosts_ && device_ != SPHDEM_DEVICE_CPU) {
+    const std::string map = sphdem_mpi::select_gpus(world);
+    if (comm->me == 0 && !map.empty()) sphdem_compat::logmesg(lmp, "Pair " + style_ + ": " + map + "\n");
+  }
+  char msg[512] = "";
   int rc = sphdem_dem_create(&dem_, &prm_, (sphdem_device)device_, msg, sizeof msg);
-  if (rc) fail(std::string("cannot start the DEM core: ") + msg);
+  if (ghosts_) {
+    const std::string err = sphdem_mpi::first_failure(world, rc != 0, msg);
+    if (!err.empty()) fail("cannot start the DEM core: " + err);
+  } else if (rc) {
+    fail(std::string("cannot start the DEM core: ") + msg);
+  }
   if (comm->me == 0)
     sphdem_compat::logmesg(lmp, "Pair " + style_ + ": sphdem DEM core on the " +
                                     (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
