@@ -258,7 +258,17 @@ int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, con
     if (2.0 * radius[i] > c->gdmax) c->gdmax = 2.0 * radius[i];
   }
   D->ng = n;
+  c->ngown = n;
   c->grains_dirty = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_couple_set_ghosts(sphdem_ctx c, int nghost) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (nghost < 0 || nghost > c->D.ng)
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set_ghosts: %d ghost grains for %lld grains", nghost,
+                       (long long)c->D.ng);
+  c->ngown = c->D.ng - nghost;
   return SPHDEM_OK;
 }
 
@@ -349,12 +359,14 @@ static int couple_prepare(struct sphdem_ctx_s *c) {
 static int couple_finish(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   int64_t n = D->ng;
-  if (n > 0) {
+  if (n > 0 && D->nf > 0) {
     TRYC(c->ops->couple_grains(c));
     TRYC(rt_sync(&c->rt));
     TRYC(c->ops->couple_reaction(c));
-  } else {
-    TRYC(rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf));
+  } else { /* no grain, or no fluid on this rank (many ranks): no force either way */
+    if (D->nf > 0) TRYC(rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf));
+    double *gz[4] = {D->gf, D->gfd, D->gfpg, D->gtq};
+    for (int k = 0; k < 4 && n > 0; k++) TRYC(rt_zero(&c->rt, gz[k], 24 * (size_t)n));
   }
   TRYC(rt_sync(&c->rt));
   /* grain forces to host memory, in upload order */
@@ -461,14 +473,22 @@ int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
   s->eps_min = 1.0;
   sphdem_dev *D = &c->D;
   if (!D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_stats_get: the coupling is off");
-  s->ngrains = D->ng;
-  if (!c->forces_valid) return SPHDEM_OK;
+  /* the owned grains and fluid of this rank (upload order: owned first), summed over the ranks (collective) */
+  const int many = rt_nranks(&c->rt) > 1;
+  double ng = (double)(c->ngown < D->ng ? c->ngown : D->ng), valid = c->forces_valid ? 1.0 : 0.0;
+  if (many) {
+    TRYC(sphdem_rt_allreduce(&c->rt, &ng, 1, SPHDEM_RED_SUM));
+    TRYC(sphdem_rt_allreduce(&c->rt, &valid, 1, SPHDEM_RED_MIN));
+  }
+  s->ngrains = (int64_t)ng;
+  if (!(valid > 0.5)) return SPHDEM_OK;
   long double fg[3] = {0, 0, 0}, ff[3] = {0, 0, 0};
-  for (int64_t j = 0; j < c->nforces; j++)
+  const int64_t ngo = c->ngown < c->nforces ? c->ngown : c->nforces;
+  for (int64_t j = 0; j < ngo; j++)
     for (int d = 0; d < 3; d++) fg[d] += c->hgf[3 * j + d];
-  int64_t n = D->nf;
-  if (n > 0 && c->cap_cf >= n) {
-    double *e = (double *)malloc(8 * (size_t)n), *fr = (double *)malloc(24 * (size_t)n);
+  int64_t n = D->nown;
+  if (n > 0 && c->cap_cf >= D->nf) {
+    double *e = (double *)malloc(8 * (size_t)D->nf), *fr = (double *)malloc(24 * (size_t)D->nf);
     int rc = e && fr ? download_fluid_coupling(c, e, fr)
                      : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple_stats_get: cannot allocate host staging");
     for (int64_t a = 0; !rc && a < n; a++) {
@@ -480,6 +500,12 @@ int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
     TRYC(rc);
   }
   for (int d = 0; d < 3; d++) { s->f_grains[d] = (double)fg[d]; s->f_fluid[d] = (double)ff[d]; }
+  if (many) {
+    double sums[6] = {s->f_grains[0], s->f_grains[1], s->f_grains[2], s->f_fluid[0], s->f_fluid[1], s->f_fluid[2]};
+    TRYC(sphdem_rt_allreduce(&c->rt, sums, 6, SPHDEM_RED_SUM));
+    TRYC(sphdem_rt_allreduce(&c->rt, &s->eps_min, 1, SPHDEM_RED_MIN));
+    for (int d = 0; d < 3; d++) { s->f_grains[d] = sums[d]; s->f_fluid[d] = sums[3 + d]; }
+  }
   return SPHDEM_OK;
 }
 

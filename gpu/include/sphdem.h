@@ -263,6 +263,9 @@ int sphdem_set_grains(sphdem_ctx ctx, int n, const double *x, const double *v, c
  * sphdem_set_grains: total f (eq 27), its drag part fdrag (eq 30) and pressure-gradient/viscous
  * part fpg (eqs 28-29), torque. 3n each; any pointer may be NULL. */
 int sphdem_get_grain_forces(sphdem_ctx ctx, double *f, double *fdrag, double *fpg, double *torque);
+/* Many ranks: the last nghost grains of the last sphdem_set_grains are ghost copies (their forces are computed
+ * and not used; sphdem_couple_stats_get sums the owned grains and fluid over the ranks, collectively). */
+int sphdem_couple_set_ghosts(sphdem_ctx ctx, int nghost);
 /* Porosity eps at each fluid particle (eq 26, before the floor), in the order of sphdem_set_fluid. */
 int sphdem_get_porosity(sphdem_ctx ctx, double *eps);
 /* Porosity from an earlier run (a restart file), n values in the order of sphdem_set_fluid, each in (0, 1]:

@@ -231,10 +231,12 @@ static int mp_prepare(struct sphdem_ctx_s *c) {
   TRYM(ensure_mp(c, D->nf));
   if (D->M.shifting) {
     sphdem_red r;
-    TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
+    if (D->nf > 0) TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
+    else red_init(&r);
     TRYM(sphdem_rt_allreduce(&c->rt, r.v2ph, SPHDEM_MAX_PHASES, SPHDEM_RED_MAX)); /* over the ranks' owned */
     for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
   }
+  if (D->nf == 0) return SPHDEM_OK; /* many ranks: no fluid here */
   TRYM(c->ops->mp_grad(c));
   TRYM(rt_sync(&c->rt));
   if (D->M.shifting) {

@@ -809,7 +809,14 @@ static int feature_hooks(struct sphdem_ctx_s *c, int which, double *tx) {
 int sphdem_compute_rates(sphdem_ctx c) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (D->nf == 0) { c->have_rates = 1; return SPHDEM_OK; }
+  if (D->nf == 0) { /* nothing to evaluate; the features still take part in the reductions over the ranks
+                     * (delta-plus: the shifting speed) and close their evaluation (coupling: zero grain forces) */
+    double tx = 0.0;
+    TRY(feature_hooks(c, HOOK_BEFORE_RATES, &tx));
+    TRY(feature_hooks(c, HOOK_AFTER_RATES, &tx));
+    c->have_rates = 1;
+    return SPHDEM_OK;
+  }
   if (c->need_sort) TRY(sort_all(c));
   else if (c->need_wall_sort && D->nw > 0) {
     double t0 = rt_now();

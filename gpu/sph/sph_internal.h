@@ -170,6 +170,7 @@ struct sphdem_ctx_s {
   int grains_dirty;             /* uploaded but not yet sorted */
   double gbb_lo[3], gbb_hi[3], gdmax; /* bounding box and largest diameter of the uploaded grains */
   int64_t nforces;              /* grains seen by the last compute_rates */
+  int64_t ngown;                /* owned grains of the last set_grains (the rest are ghost copies) */
   double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
   int64_t cap_hgf;
   int forces_valid;

@@ -18,6 +18,7 @@
 #include "sphdem_compat.h"
 #include "sphdem_grains.h"
 #include "sphdem_peratom.h"
+#include "sphdem_mpi.h"
 #include "update.h"
 
 using namespace LAMMPS_NS;
@@ -53,6 +54,7 @@ FixSPHCouple::FixSPHCouple(LAMMPS *lmp, int narg, char **arg)
   parse_args(narg, arg);
 
   sphdem_peratom::start(this, atom, NOUT, NVEC, true);
+  comm_forward = 6;
 }
 
 FixSPHCouple::~FixSPHCouple() {
@@ -67,7 +69,10 @@ void FixSPHCouple::fail(const std::string &msg) {
 
 void FixSPHCouple::check(sphdem_ctx ctx, int rc, const char *what) {
   if (rc == SPHDEM_OK) return;
-  fail(std::string(what) + ": " + sphdem_last_error(ctx) + " (" + sphdem_strerror(rc) + ")");
+  const std::string m = std::string("Fix sph/couple: ") + what + ": " + sphdem_last_error(ctx) + " (" +
+                        sphdem_strerror(rc) + ")";
+  if (comm->nprocs > 1) sphdem_compat::error_one(error, FLERR, m); /* may fail on this rank alone */
+  sphdem_compat::error_all(error, FLERR, m);
 }
 
 double FixSPHCouple::parse_number(const char *kw, const char *s, const char *usage) {
@@ -167,6 +172,11 @@ void FixSPHCouple::init() {
          " (the fluid's rate evaluation must precede the coupling forces in post_force)");
   if (!fluid_->attach_coupler(this))
     fail("fix sph/fluid " + fluid_id_ + " is already coupled by another fix sph/couple (one per fluid fix)");
+  if (fluid_->many_ranks()) {
+    /* the coupling passes chain three coupling supports (reaction <- grain force <- porosity) */
+    const double hc = cp_.hc > 0 ? cp_.hc : fluid_->params().h;
+    fluid_->extend_ghost_band(3.0 * 2.0 * hc);
+  }
 
   if (!atom->radius_flag) fail("the atom style must define a per-atom radius (atom_style sphere or granular)");
   if (cp_.torque && !(atom->omega_flag && atom->torque_flag))
@@ -265,8 +275,33 @@ int FixSPHCouple::nloop() const { return sphdem_grains::nloop(atom, igroup); }
 /* ---- the fluid step: upload grains, fetch forces ------------------------------------------------- */
 
 void FixSPHCouple::couple_before_rates(sphdem_ctx ctx) {
-  const size_t n = sphdem_grains::gather(atom, groupbit, nloop(), gidx_, gx_, gv_, grad_, cp_.torque ? &gom_ : nullptr);
-  const int rc = sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr);
+  size_t n = sphdem_grains::gather(atom, groupbit, nloop(), gidx_, gx_, gv_, grad_, cp_.torque ? &gom_ : nullptr);
+  ngown_ = n;
+  if (fluid_->many_ranks()) {
+    /* ghost grains: positions and radii from the engine, velocity and spin from their owners */
+    const size_t nall = (size_t)(atom->nlocal + atom->nghost);
+    if (gcomm_.size() < 6 * nall) gcomm_.resize(6 * nall, 0.0);
+    for (size_t k = 0; k < ngown_; k++)
+      for (int d = 0; d < 3; d++) {
+        gcomm_[6 * gidx_[k] + d] = atom->v[gidx_[k]][d];
+        gcomm_[6 * gidx_[k] + 3 + d] = atom->omega_flag ? atom->omega[gidx_[k]][d] : 0.0;
+      }
+    comm->forward_comm_fix(this);
+    const int *mask = atom->mask;
+    for (int i = atom->nlocal; i < (int)nall; i++) {
+      if (!(mask[i] & groupbit)) continue;
+      gidx_.push_back(i);
+      for (int d = 0; d < 3; d++) {
+        gx_.push_back(atom->x[i][d]);
+        gv_.push_back(gcomm_[6 * i + d]);
+        if (cp_.torque) gom_.push_back(gcomm_[6 * i + 3 + d]);
+      }
+      grad_.push_back(atom->radius[i]);
+    }
+    n = gidx_.size();
+  }
+  int rc = sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr);
+  if (rc == SPHDEM_OK && fluid_->many_ranks()) rc = sphdem_couple_set_ghosts(ctx, (int)(n - ngown_));
   /* grains that went non-finite during a run: the fluid fix writes its failure dump, with the grains */
   if (rc != SPHDEM_OK && update->ntimestep > update->beginstep)
     fluid_->fail_with_dump(std::string("Fix sph/couple: set_grains at step ") +
@@ -283,7 +318,7 @@ void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
   gt_.resize(3 * n);
   check(ctx, sphdem_get_grain_forces(ctx, gf_.data(), gfd_.data(), gfp_.data(), cp_.torque ? gt_.data() : nullptr),
         "get_grain_forces");
-  for (size_t k = 0; k < n; k++) {
+  for (size_t k = 0; k < ngown_; k++) { /* the ghosts' forces belong to their owners */
     double *row = ca_[gidx_[k]];
     for (int d = 0; d < 3; d++) {
       row[C_F + d] = gf_[3 * k + d];
@@ -294,6 +329,20 @@ void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
     row[C_VALID] = 1.0;
   }
   stats_dirty_ = true;
+}
+
+int FixSPHCouple::sphdem_pack_forward(int n, int *list, double *buf, int, int *) {
+  int m = 0;
+  for (int j = 0; j < n; j++)
+    for (int c = 0; c < 6; c++) buf[m++] = gcomm_[6 * (size_t)list[j] + c];
+  return m;
+}
+
+void FixSPHCouple::sphdem_unpack_forward(int n, int first, double *buf) {
+  if (gcomm_.size() < 6 * (size_t)(first + n)) gcomm_.resize(6 * (size_t)(first + n), 0.0);
+  int m = 0;
+  for (int i = first; i < first + n; i++)
+    for (int c = 0; c < 6; c++) gcomm_[6 * (size_t)i + c] = buf[m++];
 }
 
 /* ---- every engine step: add the held forces ------------------------------------------------------- */

@@ -32,6 +32,9 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   void restart(char *) override;
 
   SPHDEM_PERATOM_METHODS(ca_, NCOL, "sph/couple", "sph/couple:ca")
+  SPHDEM_FORWARD_COMM_METHODS
+  int sphdem_pack_forward(int n, int *list, double *buf, int pbc_flag, int *pbc);
+  void sphdem_unpack_forward(int n, int first, double *buf);
 
   /* SPHCoupler: called by the fluid fix */
   void couple_setup(sphdem_ctx ctx) override;
@@ -39,6 +42,7 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   void couple_before_rates(sphdem_ctx ctx) override;
   void couple_after_rates(sphdem_ctx ctx) override;
   double couple_superficial_floor() const override { return cp_.superficial ? cp_.eps_min : 0.0; }
+  int couple_groupbit() const override { return groupbit; }
 
  private:
   /* per-atom array: f_ID[1-3] fluid force, [4-6] its drag part, [7-9] its pressure-gradient/viscous
@@ -57,7 +61,9 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   double **ca_;
   int nmax_;
 
-  std::vector<int> gidx_;     /* local indices of the grains in upload order */
+  std::vector<int> gidx_;     /* local indices of the grains in upload order (many ranks: owned, then ghosts) */
+  size_t ngown_ = 0;          /* owned grains at the front of gidx_ */
+  std::vector<double> gcomm_; /* many ranks: v, omega of every local and ghost atom (forward communication) */
   std::vector<double> gx_, gv_, grad_, gom_, gf_, gfd_, gfp_, gt_;
 
   sphdem_couple_stats cstats_;

@@ -414,6 +414,14 @@ void FixSPHFluid::box_to_params() {
 /* How many pair sums deep one rate evaluation reaches: the rates (1); the wall state or the kernel sums that the
  * rates read at the neighbours (+1); the delta-plus gradients and shifting read at the neighbours and themselves
  * built on the wall state (+1); mirror ghost walls interpolate at a mirror point up to two supports inside (+2). */
+void FixSPHFluid::extend_ghost_band(double extra) {
+  if (!multi_) return;
+  cut_need_ += extra;
+  const double cut = sphdem_compat::comm_cutoff_for_band(cut_need_, neighbor->skin,
+                                                         atom->radius_flag && !domain->triclinic);
+  if (comm->cutghostuser < cut) comm->cutghostuser = cut;
+}
+
 int FixSPHFluid::ghost_levels() const {
   int levels = 1;
   if (wall_groupbit_ || prm_.isolated > 0.0) levels++;
@@ -498,9 +506,6 @@ void FixSPHFluid::setup(int) {
   }
   if (multi_) comm_ = sphdem_mpi::comm(&world);
   check(sphdem_set_comm(ctx_, multi_ ? &comm_ : nullptr), "set_comm");
-  if (multi_ && coupler_)
-    fail("fix sph/couple runs on one MPI rank only in this version (the fluid alone, fix sph/fluid, runs on many; "
-         "use mpirun -np 1 for the coupled scene)");
   if (rk4_ && coupler_) fail("integrator rk4 cannot be used with fix sph/couple (grains need velocity Verlet)");
   if (mp_.enabled) {
     if (coupler_ && mp_.single) fail(std::string("fix sph/couple: ") + SPHDEM_MP_COUPLE_WHY);
@@ -553,11 +558,14 @@ void FixSPHFluid::setup(int) {
              s.dt_stable, update->dt, stepnote);
     sphdem_compat::logmesg(lmp, line);
     if (multi_) {
+      const double extra = cut_need_ - 2.0 * prm_.h * ghost_levels() - neighbor->skin;
+      char cpl[64] = "";
+      if (extra > 1e-12 * cut_need_) snprintf(cpl, sizeof cpl, " + coupling %g", extra);
       snprintf(line, sizeof line,
-               "Fix sph/fluid: %d MPI ranks (processors %d %d %d); ghost fluid and walls within %g = %d x 2h + "
+               "Fix sph/fluid: %d MPI ranks (processors %d %d %d); ghost fluid and walls within %g = %d x 2h%s + "
                "neighbor skin %g (communication cutoff %g)\n",
                comm->nprocs, comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], cut_need_, ghost_levels(),
-               neighbor->skin, comm->cutghostuser);
+               cpl, neighbor->skin, comm->cutghostuser);
       sphdem_compat::logmesg(lmp, line);
     }
     announced_ = true;
@@ -595,11 +603,9 @@ void FixSPHFluid::build_map() {
       if (mask[i] & groupbit) fidx_.push_back(i);
       else if (mask[i] & wall_groupbit_) widx_.push_back(i);
     }
-    xhold_.resize(3 * (nfown_ + nwown_));
-    for (size_t k = 0; k < nfown_ + nwown_; k++) {
-      const int i = k < nfown_ ? fidx_[k] : widx_[k - nfown_];
-      for (int d = 0; d < 3; d++) xhold_[3 * k + d] = atom->x[i][d];
-    }
+    xhold_.resize(3 * (size_t)nlocal);
+    for (int i = 0; i < nlocal; i++)
+      for (int d = 0; d < 3; d++) xhold_[3 * (size_t)i + d] = atom->x[i][d];
   }
   mapping_dirty_ = false;
 }
@@ -734,12 +740,13 @@ void FixSPHFluid::fill_gcomm(bool fluid, bool walls) {
       g[3] = frho_[k];
       g[4] = fstate_[SPHDEM_NSTATE * k];
       g[8] = fmass_[k];
+      g[9] = sa_[fidx_[k]][C_EPS];
     }
   if (walls)
     for (size_t k = 0; k < nwown_; k++) {
       double *g = &gcomm_[(size_t)GCOMM * widx_[k]];
       for (int d = 0; d < 3; d++) g[d] = wv_[3 * k + d], g[5 + d] = wa_[3 * k + d];
-      g[3] = g[4] = 0.0;
+      g[3] = g[4] = g[9] = 0.0;
       g[8] = wmass_[k];
     }
   comm->forward_comm_fix(this);
@@ -785,10 +792,12 @@ void FixSPHFluid::ghost_state_to_core() {
 void FixSPHFluid::check_displacement() {
   double d2max = 0.0;
   double **x = atom->x;
-  for (size_t k = 0; k < nfown_ + nwown_ && 3 * k + 2 < xhold_.size(); k++) {
-    const int i = k < nfown_ ? fidx_[k] : widx_[k - nfown_];
+  const int bits = groupbit | wall_groupbit_ | (coupler_ ? coupler_->couple_groupbit() : 0);
+  const int n = std::min(atom->nlocal, (int)(xhold_.size() / 3));
+  for (int i = 0; i < n; i++) {
+    if (!(atom->mask[i] & bits)) continue;
     double d2 = 0.0;
-    for (int d = 0; d < 3; d++) d2 += (x[i][d] - xhold_[3 * k + d]) * (x[i][d] - xhold_[3 * k + d]);
+    for (int d = 0; d < 3; d++) d2 += (x[i][d] - xhold_[3 * (size_t)i + d]) * (x[i][d] - xhold_[3 * (size_t)i + d]);
     if (!(d2 <= d2max)) d2max = std::isfinite(d2) ? d2 : 1e300;
   }
   sphdem_mpi::max(world, &d2max, 1);
@@ -801,7 +810,9 @@ void FixSPHFluid::check_displacement() {
  * per-atom masses, m = eps m (their volume m/rho stays the lattice volume; once per particle: the
  * state is valid afterwards), using the porosity of the first rate evaluation; then the rates again. */
 void FixSPHFluid::start_superficial() {
-  if (fresh_.empty()) return;
+  double any = fresh_.empty() ? 0.0 : 1.0;
+  if (multi_) sphdem_mpi::max(world, &any, 1); /* collective below: the ghosts take their owners' new values */
+  if (any == 0.0) return;
   const double floor = coupler_->couple_superficial_floor();
   const size_t n = fidx_.size();
   feps_.resize(n);
@@ -818,9 +829,15 @@ void FixSPHFluid::start_superficial() {
     sphdem_compat::warning(error, FLERR,
                            "Fix sph/fluid: per-type masses: the fluid density starts at eps rho, the masses are "
                            "not scaled by the porosity (use an atom style with per-atom mass, e.g. sphere)");
+  if (multi_) {
+    fill_gcomm(true, false);
+    for (size_t k = nfown_; k < n; k++) frho_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + 3], fmass_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + 8];
+  }
   /* x, v are unchanged since the upload; the state stays zero (it was not valid) */
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(), nullptr),
         "set_fluid");
+  if (multi_) check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
+  if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   rates();
 }
 
@@ -830,7 +847,8 @@ void FixSPHFluid::start_superficial() {
 void FixSPHFluid::seed_porosity() {
   std::vector<double> eps(fidx_.size());
   for (size_t k = 0; k < fidx_.size(); k++) {
-    eps[k] = sa_[fidx_[k]][C_EPS];
+    /* the ghosts' porosity came from their owners with the last upload */
+    eps[k] = k < nfown_ ? sa_[fidx_[k]][C_EPS] : gcomm_[(size_t)GCOMM * fidx_[k] + 9];
     if (!(eps[k] > 0.0 && eps[k] <= 1.0)) return;
   }
   check(sphdem_couple_seed_porosity(ctx_, (int)eps.size(), eps.data()), "couple_seed_porosity");

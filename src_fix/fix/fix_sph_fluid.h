@@ -29,6 +29,7 @@ class SPHCoupler {
   /* > 0: the porosity enters the fluid density (superficial); fresh fluid particles then start at
    * rho = eps rho_start and m = eps m (eps floored at this value) so their intrinsic density is rho_start */
   virtual double couple_superficial_floor() const = 0;
+  virtual int couple_groupbit() const = 0; /* the grains (their moves also ask for neighbour builds) */
 
  protected:
   /* Never deleted through this base: a protected non-virtual destructor leaves the exception
@@ -71,6 +72,8 @@ class FixSPHFluid : public Fix {
   void sphdem_unpack_forward(int n, int first, double *buf);
   /* many ranks: the ghost fluid and walls enter the core (the communication cutoff is set for them) */
   bool many_ranks() const { return multi_; }
+  /* fix sph/couple (in its init, after this fix's): the coupling passes reach `extra` deeper */
+  void extend_ghost_band(double extra);
 
  private:
   /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
@@ -126,7 +129,7 @@ class FixSPHFluid : public Fix {
    * atoms of the fluid and wall groups; the core computes every pair sum over both and integrates the owned.
    * Per fluid step one forward communication of GCOMM values per atom (v, rho, drho, a, mass; walls: v, the
    * wall acceleration) brings the ghosts' state (x through the engine's own forward communication). */
-  enum { GCOMM = 9 };
+  enum { GCOMM = 10 }; /* v (3), rho, drho, a (3), mass, porosity */
   bool multi_ = false;
   size_t nfown_ = 0, nwown_ = 0; /* owned entries at the front of fidx_ / widx_ */
   std::vector<double> gcomm_; /* GCOMM values per local + ghost atom */

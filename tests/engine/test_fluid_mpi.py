@@ -3,7 +3,8 @@
 
   ranks EXE ENGINE MPIRUN EXAMPLES   every scene below at 1, 2 and 4 ranks (4 oversubscribed on small machines):
       dambreak   examples/dambreak2d at a/dx = 20, 1600 steps, cut vertically (processors 2 1 1, 4 1 1: the front
-                 crosses the subdomain boundaries at x = 0.1 and 0.25 during the run) and horizontally (1 2 1)
+                 crosses the subdomain boundaries at x = 0.1 and 0.25 during the run) and horizontally (1 2 1);
+                 with the delta-plus terms (visc morris, shifting, renormalised diffusion) at 4 1 1, 400 steps
       vortex     examples/taylor_green (delta-plus single fluid: shifting, renormalised diffusion; periodic in x
                  and y, so the ghosts are also the periodic images), 60 steps, processors 2 2 1 and 1 2 1
       tank       examples/static_tank (two phases, Herschel-Bulkley mud under water, shifting), 100 steps, Adami
@@ -11,9 +12,12 @@
                  (ghost mirror, 2 1 1)
       couette    a lid moved by fix move linear (moving walls: the ghost walls' velocity and acceleration come from
                  their owners), 300 steps, processors 1 2 1 (the cut runs parallel to the lid)
+      coupled    fix sph/couple: the tiny dam break with 6 grains (torque yes), 400 steps, processors 1 3 1, 4 1 1,
+                 2 2 1 (grains and fluid on both sides of the cuts)
       probe      compute sph/probe on the hydrostatic start (points on both sides of the cut), processors 1 2 1
   restart EXE ENGINE MPIRUN          the tiny dam break written by write_restart at 2 ranks and continued at 1, and
                                      written at 1 and continued at 4, against the unbroken run at 1 rank
+  couple EXE ENGINE MPIRUN           fix sph/couple: the momentum balance at 3 and 4 ranks, a coupled restart 3 -> 1
   refused EXE ENGINE MPIRUN          integrator rk4 on 2 ranks stops with a message that says why, on every rank
 
 Atoms are matched by their initial position (create_atoms numbers the atoms in a different order on another
@@ -125,6 +129,12 @@ def test_ranks(exe, engine, mpirun, examples):
     db = db.replace("variable nres   index 40", "variable nres   index 20")
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/dambreak" % engine, db,
                         [(2, "2 1 1"), (4, "4 1 1"), (2, "1 2 1")], 1600, ["x", "y", "vx", "vy", "rho"], moved_col=2)
+    # the same with the delta-plus terms: at 4 1 1 two ranks start without fluid (they still take part in the
+    # reductions of every rate evaluation)
+    dp = db.replace("visc artificial 0.02", "visc morris 1e-3 shifting yes diffusion renorm 0.1")
+    dp = re.sub(r"(?m)^(dump m .*) 1600 ", r"\1 400 ", dp).replace("run 1600", "run 400")
+    fails += ranks_case(exe, engine, mpirun, "ranks_%s/dambreak_dplus" % engine, dp, [(4, "4 1 1")], 400,
+                        ["x", "y", "vx", "vy", "rho"], moved_col=2)
     # delta-plus vortex, periodic in x and y
     tg = shorten(example(examples, "taylor_green"), 60, "fluid", 60, "x y vx vy f_tg[1]", engine)
     tg = tg.replace("variable res    index 50", "variable res    index 24")
@@ -147,6 +157,12 @@ def test_ranks(exe, engine, mpirun, examples):
     cou = re.sub(r"(?m)^run\s+\S+", dump_lines(engine, "all", n, "x y vx vy") + "run %d" % n, cou)
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/couette" % engine, cou, [(2, "1 2 1")], n,
                         ["x", "y", "vx", "vy"], periodic={0: 20 * dx}, moved_col=2)
+    # SPH-DEM coupling: the tiny dam break with 6 grains (engine_test.py's couple scene: every 2, superficial
+    # density, drag), grains and fluid on both sides of the cut
+    cp = et.couple_scene(engine, "torque yes", steps=400)
+    cp = re.sub(r"(?m)^run\s+\S+", dump_lines(engine, "moving", 400, "x y vx vy f_water[1]") + "run 400", cp)
+    fails += ranks_case(exe, engine, mpirun, "ranks_%s/coupled" % engine, cp, [(3, "1 3 1"), (4, "4 1 1"),
+                        (4, "2 2 1")], 400, ["x", "y", "vx", "vy", "rho"], moved_col=3)
     # probes on both sides of a vertical cut: the rank that holds a point samples it
     pr = (et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="") +
           "compute pr all sph/probe water 0.05 0.05 0.0 0.1 0.1 0.0 0.14 0.17 0.0 0.09 0.16 0.0\n"
@@ -200,6 +216,50 @@ def test_restart(exe, engine, mpirun):
               % ("PASS" if ok else "FAIL", n_write, n_read, engine, d, col, BOUND))
         fails += 0 if ok else 1
     return fails
+
+
+def test_couple(exe, engine, mpirun):
+    """SPH-DEM coupling on several ranks: the momentum balance (the fluid forces on the grains and the reactions
+    on the fluid, each summed over the ranks' own atoms, cancel to 1e-10 of the former), and a restart written at
+    3 ranks and continued at 1 against the unbroken run at 1 rank (1e-9)"""
+    fails = 0
+    for np_, grid in ((3, "1 3 1"), (4, "4 1 1")):  # cuts between the grain rows and columns
+        wd = "couple_ranks_%s/momentum_np%d" % (engine, np_)
+        out = et.must_run(mpirun_cmd(mpirun, np_, exe), wd,
+                          add_processors(et.couple_scene(engine, "drag schiller-naumann torque yes superficial no"),
+                                         grid))
+        rows = et.thermo_rows(out)
+        bal, fmax, ngr = 0.0, 0.0, 0
+        for r in rows:
+            fgx, fgy, ffx, ffy, fnx, fny = r[1:7]
+            f = max(abs(fgx), abs(fgy))
+            fmax = max(fmax, f)
+            if f > 0:
+                bal = max(bal, max(abs(fnx), abs(fny)) / f, max(abs(fgx + ffx), abs(fgy + ffy)) / f)
+            ngr = int(r[8])
+        ok = len(rows) >= 5 and fmax > 0 and bal <= 1e-10 and ngr == 6
+        print("%s momentum balance at %d ranks (%s): max |F grains| %.4g N, max |net| / |F grains| %.2e (bound "
+              "1e-10), %d grains counted once" % ("PASS" if ok else "FAIL", np_, engine, fmax, bal, ngr))
+        fails += 0 if ok else 1
+    half, steps = et.COUPLE_NSTEPS // 2, et.COUPLE_NSTEPS
+    cols = "x y vx vy f_water[1]"
+    unbroken = et.HEAD + et.COUPLE_CREATE + et.NEIGH + et.COUPLE_FIX.format(extra="") + et.COUPLE_THERMO + \
+        dump_lines(engine, "moving", half, cols) + "run %d\n" % steps
+    first = et.HEAD + et.COUPLE_CREATE + et.NEIGH + et.COUPLE_FIX.format(extra="") + et.COUPLE_THERMO + \
+        dump_lines(engine, "moving", half, cols) + "run %d\nwrite_restart half.restart\n" % half
+    second = ("read_restart half.restart\natom_modify sort 50 0.02\ntimestep 5e-5\n" + et.NEIGH +
+              et.COUPLE_FIX.format(extra="") + et.COUPLE_THERMO + dump_lines(engine, "moving", steps, cols) +
+              "run %d\n" % half)
+    wd = "couple_ranks_%s/restart" % engine
+    et.must_run([exe], wd + "/unbroken", unbroken)
+    et.must_run(mpirun_cmd(mpirun, 3, exe), wd + "/3to1", add_processors(first, "1 3 1"))
+    et.must_run([exe], wd + "/3to1", second)
+    ref = keyed(wd + "/unbroken", steps)
+    d, col = worst(ref, keyed(wd + "/3to1", steps), ["x", "y", "vx", "vy", "rho"])
+    ok = d < BOUND
+    print("%s coupled restart written at 3 ranks (1 3 1), continued at 1 (%s): max relative difference %.3e in %s (bound "
+          "%.0e)" % ("PASS" if ok else "FAIL", engine, d, col, BOUND))
+    return fails + (0 if ok else 1)
 
 
 def test_refused(exe, engine, mpirun):
