@@ -432,6 +432,10 @@ void FixCFDGrid::setup(int) {
     if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
     /* every rank holds the whole grid (see the doc: the grid is coarse); a device or memory failure may be
      * one rank's alone: every rank stops with the first such message */
+    if (comm->nprocs > 1 && device_ != SPHDEM_DEVICE_CPU) { /* one GPU per rank on its node, shared when fewer */
+      const std::string map = sphdem_mpi::select_gpus(world);
+      if (comm->me == 0 && !map.empty()) sphdem_compat::logmesg(lmp, "Fix cfd/grid: GPUs: " + map + "\n");
+    }
     int rc = sphdem_cfd_create(&ctx_, &prm_, device_, msg, sizeof msg);
     if (rc != SPHDEM_OK) ctx_ = nullptr;
     std::string why = rc == SPHDEM_OK ? std::string()
