@@ -8,6 +8,8 @@ Scenes (the project's own examples and DEM bench scene, through the sphdem launc
   dem_column                    bench/dem_bench.py's settling column (LAMMPS input), gran/hertz/history/gpu
                                 device cpu timers on, lmp_sphdem
   dem_column_liggghts           the same column through liggghts_sphdem, pair gran/gpu model hertz
+  settling                      examples/settling, fix sph/fluid + fix sph/couple (one sphere), lmp_sphdem
+  drum200                       examples/drum at D = 200 mm (drum_bench.py's coarse grains), fix sph/couple, lmp_sphdem
 each at 1 and 2 MPI ranks pinned (--bind-to core) and 4 ranks oversubscribed (--bind-to none; on a 2-core
 machine this checks correctness and overhead only, it is not a scaling point). OMP_NUM_THREADS=1.
 
@@ -211,6 +213,20 @@ def scenes(a):
                   text=dem_bench.lammps_input(nx, nz, 200 if q else 1000, "gran/hertz/history/gpu", "device cpu timers on"),
                   vars={}, steps=200 if q else 1000, dims="xyz", nfluid=None, evars=9, fluid=False,
                   what="bench/dem_bench.py 1e4 column, gran/hertz/history/gpu device cpu"))
+    src = read("examples/settling/in.settling")
+    S.append(dict(name="settling", exe="lmp_sphdem", text=src, weight=WALL_WEIGHT, vars={},
+                  steps=200 if q else 600, dims="xyz", nfluid=None, evars=3, fluid=True,
+                  what="examples/settling (fix sph/fluid + fix sph/couple, one sphere), fluid every 2 steps"))
+    D, ngrain = 0.2, int(round(969 * 8))  # bench/drum_bench.py --coarse at D = 0.2 m (grains ~ D^3)
+    src = read("examples/drum/in.drum")
+    S.append(dict(name="drum200", exe="lmp_sphdem", text=src, weight=" weight group 3 fluid 1.0 grains 1.0 walls 0.05",
+                  vars={"D": "0.2", "ngrain": str(ngrain), "dg": "0.0054", "dx": "0.006", "dt": "1e-05", "every": "2",
+                        "tsettle": "0.002" if q else "0.01", "trot": "0.002", "tavg": "0.002", "nsamp": "1",
+                        "nfluid": "1"},
+                  steps=50 if q else 100, dims="xyz", nfluid=None, evars=3, fluid=True,
+                  what="examples/drum at D = 200 mm, bench/drum_bench.py's coarse variables (%d grains 5.4 mm, dx 6 mm, "
+                       "dt 1e-5 s, fluid every 2), settling %s s untimed (the bed is still settling), then the rotation "
+                       "timed" % (ngrain, "0.002" if q else "0.01")))
     S.append(dict(name="dem_column_liggghts", exe="liggghts_sphdem",
                   text=dem_bench.liggghts_input(nx, nz, 200 if q else 1000, "gran/gpu", "device cpu timers on"),
                   vars={}, steps=200 if q else 1000, dims=None, nfluid=None, evars=9, fluid=False,
