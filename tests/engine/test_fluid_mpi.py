@@ -14,6 +14,7 @@
                  their owners), 300 steps, processors 1 2 1 (the cut runs parallel to the lid)
       coupled    fix sph/couple: the tiny dam break with 6 grains (torque yes), 400 steps, processors 1 3 1, 4 1 1,
                  2 2 1 (grains and fluid on both sides of the cuts)
+      thin       the tiny dam break on 8 ranks (8 1 1): subdomains thinner than the ghost band
       probe      compute sph/probe on the hydrostatic start (points on both sides of the cut), processors 1 2 1
   restart EXE ENGINE MPIRUN          the tiny dam break written by write_restart at 2 ranks and continued at 1, and
                                      written at 1 and continued at 4, against the unbroken run at 1 rank
@@ -163,6 +164,12 @@ def test_ranks(exe, engine, mpirun, examples):
     cp = re.sub(r"(?m)^run\s+\S+", dump_lines(engine, "moving", 400, "x y vx vy f_water[1]") + "run 400", cp)
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/coupled" % engine, cp, [(3, "1 3 1"), (4, "4 1 1"),
                         (4, "2 2 1")], 400, ["x", "y", "vx", "vy", "rho"], moved_col=3)
+    # subdomains thinner than the ghost band (8 ranks across the tiny dam break: 0.05 m < 4h + skin = 0.057 m):
+    # the engine gathers the ghosts across several subdomains
+    thin = et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="") + et.THERMO + \
+        dump_lines(engine, "fluid", et.STEPS, "x y vx vy f_water[1]") + "run %d\n" % et.STEPS
+    fails += ranks_case(exe, engine, mpirun, "ranks_%s/thin" % engine, thin, [(8, "8 1 1")], et.STEPS,
+                        ["x", "y", "vx", "vy", "rho"], moved_col=3)
     # probes on both sides of a vertical cut: the rank that holds a point samples it
     pr = (et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="") +
           "compute pr all sph/probe water 0.05 0.05 0.0 0.1 0.1 0.0 0.14 0.17 0.0 0.09 0.16 0.0\n"
