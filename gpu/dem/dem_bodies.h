@@ -58,6 +58,12 @@ SPHDEM_HD int32_t dem_cell_of(const dem_dev *D, const double *x) {
   return (int32_t)(((int64_t)cz * D->nc[1] + cy) * D->nc[0] + cx);
 }
 
+/* Cell of grain i, and the unsorted slot order (the sort by cell permutes sidx). */
+SPHDEM_HD void dem_cell_body(const dem_dev *D, int64_t i) {
+  D->cell[i] = dem_cell_of(D, D->x + 3 * i);
+  D->sidx[i] = (int32_t)i;
+}
+
 /* Distinct wrapped coordinates c-1, c, c+1 along axis d (fewer when the axis has < 3 cells). */
 SPHDEM_HD int dem_axis_neighbors(const dem_dev *D, int d, int c, int out[3]) {
   int n = D->nc[d], k = 0;
@@ -188,6 +194,7 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
   }
   return k;
 }
+SPHDEM_HD void dem_count_body(const dem_dev *D, int64_t s) { D->cnt[s] = dem_scan_slot(D, s, 0); }
 
 /* ---- contact laws ------------------------------------------------------------------------------------ */
 
@@ -750,6 +757,17 @@ SPHDEM_HD void dem_pair_force_accum(const dem_dev *D, int64_t p, int atomic) {
 }
 SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) { dem_pair_force_accum(D, p, 1); }
 
+/* The sums of grain i: its force and torque, and its share of the virial (atomic, nonzero terms only). */
+SPHDEM_HD void dem_store_grain(const dem_dev *D, int64_t i, const double *f, const double *t, const double *vs) {
+  for (int d = 0; d < 3; d++) {
+    D->f[3 * i + d] = f[d];
+    D->tq[3 * i + d] = t[d];
+  }
+  if (D->want_virial)
+    for (int d = 0; d < 6; d++)
+      if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+}
+
 /* Particle-parallel pass: grain i sums its own pairs (as a, then as b) without atomics; both partners
  * evaluate the same pair with the same operands, so the forces are exactly opposite. Only a writes the
  * history and counts the virial. */
@@ -765,13 +783,7 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
     if (!dem_contact(D, D->rlist[k], F, Ta, Tb, 0, vir)) continue;
     for (int d = 0; d < 3; d++) { f[d] -= F[d]; t[d] += Tb[d]; }
   }
-  for (int d = 0; d < 3; d++) {
-    D->f[3 * i + d] = f[d];
-    D->tq[3 * i + d] = t[d];
-  }
-  if (D->want_virial)
-    for (int d = 0; d < 6; d++)
-      if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+  dem_store_grain(D, i, f, t, vs);
 }
 
 /* The particle-parallel pass in two halves that evaluate each pair once (the CPU loops; the same
@@ -796,13 +808,7 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
     double *o = pfb + 6 * p;
     for (int d = 0; d < 3; d++) { o[d] = F[d]; o[3 + d] = Tb[d]; }
   }
-  for (int d = 0; d < 3; d++) {
-    D->f[3 * i + d] = f[d];
-    D->tq[3 * i + d] = t[d];
-  }
-  if (D->want_virial)
-    for (int d = 0; d < 6; d++)
-      if (vs[d] != 0.0) dem_add(&D->vir[d], vs[d]);
+  dem_store_grain(D, i, f, t, vs);
   return nt;
 }
 SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb) {

@@ -7,9 +7,10 @@
 
 #include "dem_bodies.h"
 
-/* Below this many grains or pairs a loop runs on one thread: the fork/join of a parallel region
- * costs more than the work (and much more when the cores are shared). */
-#define DEM_OMP_MIN 2048
+#define DEM_TRY(call) do { int rc_ = (call); if (rc_) return rc_; } while (0)
+
+/* the generated loops of the passes (dem_passes.h) */
+SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_CPU_LOOP)
 
 /* Stable counting sort of the grains by cell (the same order as the GPU's stable radix sort). */
 static int c_cells(struct sphdem_dem_s *m) {
@@ -17,8 +18,7 @@ static int c_cells(struct sphdem_dem_s *m) {
   int64_t n = D->n;
   memset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells);
   memset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells);
-#pragma omp parallel for schedule(static) if (n > DEM_OMP_MIN)
-  for (int64_t i = 0; i < n; i++) D->cell[i] = dem_cell_of(D, D->x + 3 * i);
+  DEM_TRY(m->ops->cell(m)); /* (the sorted order below overwrites sidx) */
   /* cend as counts, then exclusive offsets in cstart */
   for (int64_t i = 0; i < n; i++) D->cend[D->cell[i]]++;
   int32_t acc = 0;
@@ -37,8 +37,7 @@ static int c_cells(struct sphdem_dem_s *m) {
 static int c_count(struct sphdem_dem_s *m, int64_t *np) {
   dem_dev *D = &m->D;
   int64_t n = D->n;
-#pragma omp parallel for schedule(dynamic, 256) if (n > DEM_OMP_MIN)
-  for (int64_t s = 0; s < n; s++) D->cnt[s] = dem_scan_slot(D, s, 0);
+  DEM_TRY(m->ops->scan_count(m));
   int64_t acc = 0; /* exclusive prefix sum (Yu 2024 Fig. 2) */
   for (int64_t s = 0; s < n; s++) {
     D->off[s] = acc;
@@ -63,9 +62,8 @@ static int cmp_pb(const void *a, const void *b) {
 
 static int c_fill(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
-  int64_t n = D->n, np = D->np;
-#pragma omp parallel for schedule(dynamic, 256) if (n > DEM_OMP_MIN)
-  for (int64_t s = 0; s < n; s++) dem_scan_slot(D, s, 1);
+  int64_t np = D->np;
+  DEM_TRY(m->ops->scan_fill(m));
   /* sort the list by key (keys are unique); rlist and rkey serve as scratch */
   int32_t *perm = D->rlist;
   for (int64_t p = 0; p < np; p++) perm[p] = (int32_t)p;
@@ -83,9 +81,7 @@ static int c_fill(struct sphdem_dem_s *m) {
   memcpy(D->pa, D->rkey, sizeof(int32_t) * (size_t)np);
   for (int64_t p = 0; p < np; p++) D->rkey[p] = D->pb[perm[p]];
   memcpy(D->pb, D->rkey, sizeof(int32_t) * (size_t)np);
-#pragma omp parallel for schedule(static) if (np > DEM_OMP_MIN)
-  for (int64_t p = 0; p < np; p++) dem_carry_body(D, p);
-  return SPHDEM_OK;
+  return m->ops->carry(m);
 }
 
 static int c_csr(struct sphdem_dem_s *m) {
@@ -95,7 +91,7 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->fend, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
-  for (int64_t p = 0; p < np; p++) dem_forward_range_body(D, p);
+  DEM_TRY(m->ops->forward_ranges(m));
   for (int64_t p = 0; p < np; p++) D->rlist[p] = (int32_t)p;
 #pragma omp critical(sphdem_dem_qsort)
   {
@@ -103,14 +99,13 @@ static int c_csr(struct sphdem_dem_s *m) {
     qsort(D->rlist, (size_t)np, sizeof(int32_t), cmp_pb);
   }
   for (int64_t k = 0; k < np; k++) D->rkey[k] = D->pb[D->rlist[k]];
-  for (int64_t k = 0; k < np; k++) dem_range_body(D->rkey, np, k, D->rstart, D->rend);
-  return SPHDEM_OK;
+  return m->ops->reverse_ranges(m);
 }
 
 /* 1 when a loop of this many iterations runs on one thread (no atomics needed) */
 static int c_serial(int64_t iters) {
 #ifdef _OPENMP
-  return iters <= DEM_OMP_MIN || omp_get_max_threads() == 1;
+  return iters <= SPHDEM_DEM_OMP_MIN || omp_get_max_threads() == 1;
 #else
   (void)iters;
   return 1;
@@ -130,18 +125,57 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
   return nt;
 }
 
+/* Pair-parallel forces: one thread sums without atomics, several with. */
+int sphdem_dem_cpu_pair_forces(struct sphdem_dem_s *m) {
+  const dem_dev *D = &m->D;
+  const int64_t np = D->np;
+  if (c_serial(np)) {
+    for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 0);
+  } else {
+#pragma omp parallel for schedule(static)
+    for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 1);
+  }
+  return SPHDEM_OK;
+}
+
+/* Particle-parallel forces, each pair evaluated once: forward (pairs as a, F and Tb kept per pair), then
+ * reverse; the forward half counts the touching pairs into m->cpu_ntouch. */
+int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
+  const dem_dev *D = &m->D;
+  const int64_t n = D->n, np = D->np;
+  int64_t nt = 0;
+  if (np > m->cap_pfb) {
+    int64_t cap = np + np / 4 + 64;
+    double *b = (double *)realloc(m->cpu_pfb, sizeof(double) * 6 * (size_t)cap);
+    if (!b) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
+    m->cpu_pfb = b;
+    m->cap_pfb = cap;
+  }
+  double *pfb = m->cpu_pfb;
+  const int serial = c_serial(n);
+  switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
+    case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, SPHDEM_DEM_HOOKE, serial); break;
+    case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ, serial); break;
+    case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
+    default: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
+  }
+  if (serial) {
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+  } else {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+  }
+  m->cpu_ntouch = nt;
+  return SPHDEM_OK;
+}
+
 static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   dem_dev *D = &m->D;
   int64_t n = D->n, np = D->np, nt = 0;
   if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
     memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
     memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
-    if (c_serial(np)) {
-      for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 0);
-    } else {
-#pragma omp parallel for schedule(static)
-      for (int64_t p = 0; p < np; p++) dem_pair_force_accum(D, p, 1);
-    }
+    DEM_TRY(m->ops->pair_forces(m));
     if (c_serial(np)) {
       for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
     } else {
@@ -149,33 +183,14 @@ static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
       for (int64_t p = 0; p < np; p++) nt += dem_touching(D, p);
     }
   } else {
-    /* each pair evaluated once: forward (pairs as a, F and Tb kept per pair), then reverse */
-    if (np > m->cap_pfb) {
-      int64_t cap = np + np / 4 + 64;
-      double *b = (double *)realloc(m->cpu_pfb, sizeof(double) * 6 * (size_t)cap);
-      if (!b) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
-      m->cpu_pfb = b;
-      m->cap_pfb = cap;
-    }
-    double *pfb = m->cpu_pfb;
-    const int serial = c_serial(n);
-    switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
-      case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, SPHDEM_DEM_HOOKE, serial); break;
-      case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ, serial); break;
-      case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
-      default: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
-    }
-    if (serial) {
-      for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
-    } else {
-#pragma omp parallel for schedule(dynamic, 64)
-      for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
-    }
+    DEM_TRY(m->ops->particle_forces(m));
+    nt = m->cpu_ntouch;
   }
   *ntouch = nt;
   return SPHDEM_OK;
 }
 
 const dem_ops sphdem_dem_cpu_ops = {
-  "cpu", c_cells, c_count, c_fill, c_csr, c_forces,
+  .name = "cpu", .cells = c_cells, .count = c_count, .fill = c_fill, .csr = c_csr, .forces = c_forces,
+  SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_CPU_ENTRY)
 };

@@ -14,41 +14,12 @@
 #define DEM_BLOCK 256
 
 static inline unsigned nblk(int64_t n) { return (unsigned)((n + DEM_BLOCK - 1) / DEM_BLOCK); }
+#define TRY_G(call) do { int rc_ = (call); if (rc_) return rc_; } while (0)
 
-__global__ void k_dem_cell(dem_dev D) {
-  int64_t i = RT_THREAD_INDEX();
-  if (i >= D.n) return;
-  D.cell[i] = dem_cell_of(&D, D.x + 3 * i);
-  D.sidx[i] = (int32_t)i;
-}
-
-__global__ void k_dem_cell_ranges(dem_dev D) {
-  int64_t s = RT_THREAD_INDEX();
-  if (s < D.n) dem_cell_range_body(D.cell, D.n, s, D.cstart, D.cend);
-}
-
-__global__ void k_dem_count(dem_dev D) {
-  int64_t s = RT_THREAD_INDEX();
-  if (s < D.n) D.cnt[s] = dem_scan_slot(&D, s, 0);
-}
-
-__global__ void k_dem_fill(dem_dev D) {
-  int64_t s = RT_THREAD_INDEX();
-  if (s < D.n) dem_scan_slot(&D, s, 1);
-}
-
-RT_KERNEL_EACH(k_dem_carry, dem_dev, D.np, dem_carry_body)
-
-__global__ void k_dem_ranges(const int32_t *g, int64_t n, int32_t *st, int32_t *en) {
-  int64_t k = RT_THREAD_INDEX();
-  if (k < n) dem_range_body(g, n, k, st, en);
-}
-
-RT_KERNEL_EACH(k_dem_forward_ranges, dem_dev, D.np, dem_forward_range_body)
-
-RT_KERNEL_EACH(k_dem_pair_forces, dem_dev, D.np, dem_pair_force_body)
-
-RT_KERNEL_EACH(k_dem_particle_forces, dem_dev, D.n, dem_particle_force_body)
+/* the kernels and launchers of the passes (dem_passes.h) */
+#define SPHDEM_DEM_PASS_BLOCK DEM_BLOCK
+SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_CUDA)
+#undef SPHDEM_DEM_PASS_BLOCK
 
 __global__ void k_dem_touching(dem_dev D, unsigned long long *count) {
   int64_t p = RT_THREAD_INDEX();
@@ -62,14 +33,11 @@ static int g_cells(struct sphdem_dem_s *m) {
   RT_CK(&m->rt, cudaMemset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
   RT_CK(&m->rt, cudaMemset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
   if (n == 0) return SPHDEM_OK;
-  k_dem_cell<<<nblk(n), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM cell kernel");
+  TRY_G(m->ops->cell(m));
   thrust::stable_sort_by_key(thrust::device, thrust::device_ptr<int32_t>(D->cell), thrust::device_ptr<int32_t>(D->cell + n),
                              thrust::device_ptr<int32_t>(D->sidx));
   RT_LAUNCHED(&m->rt, "DEM cell sort");
-  k_dem_cell_ranges<<<nblk(n), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM cell range kernel");
-  return SPHDEM_OK;
+  return m->ops->cell_ranges(m);
 }
 
 /* Yu 2024 §2.3: contacts counted per grain, then an exclusive prefix sum gives each grain's offset */
@@ -78,8 +46,7 @@ static int g_count(struct sphdem_dem_s *m, int64_t *np) {
   int64_t n = D->n;
   *np = 0;
   if (n == 0) return SPHDEM_OK;
-  k_dem_count<<<nblk(n), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM count kernel");
+  TRY_G(m->ops->scan_count(m));
   thrust::exclusive_scan(thrust::device, thrust::device_ptr<int64_t>(D->cnt), thrust::device_ptr<int64_t>(D->cnt + n),
                          thrust::device_ptr<int64_t>(D->off));
   RT_LAUNCHED(&m->rt, "DEM prefix sum");
@@ -92,10 +59,9 @@ static int g_count(struct sphdem_dem_s *m, int64_t *np) {
 
 static int g_fill(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
-  int64_t n = D->n, np = D->np;
+  int64_t np = D->np;
   if (np == 0) return SPHDEM_OK;
-  k_dem_fill<<<nblk(n), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM pair fill kernel");
+  TRY_G(m->ops->scan_fill(m));
   /* sort by key; rlist is the permutation, rkey the gather scratch */
   thrust::device_ptr<int32_t> perm(D->rlist), tmp(D->rkey);
   thrust::sequence(thrust::device, perm, perm + np);
@@ -105,9 +71,7 @@ static int g_fill(struct sphdem_dem_s *m) {
   thrust::gather(thrust::device, perm, perm + np, thrust::device_ptr<int32_t>(D->pb), tmp);
   RT_CK(&m->rt, cudaMemcpy(D->pb, D->rkey, sizeof(int32_t) * (size_t)np, cudaMemcpyDeviceToDevice), "pair gather");
   RT_LAUNCHED(&m->rt, "DEM pair sort");
-  k_dem_carry<<<nblk(np), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM history carry kernel");
-  return SPHDEM_OK;
+  return m->ops->carry(m);
 }
 
 static int g_csr(struct sphdem_dem_s *m) {
@@ -119,16 +83,13 @@ static int g_csr(struct sphdem_dem_s *m) {
   RT_CK(&m->rt, cudaMemset(D->rstart, 0, nb), "memset");
   RT_CK(&m->rt, cudaMemset(D->rend, 0, nb), "memset");
   if (np == 0) return SPHDEM_OK;
-  k_dem_forward_ranges<<<nblk(np), DEM_BLOCK>>>(*D);
-  RT_LAUNCHED(&m->rt, "DEM forward range kernel");
+  TRY_G(m->ops->forward_ranges(m));
   thrust::device_ptr<int32_t> rl(D->rlist), rk(D->rkey);
   thrust::sequence(thrust::device, rl, rl + np);
   RT_CK(&m->rt, cudaMemcpy(D->rkey, D->pb, sizeof(int32_t) * (size_t)np, cudaMemcpyDeviceToDevice), "pair copy");
   thrust::stable_sort_by_key(thrust::device, rk, rk + np, rl);
   RT_LAUNCHED(&m->rt, "DEM reverse sort");
-  k_dem_ranges<<<nblk(np), DEM_BLOCK>>>(D->rkey, np, D->rstart, D->rend);
-  RT_LAUNCHED(&m->rt, "DEM reverse range kernel");
-  return SPHDEM_OK;
+  return m->ops->reverse_ranges(m);
 }
 
 static int g_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
@@ -137,13 +98,9 @@ static int g_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
     RT_CK(&m->rt, cudaMemset(D->f, 0, sizeof(double) * 3 * (size_t)n), "memset");
     RT_CK(&m->rt, cudaMemset(D->tq, 0, sizeof(double) * 3 * (size_t)n), "memset");
-    if (np) {
-      k_dem_pair_forces<<<nblk(np), DEM_BLOCK>>>(*D);
-      RT_LAUNCHED(&m->rt, "DEM pair-parallel force kernel");
-    }
+    TRY_G(m->ops->pair_forces(m));
   } else {
-    k_dem_particle_forces<<<nblk(n), DEM_BLOCK>>>(*D);
-    RT_LAUNCHED(&m->rt, "DEM particle-parallel force kernel");
+    TRY_G(m->ops->particle_forces(m));
   }
   *ntouch = 0;
   if (np) {
@@ -161,5 +118,6 @@ static int g_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
 extern "C" {
 const dem_ops sphdem_dem_cuda_ops = {
   "cuda", g_cells, g_count, g_fill, g_csr, g_forces,
+  SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_CUDA_ENTRY)
 };
 }

@@ -3,6 +3,7 @@
 #define SPHDEM_DEM_INTERNAL_H
 
 #include "sph_internal.h"
+#include "dem_passes.h"
 
 #define SPHDEM_DEM_NHIST 5      /* per pair: tangential displacement xyz, touch flag, largest overlap
                                    (hooke/hysteresis; 0 otherwise) */
@@ -90,6 +91,8 @@ typedef struct {
   int (*csr)(struct sphdem_dem_s *m);
   /* contact forces into f, tq (zeroed here), history hin -> hout, virial; touching pairs into *ntouch */
   int (*forces)(struct sphdem_dem_s *m, int64_t *ntouch);
+  /* the per-element passes the steps call (dem_passes.h) */
+  SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_FIELD)
 } dem_ops;
 
 struct sphdem_dem_s {
@@ -117,6 +120,7 @@ struct sphdem_dem_s {
   /* CPU particle-parallel: F and Tb of each pair (6 doubles per pair), see dem_particle_forward_body */
   double *cpu_pfb;
   int64_t cap_pfb;
+  int64_t cpu_ntouch;          /* touching pairs counted by the CPU particle-parallel pass */
   /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
   double t[SPHDEM_DEM_NTIMERS];
   int64_t ncalls;
@@ -127,8 +131,10 @@ extern "C" {
 #endif
 int sphdem_dem_fail(struct sphdem_dem_s *m, int code, const char *fmt, ...);
 extern const dem_ops sphdem_dem_cpu_ops;
+SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_DECL_CPU)
 #ifdef SPHDEM_WITH_CUDA
 extern const dem_ops sphdem_dem_cuda_ops;
+SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_DECL_CUDA)
 #endif
 #ifdef __cplusplus
 }
