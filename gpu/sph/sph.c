@@ -630,6 +630,20 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   return SPHDEM_OK;
 }
 
+/* The per-particle fluid arrays that travel between the device (sorted slots) and the caller's layout (upload
+ * order): x, v, rho and the state columns drho, a (and with with_u the XSPH velocity u); host NULL = not asked. */
+typedef struct { double *dev, *host; int ncomp, off, stride; } fluid_field;
+static int fluid_fields(sphdem_dev *D, double *x, double *v, double *rho, double *state, int with_u,
+                        fluid_field f[6]) {
+  const fluid_field t[6] = {
+    {D->x, x, 3, 0, 3}, {D->v, v, 3, 0, 3}, {D->rho, rho, 1, 0, 1},
+    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE}, {D->u, state, 3, 4, SPHDEM_NSTATE},
+  };
+  const int n = with_u ? 6 : 5;
+  for (int k = 0; k < n; k++) f[k] = t[k];
+  return n;
+}
+
 int sphdem_set_ghosts(sphdem_ctx c, int nghost, int nwghost) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
@@ -660,19 +674,17 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
   TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
   const int32_t *ui = c->huidx;
   double *h = c->hbuf;
-  struct { double *dst; const double *src; int ncomp; int off; int stride; } f[] = {
-    {D->x, x, 3, 0, 3}, {D->v, v, 3, 0, 3}, {D->rho, rho, 1, 0, 1},
-    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE},
-  };
-  for (size_t k = 0; k < sizeof f / sizeof f[0]; k++) {
-    if (!f[k].src) continue;
-    TRY(down(c, h, f[k].dst, 8 * (size_t)f[k].ncomp * (size_t)n));
+  fluid_field f[6];
+  const int nfld = fluid_fields(D, (double *)x, (double *)v, (double *)rho, (double *)state, 0, f); /* read only */
+  for (int k = 0; k < nfld; k++) {
+    if (!f[k].host) continue;
+    TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
     for (int64_t s = 0; s < n; s++) {
       const int64_t g = (int64_t)ui[s] - n0;
       if (g < 0) continue;
-      for (int d = 0; d < f[k].ncomp; d++) h[f[k].ncomp * s + d] = f[k].src[g * f[k].stride + f[k].off + d];
+      for (int d = 0; d < f[k].ncomp; d++) h[f[k].ncomp * s + d] = f[k].host[g * f[k].stride + f[k].off + d];
     }
-    TRY(up(c, f[k].dst, h, 8 * (size_t)f[k].ncomp * (size_t)n));
+    TRY(up(c, f[k].dev, h, 8 * (size_t)f[k].ncomp * (size_t)n));
   }
   D->ks_ok = 0;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
@@ -720,15 +732,13 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
   const int32_t *ui = c->huidx;
   double *h = c->hbuf;
-  struct { double *dst; const double *src; int ncomp; int off; int stride; } f[] = {
-    {x, D->x, 3, 0, 3}, {v, D->v, 3, 0, 3}, {rho, D->rho, 1, 0, 1},
-    {state, D->drho, 1, 0, SPHDEM_NSTATE}, {state, D->a, 3, 1, SPHDEM_NSTATE}, {state, D->u, 3, 4, SPHDEM_NSTATE},
-  };
-  for (size_t k = 0; k < sizeof f / sizeof f[0]; k++) {
-    if (!f[k].dst) continue;
-    TRY(down(c, h, f[k].src, 8 * (size_t)f[k].ncomp * (size_t)n));
+  fluid_field f[6];
+  const int nfld = fluid_fields(D, x, v, rho, state, 1, f);
+  for (int k = 0; k < nfld; k++) {
+    if (!f[k].host) continue;
+    TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
     for (int64_t s = 0; s < n; s++)
-      for (int d = 0; d < f[k].ncomp; d++) f[k].dst[(int64_t)ui[s] * f[k].stride + f[k].off + d] = h[f[k].ncomp * s + d];
+      for (int d = 0; d < f[k].ncomp; d++) f[k].host[(int64_t)ui[s] * f[k].stride + f[k].off + d] = h[f[k].ncomp * s + d];
   }
   if (p) {
     TRY(down(c, h, D->rho, 8 * (size_t)n));

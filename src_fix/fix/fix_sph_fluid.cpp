@@ -713,10 +713,10 @@ bool FixSPHFluid::upload_fluid() {
       const double *g = &gcomm_[(size_t)GCOMM * i];
       ftag_[k] = (int64_t)atom->tag[i];
       for (int d = 0; d < 3; d++) fx_[3 * k + d] = x[i][d], fv_[3 * k + d] = g[d];
-      frho_[k] = g[3];
-      fstate_[SPHDEM_NSTATE * k] = g[4];
-      for (int d = 0; d < 3; d++) fstate_[SPHDEM_NSTATE * k + 1 + d] = g[5 + d];
-      fmass_[k] = g[8];
+      frho_[k] = g[G_RHO];
+      fstate_[SPHDEM_NSTATE * k] = g[G_DRHO];
+      for (int d = 0; d < 3; d++) fstate_[SPHDEM_NSTATE * k + 1 + d] = g[G_A + d];
+      fmass_[k] = g[G_MASS];
     }
   }
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
@@ -736,18 +736,18 @@ void FixSPHFluid::fill_gcomm(bool fluid, bool walls) {
   if (fluid)
     for (size_t k = 0; k < nfown_; k++) {
       double *g = &gcomm_[(size_t)GCOMM * fidx_[k]];
-      for (int d = 0; d < 3; d++) g[d] = fv_[3 * k + d], g[5 + d] = fstate_[SPHDEM_NSTATE * k + 1 + d];
-      g[3] = frho_[k];
-      g[4] = fstate_[SPHDEM_NSTATE * k];
-      g[8] = fmass_[k];
-      g[9] = sa_[fidx_[k]][C_EPS];
+      for (int d = 0; d < 3; d++) g[G_V + d] = fv_[3 * k + d], g[G_A + d] = fstate_[SPHDEM_NSTATE * k + 1 + d];
+      g[G_RHO] = frho_[k];
+      g[G_DRHO] = fstate_[SPHDEM_NSTATE * k];
+      g[G_MASS] = fmass_[k];
+      g[G_EPS] = sa_[fidx_[k]][C_EPS];
     }
   if (walls)
     for (size_t k = 0; k < nwown_; k++) {
       double *g = &gcomm_[(size_t)GCOMM * widx_[k]];
-      for (int d = 0; d < 3; d++) g[d] = wv_[3 * k + d], g[5 + d] = wa_[3 * k + d];
-      g[3] = g[4] = g[9] = 0.0;
-      g[8] = wmass_[k];
+      for (int d = 0; d < 3; d++) g[G_V + d] = wv_[3 * k + d], g[G_A + d] = wa_[3 * k + d];
+      g[G_RHO] = g[G_DRHO] = g[G_EPS] = 0.0;
+      g[G_MASS] = wmass_[k];
     }
   comm->forward_comm_fix(this);
 }
@@ -779,9 +779,9 @@ void FixSPHFluid::ghost_state_to_core() {
   for (size_t j = 0; j < ng; j++) {
     const int i = fidx_[nfown_ + j];
     const double *g = &gcomm_[(size_t)GCOMM * i];
-    for (int d = 0; d < 3; d++) gx[3 * j + d] = x[i][d], gv[3 * j + d] = g[d], gs[SPHDEM_NSTATE * j + 1 + d] = g[5 + d];
-    gr[j] = g[3];
-    gs[SPHDEM_NSTATE * j] = g[4];
+    for (int d = 0; d < 3; d++) gx[3 * j + d] = x[i][d], gv[3 * j + d] = g[G_V + d], gs[SPHDEM_NSTATE * j + 1 + d] = g[G_A + d];
+    gr[j] = g[G_RHO];
+    gs[SPHDEM_NSTATE * j] = g[G_DRHO];
   }
   check(sphdem_update_ghosts(ctx_, (int)ng, gx.data(), gv.data(), gr.data(), gs.data()), "update_ghosts");
 }
@@ -831,7 +831,7 @@ void FixSPHFluid::start_superficial() {
                            "not scaled by the porosity (use an atom style with per-atom mass, e.g. sphere)");
   if (multi_) {
     fill_gcomm(true, false);
-    for (size_t k = nfown_; k < n; k++) frho_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + 3], fmass_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + 8];
+    for (size_t k = nfown_; k < n; k++) frho_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + G_RHO], fmass_[k] = gcomm_[(size_t)GCOMM * fidx_[k] + G_MASS];
   }
   /* x, v are unchanged since the upload; the state stays zero (it was not valid) */
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(), nullptr),
@@ -848,7 +848,7 @@ void FixSPHFluid::seed_porosity() {
   std::vector<double> eps(fidx_.size());
   for (size_t k = 0; k < fidx_.size(); k++) {
     /* the ghosts' porosity came from their owners with the last upload */
-    eps[k] = k < nfown_ ? sa_[fidx_[k]][C_EPS] : gcomm_[(size_t)GCOMM * fidx_[k] + 9];
+    eps[k] = k < nfown_ ? sa_[fidx_[k]][C_EPS] : gcomm_[(size_t)GCOMM * fidx_[k] + G_EPS];
     if (!(eps[k] > 0.0 && eps[k] <= 1.0)) return;
   }
   check(sphdem_couple_seed_porosity(ctx_, (int)eps.size(), eps.data()), "couple_seed_porosity");
@@ -891,8 +891,8 @@ void FixSPHFluid::upload_walls(bool each_step) {
     for (size_t k = nwown_; k < n; k++) {
       const int i = widx_[k];
       const double *g = &gcomm_[(size_t)GCOMM * i];
-      for (int d = 0; d < 3; d++) wx_[3 * k + d] = x[i][d], wv_[3 * k + d] = g[d], wa_[3 * k + d] = g[5 + d];
-      wmass_[k] = g[8];
+      for (int d = 0; d < 3; d++) wx_[3 * k + d] = x[i][d], wv_[3 * k + d] = g[G_V + d], wa_[3 * k + d] = g[G_A + d];
+      wmass_[k] = g[G_MASS];
     }
   }
   check(sphdem_set_walls(ctx_, (int)n, wx_.data(), wv_.data(), wa_.data(), wmass_.data()), "set_walls");

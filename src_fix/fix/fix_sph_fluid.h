@@ -129,7 +129,8 @@ class FixSPHFluid : public Fix {
    * atoms of the fluid and wall groups; the core computes every pair sum over both and integrates the owned.
    * Per fluid step one forward communication of GCOMM values per atom (v, rho, drho, a, mass; walls: v, the
    * wall acceleration) brings the ghosts' state (x through the engine's own forward communication). */
-  enum { GCOMM = 10 }; /* v (3), rho, drho, a (3), mass, porosity */
+  /* per atom: v (3), rho, drho, a (3; walls: the wall acceleration), mass, porosity */
+  enum { G_V = 0, G_RHO = 3, G_DRHO = 4, G_A = 5, G_MASS = 8, G_EPS = 9, GCOMM = 10 };
   bool multi_ = false;
   size_t nfown_ = 0, nwown_ = 0; /* owned entries at the front of fidx_ / widx_ */
   std::vector<double> gcomm_; /* GCOMM values per local + ghost atom */
