@@ -16,6 +16,7 @@
 #include <string>
 
 /* The fmt stand-in (src_fix/launch/fmt_standin) only declares what the LAMMPS headers name. */
+#include "atom.h"
 #include "compute.h"
 #include "error.h"
 #include "fix.h"
@@ -23,6 +24,7 @@
 #include "group.h"
 #include "lammps.h"
 #include "modify.h"
+#include "neighbor.h"
 #include "pointers.h"
 #ifdef SPHDEM_ENGINE_LAMMPS
 #include "utils.h"
@@ -107,6 +109,34 @@ inline bool to_int(const char *s, long *out) {
 
 inline int find_group(LAMMPS_NS::Group *g, const char *name) { return g->find(name); }
 
+/* Atom creation (fix sph/wall, fix sph/fill; src_fix/common/sphdem_create_atoms.h). data_atoms: n lines of a data
+ * file's Atoms section in buf, each ending in a newline; each rank keeps the atoms in its subdomain (LAMMPS: no
+ * id/molecule/type offsets, no shift). */
+inline void data_atoms(LAMMPS_NS::Atom *atom, int n, char *buf) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  atom->data_atoms(n, buf, 0, 0, 0, 0, nullptr);
+#else
+  atom->data_atoms(n, buf);
+#endif
+}
+/* the per-atom density of LIGGGHTS' granular atom styles; nullptr in LAMMPS (which has none) */
+inline double *atom_density(LAMMPS_NS::Atom *atom) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  (void)atom;
+  return nullptr;
+#else
+  return atom->density_flag ? atom->density : nullptr;
+#endif
+}
+/* before the set_arrays(i) calls for atoms created after set-up (LIGGGHTS' pre_set_arrays; nothing in LAMMPS) */
+inline void pre_set_arrays(LAMMPS_NS::Fix *f) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  (void)f;
+#else
+  f->pre_set_arrays();
+#endif
+}
+
 /* Style registration. Modify::fix_map is public in LAMMPS and private in LIGGGHTS; there the
  * pointer-to-member comes from an explicit instantiation, where access checks do not apply
  * ([temp.explicit]). The creator signature is the same in both engines. */
@@ -167,6 +197,45 @@ inline ComputeCreatorMap *compute_map(LAMMPS_NS::Modify *modify) {
 #else
   return modify->*member_of(detail::ModifyComputeMapTag());
 #endif
+}
+
+/* The pair exclusions of neigh_modify as given (exclude type I J, exclude group G1 G2 as group indices, the
+ * include group; the number of molecule exclusions). Public in LAMMPS, protected in LIGGGHTS (same names). */
+struct NeighborExclusions {
+  int ntype = 0, ngroup = 0, nmol = 0, include = 0;
+  const int *t1 = nullptr, *t2 = nullptr, *g1 = nullptr, *g2 = nullptr;
+};
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+namespace detail {
+#define SPHDEM_NEIGHBOR_TAG(TAG, T, MEMBER)                                       \
+  struct TAG {                                                                     \
+    typedef T LAMMPS_NS::Neighbor::*type;                                          \
+    friend type member_of(TAG);                                                    \
+  };                                                                               \
+  template struct Expose<TAG, &LAMMPS_NS::Neighbor::MEMBER>;
+SPHDEM_NEIGHBOR_TAG(NexTypeTag, int, nex_type)
+SPHDEM_NEIGHBOR_TAG(Ex1TypeTag, int *, ex1_type)
+SPHDEM_NEIGHBOR_TAG(Ex2TypeTag, int *, ex2_type)
+SPHDEM_NEIGHBOR_TAG(NexGroupTag, int, nex_group)
+SPHDEM_NEIGHBOR_TAG(Ex1GroupTag, int *, ex1_group)
+SPHDEM_NEIGHBOR_TAG(Ex2GroupTag, int *, ex2_group)
+SPHDEM_NEIGHBOR_TAG(NexMolTag, int, nex_mol)
+#undef SPHDEM_NEIGHBOR_TAG
+}  // namespace detail
+#endif
+inline NeighborExclusions neighbor_exclusions(LAMMPS_NS::Neighbor *n) {
+  NeighborExclusions e;
+#ifdef SPHDEM_ENGINE_LAMMPS
+  e.ntype = n->nex_type, e.t1 = n->ex1_type, e.t2 = n->ex2_type;
+  e.ngroup = n->nex_group, e.g1 = n->ex1_group, e.g2 = n->ex2_group, e.nmol = n->nex_mol;
+#else
+  using namespace detail;
+  e.ntype = n->*member_of(NexTypeTag()), e.t1 = n->*member_of(Ex1TypeTag()), e.t2 = n->*member_of(Ex2TypeTag());
+  e.ngroup = n->*member_of(NexGroupTag()), e.g1 = n->*member_of(Ex1GroupTag()), e.g2 = n->*member_of(Ex2GroupTag());
+  e.nmol = n->*member_of(NexMolTag());
+#endif
+  e.include = n->includegroup;
+  return e;
 }
 
 /* The communication cutoff (comm->cutghostuser) that brings every ghost atom within `band` of a subdomain.

@@ -202,6 +202,7 @@ void FixSPHCouple::init() {
            " needs the fluid viscosity: give mu V, or use visc morris MU in fix sph/fluid " + fluid_id_);
   }
 
+  check_grain_size();
   if (group->count(igroup) == 0) {
     if (comm->me == 0)
       sphdem_compat::warning(error, FLERR, std::string("Fix sph/couple: the grain group ") + group->names[igroup] +
@@ -233,6 +234,44 @@ void FixSPHCouple::init() {
   }
 }
 
+/* The unresolved coupling smears each grain over the fluid within 2 hc (eq 26). A lone grain of diameter d at a
+ * fluid particle takes the solid fraction V_p W(0, hc) there: in 3D (pi d^3/6) 21/(16 pi hc^3) = 7/32 (d/hc)^3,
+ * in 2D (pi d^2/4) 7/(4 pi hc^2) = 7/16 (d/hc)^2. Refused where that alone leaves a porosity below eps_min
+ * (d > 1.54 hc in 3D with eps_min 0.2); a warning where it leaves less than 0.5 (d > 1.32 hc in 3D): the porosity
+ * field is then as coarse as the grains. Collective (the largest grain over the ranks). */
+void FixSPHCouple::check_grain_size() {
+  double dloc = 0.0;
+  long long tag = -1;
+  for (int i = 0; i < atom->nlocal; i++)
+    if ((atom->mask[i] & groupbit) && 2.0 * atom->radius[i] > dloc) dloc = 2.0 * atom->radius[i], tag = (long long)atom->tag[i];
+  double d = dloc;
+  MPI_Allreduce(&dloc, &d, 1, MPI_DOUBLE, MPI_MAX, world);
+  double t = d == dloc && d > 0 ? (double)tag : 0.0, tg = 0.0; /* the lowest-ranked owner names its grain */
+  if (!(d == dloc && d > 0)) t = 1e300;
+  MPI_Allreduce(&t, &tg, 1, MPI_DOUBLE, MPI_MIN, world);
+  if (!(d > 0)) return;
+  const int dim = domain->dimension;
+  const double hc = cp_.hc, q = d / hc;
+  const double s0 = dim == 2 ? 7.0 / 16.0 * q * q : 7.0 / 32.0 * q * q * q;
+  const double cmax = dim == 2 ? 16.0 / 7.0 : 32.0 / 7.0, e = 1.0 / dim;
+  const double dlim = std::pow(cmax * (1.0 - cp_.eps_min), e), dwarn = std::pow(cmax * 0.5, e); /* in hc */
+  const double dx = fluid_->params().dx;
+  if (s0 <= 0.5) return;
+  char m[1400];
+  snprintf(m, sizeof m,
+           "grain %lld has diameter d = %g, %.3g hc (hc %g%s, fluid dx %g): a lone grain at a fluid particle takes the "
+           "solid fraction V_p W(0,hc) = %s = %.3g there (He 2018 eq 26), leaving a porosity of %.3g. The unresolved "
+           "coupling needs d <= %.3g hc = %g (porosity >= eps_min %g; with hc = h = 1.3 dx that is d <= %.3g dx); "
+           "below d = %.3g hc = %g (porosity 0.5) the porosity field resolves the grains. Ways out: a larger hc (hc "
+           "%g would admit d; the fluid-grain pairs grow as hc^%d), smaller grains, or a coarser fluid (larger dx and "
+           "h; hc defaults to h)",
+           (long long)tg, d, q, hc, have_hc_ ? "" : " = the fluid h", dx,
+           dim == 2 ? "7/16 (d/hc)^2" : "7/32 (d/hc)^3", s0, 1.0 - s0, dlim, dlim * hc, cp_.eps_min, dlim * 1.3,
+           dwarn, dwarn * hc, d / dlim, dim);
+  if (s0 > 1.0 - cp_.eps_min) fail(m);
+  if (comm->me == 0) sphdem_compat::warning(error, FLERR, std::string("Fix sph/couple: ") + m);
+}
+
 /* Called by the fluid fix in its setup(), after its context exists and before any rate evaluation. */
 void FixSPHCouple::couple_setup(sphdem_ctx ctx) {
   check(ctx, sphdem_couple_set(ctx, &cp_), "couple_set");
@@ -258,8 +297,47 @@ bool FixSPHCouple::couple_forces_valid() {
   return !any;
 }
 
+/* No grain within 2 hc of any fluid particle at set-up (the smallest porosity over the fluid is 1): a note, grains
+ * may fall into the water later. Collective. */
+void FixSPHCouple::note_reach() {
+  sphdem_ctx ctx = fluid_ ? fluid_->context() : nullptr;
+  if (!ctx || group->count(igroup) == 0) return;
+  sphdem_couple_stats st;
+  if (sphdem_couple_stats_get(ctx, &st) != SPHDEM_OK) return;
+  cstats_ = st;
+  stats_dirty_ = false;
+  if (st.ngrains > 0 && st.eps_min >= 1.0 && comm->me == 0) {
+    char m[512];
+    snprintf(m, sizeof m, "Fix sph/couple: no grain of group %s is within 2 hc = %g of a fluid particle of fix "
+             "sph/fluid %s at set-up: the coupling is on and acts on nothing yet (fine if the grains reach the "
+             "water later)", group->names[igroup], 2.0 * cp_.hc, fluid_id_.c_str());
+    sphdem_compat::warning(error, FLERR, m);
+  }
+}
+
+/* Kinetic energy of the grains of the group: translational 1/2 m v^2 and rotational 1/2 I w^2 with I = 2/5 m r^2
+ * (a solid sphere, as compute erotate/sphere), summed over the ranks' own grains. Collective. */
+void FixSPHCouple::grain_ke(double ke[3]) const {
+  double s[2] = {0.0, 0.0};
+  const int *mask = atom->mask;
+  double **v = atom->v, **om = atom->omega;
+  for (int i = 0; i < atom->nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double m = atom->rmass ? atom->rmass[i] : atom->mass[atom->type[i]];
+    s[0] += 0.5 * m * (v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2]);
+    if (atom->omega_flag && om) {
+      const double r = atom->radius[i];
+      s[1] += 0.5 * 0.4 * m * r * r * (om[i][0] * om[i][0] + om[i][1] * om[i][1] + om[i][2] * om[i][2]);
+    }
+  }
+  double all[2];
+  MPI_Allreduce(s, all, 2, MPI_DOUBLE, MPI_SUM, world);
+  ke[0] = all[0] + all[1], ke[1] = all[0], ke[2] = all[1];
+}
+
 /* The fluid fix's setup() (earlier in the fix list) has computed or kept the held forces. */
 void FixSPHCouple::setup(int) {
+  note_reach();
   const int *mask = atom->mask;
   double **f = atom->f, **t = atom->torque;
   for (int i = 0; i < nloop(); i++) {
@@ -373,6 +451,11 @@ void FixSPHCouple::post_force(int) {
  * they are fetched only when output asks for them; the core keeps them until the next rate evaluation. */
 double FixSPHCouple::compute_vector(int n) {
   if (n >= V_PGRAIN && n < V_PGRAIN + 3) return pgrain_[n - V_PGRAIN];
+  if (n >= V_KE && n <= V_KER) {
+    double ke[3];
+    grain_ke(ke);
+    return ke[n - V_KE];
+  }
   sphdem_ctx ctx = fluid_ ? fluid_->context() : nullptr;
   if (stats_dirty_ && ctx) {
     check(ctx, sphdem_couple_stats_get(ctx, &cstats_), "couple_stats_get");

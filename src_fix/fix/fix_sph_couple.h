@@ -50,8 +50,10 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   enum { C_F = 0, C_FDRAG = 3, C_FPG = 6, C_TORQUE = 9, NOUT = 12, C_VALID = 12, NCOL = 13 };
   /* global vector (0-based here): momentum exchange rate = force on the grains, on the fluid, net
    * (3 each, at the last fluid step); min porosity; momentum given to the grains since the fix was
-   * defined (time integral of the held forces, 3); number of coupled grains */
-  enum { V_FGRAIN = 0, V_FFLUID = 3, V_FNET = 6, V_EPSMIN = 9, V_PGRAIN = 10, V_NGRAIN = 13, NVEC = 14 };
+   * defined (time integral of the held forces, 3); number of coupled grains; kinetic energy of the grains of the
+   * group (translational + rotational, translational, rotational: the engine's thermo ke counts the fluid too) */
+  enum { V_FGRAIN = 0, V_FFLUID = 3, V_FNET = 6, V_EPSMIN = 9, V_PGRAIN = 10, V_NGRAIN = 13, V_KE = 14, V_KET = 15,
+         V_KER = 16, NVEC = 17 };
 
   std::string fluid_id_;
   FixSPHFluid *fluid_;
@@ -76,6 +78,9 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   double parse_number(const char *kw, const char *s, const char *usage);
   void parse_args(int, char **);
   int nloop() const;
+  void check_grain_size(); /* set-up: the largest grain against the coupling length hc (collective) */
+  void note_reach();       /* set-up: a note when no grain is within 2 hc of any fluid particle (collective) */
+  void grain_ke(double ke[3]) const; /* collective: translational + rotational, translational, rotational */
 };
 
 }  // namespace LAMMPS_NS

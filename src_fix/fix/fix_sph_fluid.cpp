@@ -32,7 +32,7 @@ const char *const SYNTAX =
     "[repulsion D [R0]] "
     "[wall GROUP-ID] [wall_clamp yes|no] [isolated KSUM] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] "
     "[sync N] [check N] "
-    "[hydrostatic ZSURF] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
+    "[hydrostatic ZSURF|auto] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
     "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
     "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]] [failure_dump yes|no|FILE]";
 const char *const KEYWORDS =
@@ -151,9 +151,12 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
     /* a repeated keyword is refused after its values were checked */
     const bool dup = kw != "phase" && std::find(seen.begin(), seen.end(), kw) != seen.end();
     seen.push_back(kw);
-    if (kw == "rho0" || kw == "h" || kw == "c0" || kw == "dx" || kw == "gamma" || kw == "skin" ||
+    if (kw == "hydrostatic" && iarg + 1 < narg && std::string(arg[iarg + 1]) == "auto") {
+      hydrostatic_ = true, hydro_auto_ = true; /* ZSURF from the fluid atoms at the first set-up */
+      iarg += 2;
+    } else if (kw == "rho0" || kw == "h" || kw == "c0" || kw == "dx" || kw == "gamma" || kw == "skin" ||
         kw == "cfl" || kw == "rho_err_max" || kw == "xsph" || kw == "hydrostatic" || kw == "isolated") {
-      const std::string usage = kw + (kw == "hydrostatic" ? " ZSURF" : kw == "xsph" ? " EPS" : " V");
+      const std::string usage = kw + (kw == "hydrostatic" ? " ZSURF|auto" : kw == "xsph" ? " EPS" : " V");
       need(1, usage.c_str());
       double v = parse_number(kw.c_str(), arg[iarg + 1], usage.c_str());
       if (kw == "rho0") prm_.rho0 = v, have_rho0 = true;
@@ -326,7 +329,7 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
   if (!have_skin) prm_.skin = 0.3 * prm_.dx;
   if (prm_.rep_D > 0 && !have_r0) prm_.rep_r0 = prm_.dx;
   if (hydrostatic_ && prm_.gravity[0] == 0 && prm_.gravity[1] == 0 && prm_.gravity[2] == 0)
-    fail("hydrostatic ZSURF needs a non-zero gravity (gravity gx gy gz)");
+    fail(std::string("hydrostatic ") + (hydro_auto_ ? "auto" : "ZSURF") + " needs a non-zero gravity (gravity gx gy gz)");
   if (wall_igroup_ == igroup) fail("the wall group must differ from the fluid group");
 
   if (prm_.dim == 2 && prm_.gravity[2] != 0.0) {
@@ -466,11 +469,41 @@ void FixSPHFluid::init() {
     fail(std::string("the wall group ") + wall_group_ + " overlaps the fluid group " + group->names[igroup] +
          "; an atom is either fluid or wall");
 
-  /* another integrator on fluid atoms is an error; one on wall atoms means the walls move */
+  check_other_fixes();
+  check_pair_exclusions();
+}
+
+namespace {
+bool starts_with(const std::string &s, const char *p) { return s.compare(0, std::strlen(p), p) == 0; }
+}  // namespace
+
+/* Stock commands given to group all also act on the fluid and wall atoms (they are ordinary atoms). Each fix whose
+ * group holds fluid or wall atoms (the group bitmasks over the local atoms, reduced) is judged by its kind:
+ * - a time integrator (time_integrate: nve, nve/sphere, nve/limit, rigid, move, ...): on fluid atoms an error (this
+ *   fix integrates them); on wall atoms the walls move (uploaded each step), with a warning unless the fix is a
+ *   prescribed motion (move) or a rigid body;
+ * - adapt: an error (it changes diameters, masses or pair coefficients of the fluid and walls);
+ * - wall/gran*: an error on the fluid (the fluid does not see granular walls: its walls are wall particles), a
+ *   warning on the walls (contacts computed and not used);
+ * - gravity on the fluid: the fluid reads no forces of other fixes; an error without the gravity keyword (the
+ *   fluid would feel no gravity), a warning with it;
+ * - an insertion fix (insert/..., pour, deposit): a warning, its region's fill counts the fluid atoms. Collective. */
+void FixSPHFluid::check_other_fixes() {
+  const int nlocal = atom->nlocal;
+  const int *mask = atom->mask;
+  std::string grains = "GRAINS"; /* the group to name: that of a fix sph/couple of this fluid, if any */
+  for (int k = 0; k < modify->nfix; k++)
+    if (std::string(modify->fix[k]->style) == "sph/couple") grains = group->names[modify->fix[k]->igroup];
+  const std::string me = std::string("fix sph/fluid ") + id + " (group " + group->names[igroup] +
+                         (wall_groupbit_ ? ", walls " + wall_group_ : std::string()) + ")";
   walls_move_ = false;
   for (int k = 0; k < modify->nfix; k++) {
     Fix *f = modify->fix[k];
-    if (f == this || !f->time_integrate) continue;
+    if (f == this) continue;
+    const std::string style = f->style, fid = f->id;
+    const bool integ = f->time_integrate != 0, adapt = style == "adapt", wallgran = starts_with(style, "wall/gran");
+    const bool grav = style == "gravity", insert = starts_with(style, "insert/") || style == "pour" || style == "deposit";
+    if (!integ && !adapt && !wallgran && !grav && !insert) continue;
     int hit[2] = {0, 0}, all[2];
     for (int i = 0; i < nlocal; i++) {
       if (!(mask[i] & f->groupbit)) continue;
@@ -478,11 +511,133 @@ void FixSPHFluid::init() {
       if (mask[i] & wall_groupbit_) hit[1] = 1;
     }
     MPI_Allreduce(hit, all, 2, MPI_INT, MPI_MAX, world);
-    if (all[0])
+    const std::string which = "fix " + fid + " (style " + style + ", group " + group->names[f->igroup] + ")";
+    const std::string instead = " Apply it to the grains only: fix " + fid + " " + grains + " " + style + " ...";
+    auto warn = [&](const std::string &m) {
+      if (comm->me == 0) sphdem_compat::warning(error, FLERR, "Fix sph/fluid: " + m);
+    };
+    if (insert) {
+      if (all[0] || group->count(igroup) > 0)
+        warn(which + " inserts atoms while " + me + " has fluid atoms: an insertion region that overlaps the fluid "
+             "counts the fluid atoms (insert/pack volumefraction_region and particles_in_region, the overlap test "
+             "of pour/deposit) and may insert few or no grains. Insert the grains into a region clear of the fluid, "
+             "or before the fluid atoms are created");
+      continue;
+    }
+    if (!all[0] && !all[1]) continue;
+    if (integ) {
+      if (all[0])
+        sphdem_compat::error_all(error, FLERR,
+                                 "Fix sph/fluid integrates its own group; " + which + " also integrates atoms of " +
+                                     "the fluid group " + group->names[igroup] + " of fix " + id + "." + instead);
+      walls_move_ = true;
+      if (style != "move" && !starts_with(style, "rigid"))
+        warn(which + " integrates wall atoms of " + me + ": the walls then move under the forces on them "
+             "(gravity, contacts). If the walls are to stay in place, apply it to the grains only: fix " + fid + " " +
+             grains + " " + style + " ...; walls that move on a prescribed path take fix move");
+      continue;
+    }
+    const std::string on = all[0] && all[1] ? "the fluid and wall atoms" : all[0] ? "the fluid atoms" : "the wall atoms";
+    if (adapt)
       sphdem_compat::error_all(error, FLERR,
-                               std::string("Fix sph/fluid integrates its own group; fix ") + f->id + " (style " +
-                                   f->style + ") also integrates atoms of group " + group->names[f->igroup]);
-    if (all[1]) walls_move_ = true;
+                               "Fix sph/fluid: " + which + " acts on " + on + " of " + me + ": it changes their "
+                               "diameter and mass (the SPH particle mass) or pair coefficients." + instead);
+    if (wallgran && all[0])
+      sphdem_compat::error_all(error, FLERR,
+                               "Fix sph/fluid: " + which + " acts on the fluid atoms of " + me + ": a granular wall "
+                               "does not hold the fluid (fix sph/fluid reads no forces of other fixes; the fluid's "
+                               "walls are wall particles, keyword wall)." + instead);
+    if (wallgran) {
+      warn(which + " acts on the wall atoms of " + me + ": contacts with wall particles are computed and not used." +
+           instead);
+      continue;
+    }
+    if (grav && all[0]) {
+      const bool have_g = prm_.gravity[0] != 0 || prm_.gravity[1] != 0 || prm_.gravity[2] != 0;
+      const std::string m = which + " acts on the fluid atoms of " + me + ", but fix sph/fluid reads no forces of "
+                            "other fixes for its fluid: ";
+      if (!have_g)
+        sphdem_compat::error_all(error, FLERR,
+                                 "Fix sph/fluid: " + m + "the fluid would feel no gravity. Give it to fix " + id +
+                                     " with its keyword gravity gx gy gz." + instead);
+      warn(m + "it has no effect there (the fluid's gravity is the keyword gravity)." + instead);
+    }
+  }
+}
+
+/* The granular pair style of the engine acting on fluid or wall atoms. The atoms are judged by class (type and
+ * group mask; the classes of all ranks gathered) against neigh_modify's exclusions as given (exclude type, exclude
+ * group, include). Fluid against other atoms (the grains) not excluded: an error (the grains would collide with
+ * the fluid particles as with solid spheres); fluid against fluid or walls, walls against walls: a warning
+ * (contacts computed and not used). Collective. */
+void FixSPHFluid::check_pair_exclusions() {
+  if (!force->pair || !force->pair_style) return;
+  const std::string pstyle = force->pair_style;
+  if (pstyle.find("gran") == std::string::npos) return;
+  const sphdem_compat::NeighborExclusions ex = sphdem_compat::neighbor_exclusions(neighbor);
+  const int nlocal = atom->nlocal;
+  std::vector<int> mine; /* (type, mask) pairs, distinct */
+  for (int i = 0; i < nlocal; i++) {
+    const int t = atom->type[i], m = atom->mask[i];
+    bool seen = false;
+    for (size_t c = 0; c < mine.size() && !seen; c += 2) seen = mine[c] == t && mine[c + 1] == m;
+    if (!seen) mine.push_back(t), mine.push_back(m);
+  }
+  int n = (int)mine.size(), nr = comm->nprocs;
+  std::vector<int> lens(nr), offs(nr, 0);
+  MPI_Allgather(&n, 1, MPI_INT, lens.data(), 1, MPI_INT, world);
+  for (int r = 1; r < nr; r++) offs[r] = offs[r - 1] + lens[r - 1];
+  std::vector<int> cls((size_t)offs[nr - 1] + (size_t)lens[nr - 1]);
+  MPI_Allgatherv(mine.data(), n, MPI_INT, cls.data(), lens.data(), offs.data(), MPI_INT, world);
+  const int incbit = ex.include ? group->bitmask[ex.include] : 0;
+  auto excluded = [&](int ta, int ma, int tb, int mb) {
+    if (incbit && (!(ma & incbit) || !(mb & incbit))) return true;
+    for (int k = 0; k < ex.ntype; k++)
+      if ((ex.t1[k] == ta && ex.t2[k] == tb) || (ex.t1[k] == tb && ex.t2[k] == ta)) return true;
+    for (int k = 0; k < ex.ngroup; k++) {
+      const int b1 = group->bitmask[ex.g1[k]], b2 = group->bitmask[ex.g2[k]];
+      if (((ma & b1) && (mb & b2)) || ((ma & b2) && (mb & b1))) return true;
+    }
+    return false;
+  };
+  int grain_type = 0, fluid_type = 0, fluid_self = 0, fluid_wall = 0, wall_self = 0;
+  for (size_t a = 0; a < cls.size(); a += 2) {
+    const int ta = cls[a], ma = cls[a + 1];
+    const bool fa = ma & groupbit, wa = ma & wall_groupbit_;
+    if (!fa && !wa) continue;
+    for (size_t b = 0; b < cls.size(); b += 2) {
+      const int tb = cls[b], mb = cls[b + 1];
+      if (excluded(ta, ma, tb, mb)) continue;
+      const bool fb = mb & groupbit, wb = mb & wall_groupbit_;
+      if (fa && !fb && !wb) grain_type = tb, fluid_type = ta;
+      else if (fa && fb) fluid_self = ta;
+      else if ((fa && wb) || (wa && fb)) fluid_wall = 1;
+      else if (wa && wb) wall_self = ta;
+    }
+  }
+  const std::string fg = group->names[igroup];
+  const std::string how = "neigh_modify exclude group " + fg + " all";
+  if (grain_type > 0) {
+    char m[1024];
+    snprintf(m, sizeof m, "Fix sph/fluid: pair_style %s acts between the fluid atoms of fix %s (group %s, e.g. type %d) "
+             "and other atoms (e.g. type %d): the grains would collide with the fluid particles as with solid spheres. "
+             "Exclude the fluid from the pair style: add the line '%s'%s (or neigh_modify include GROUP with "
+             "atom_modify first GROUP, GROUP = the grains and DEM wall particles)",
+             pstyle.c_str(), id, fg.c_str(), fluid_type, grain_type, how.c_str(),
+             wall_self ? (" and 'neigh_modify exclude group " + wall_group_ + " " + wall_group_ + "'").c_str() : "");
+    sphdem_compat::error_all(error, FLERR, m);
+  }
+  if ((fluid_self || fluid_wall || wall_self) && comm->me == 0) {
+    std::string lines;
+    if (fluid_self || fluid_wall) lines = "'" + how + "'";
+    if (wall_self) lines += std::string(lines.empty() ? "" : " and ") + "'neigh_modify exclude group " + wall_group_ +
+                            " " + wall_group_ + "'";
+    const std::string what = std::string(fluid_self ? "fluid-fluid " : "") + (fluid_wall ? "fluid-wall " : "") +
+                             (wall_self ? "wall-wall " : "");
+    sphdem_compat::warning(error, FLERR,
+                           "Fix sph/fluid: pair_style " + pstyle + " computes " + what + "contacts of fix " + id +
+                               " that nothing uses (the fluid takes no engine forces; its walls hold it): add " +
+                               lines + " (engine neighbour lists and contacts over the fluid cost time and memory)");
   }
 }
 
@@ -525,6 +680,7 @@ void FixSPHFluid::setup(int) {
   }
 
   build_map();
+  if (hydro_auto_) resolve_hydrostatic_auto();
   upload_walls(false);
   const bool valid = upload_fluid();
   /* the rates are computed when the per-atom state or the held grain forces were not valid */
@@ -543,6 +699,7 @@ void FixSPHFluid::setup(int) {
   stats_ = s;
   stats_step_ = update->ntimestep;
 
+  if (!announced_) note_unused_walls();
   if (comm->me == 0 && !announced_) {
     const char *note = sphdem_backend_note(ctx_);
     const size_t n = (size_t)s.nfluid;
@@ -557,6 +714,7 @@ void FixSPHFluid::setup(int) {
              fidx_.empty() ? 0.0 : (double)sphdem_device_bytes(ctx_) / (double)fidx_.size(),
              s.dt_stable, update->dt, stepnote);
     sphdem_compat::logmesg(lmp, line);
+    sphdem_compat::logmesg(lmp, "Fix sph/fluid: terms: " + terms_line() + "\n");
     if (multi_) {
       const double extra = cut_need_ - 2.0 * prm_.h * ghost_levels() - neighbor->skin;
       char cpl[64] = "";
@@ -576,6 +734,133 @@ void FixSPHFluid::setup(int) {
   last_fluid_step_ = update->ntimestep;
   nfluid_steps_ = 0;
   fluid_step_ = false;
+}
+
+/* hydrostatic auto: the free surface is the highest fluid particle along the gravity axis (against gravity: the
+ * axis of the largest component, as the hydrostatic start takes it) plus half a particle spacing, over all ranks.
+ * Resolved once, at the first set-up; printed. Collective. */
+void FixSPHFluid::resolve_hydrostatic_auto() {
+  int axis = 0;
+  for (int d = 1; d < 3; d++)
+    if (std::fabs(prm_.gravity[d]) > std::fabs(prm_.gravity[axis])) axis = d;
+  const double up = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* the surface is where up * x is largest */
+  double top = -INFINITY;
+  for (size_t k = 0; k < nfown_; k++) top = std::max(top, up * atom->x[fidx_[k]][axis]);
+  sphdem_mpi::max(world, &top, 1);
+  zsurf_ = up * (top + 0.5 * prm_.dx);
+  hydro_auto_ = false;
+  if (comm->me == 0) {
+    char line[256];
+    snprintf(line, sizeof line, "Fix sph/fluid: hydrostatic auto: free surface at %c = %.10g (the %s fluid particle "
+             "%s dx/2, dx %g)\n", "xyz"[axis], zsurf_, up > 0 ? "highest" : "lowest", up > 0 ? "+" : "-", prm_.dx);
+    sphdem_compat::logmesg(lmp, line);
+  }
+}
+
+/* "Model no more than a scene needs": the terms that are on, one line at the first set-up. */
+std::string FixSPHFluid::terms_line() const {
+  char b[256];
+  std::string t;
+  auto add = [&t](const std::string &s) { t += (t.empty() ? "" : "; ") + s; };
+  if (prm_.visc == SPHDEM_VISC_MORRIS) snprintf(b, sizeof b, "visc morris %g", prm_.mu), add(b);
+  else if (prm_.visc == SPHDEM_VISC_ARTIFICIAL) snprintf(b, sizeof b, "visc artificial %g", prm_.alpha), add(b);
+  else add("visc none");
+  if (mp_.enabled && !mp_.single) snprintf(b, sizeof b, "%d phases (phase)", mp_.nphase), add(b);
+  add(prm_.gravity[0] != 0 || prm_.gravity[1] != 0 || prm_.gravity[2] != 0
+          ? (snprintf(b, sizeof b, "gravity %g %g %g", prm_.gravity[0], prm_.gravity[1], prm_.gravity[2]), b)
+          : "gravity off");
+  add(prm_.tensile_eps > 0 ? (snprintf(b, sizeof b, "tensile %g %g", prm_.tensile_eps, prm_.tensile_n), b)
+                           : "tensile off");
+  add(prm_.xsph_eps > 0 ? (snprintf(b, sizeof b, "xsph %g", prm_.xsph_eps), b) : "xsph off");
+  add(prm_.delta > 0 ? (snprintf(b, sizeof b, "delta %g %s", prm_.delta, prm_.delta_hydro ? "hydrostatic" : "plain"), b)
+                     : "delta off");
+  if (mp_.enabled) {
+    add(mp_.shifting ? "shifting yes" : "shifting no");
+    const char *dn = mp_.diffusion == SPHDEM_DIFF_MOLTENI ? "molteni" : mp_.diffusion == SPHDEM_DIFF_RENORM ? "renorm"
+                                                                                                             : "none";
+    add(mp_.diffusion != SPHDEM_DIFF_NONE ? (snprintf(b, sizeof b, "diffusion %s %g", dn, mp_.delta), b)
+                                          : "diffusion none");
+    add(mp_.cs_les > 0 ? (snprintf(b, sizeof b, "les %g", mp_.cs_les), b) : "les off");
+  } else {
+    add("shifting, diffusion, les off");
+  }
+  add(wall_groupbit_ ? "walls " + wall_group_ + (ghost_ ? " (ghost mirror)" : walls_move_ ? " (moving)" : "")
+                     : std::string("walls none"));
+  add(prm_.rep_D > 0 ? (snprintf(b, sizeof b, "repulsion %g %g", prm_.rep_D, prm_.rep_r0), b) : "repulsion off");
+  if (prm_.isolated > 0) snprintf(b, sizeof b, "isolated %g", prm_.isolated), add(b);
+  add(coupler_ ? "coupling on (fix sph/couple)" : "coupling off");
+  snprintf(b, sizeof b, "integrator %s; every %ld", rk4_ ? "rk4" : "verlet", every_);
+  add(b);
+  return t;
+}
+
+/* A wall group none of whose atoms is within 2h of a fluid particle at the first set-up: the wall state costs a
+ * pass each step for nothing (it may be meant for later, e.g. a gate the fluid reaches): a warning. Cells of 2h
+ * over the owned and ghost fluid; periodic axes wrap on one rank (many ranks: the ghosts are the images). */
+void FixSPHFluid::note_unused_walls() {
+  if (!wall_groupbit_) return;
+  const double r = 2.0 * prm_.h, r2 = r * r;
+  int nc[3] = {1, 1, 1};
+  for (int d = 0; d < prm_.dim; d++) {
+    nc[d] = (int)std::floor((prm_.boxhi[d] - prm_.boxlo[d]) / r);
+    if (nc[d] < 3) nc[d] = 1; /* one cell along d: the stencil visits it alone */
+  }
+  const int st[3] = {nc[0] > 1, nc[1] > 1, nc[2] > 1};
+  auto cell = [&](const double *x, int *c) {
+    for (int d = 0; d < 3; d++) {
+      c[d] = d < prm_.dim ? (int)std::floor((x[d] - prm_.boxlo[d]) / r) : 0;
+      c[d] = std::min(std::max(c[d], 0), nc[d] - 1);
+    }
+  };
+  std::vector<std::vector<int>> cells((size_t)nc[0] * nc[1] * nc[2]);
+  double **x = atom->x;
+  for (int i : fidx_) {
+    int c[3];
+    cell(x[i], c);
+    cells[((size_t)c[2] * nc[1] + c[1]) * nc[0] + c[0]].push_back(i);
+  }
+  int near = 0, nwall = (int)nwown_;
+  for (size_t k = 0; k < nwown_ && !near; k++) {
+    const int w = widx_[k];
+    int c[3];
+    cell(x[w], c);
+    for (int dz = -st[2]; dz <= st[2] && !near; dz++)
+      for (int dy = -st[1]; dy <= st[1] && !near; dy++)
+        for (int dx = -st[0]; dx <= st[0] && !near; dx++) {
+          int q[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+          bool skip = false;
+          for (int d = 0; d < 3; d++) {
+            if (q[d] >= 0 && q[d] < nc[d]) continue;
+            if (prm_.periodic[d]) q[d] = (q[d] + nc[d]) % nc[d];
+            else skip = true;
+          }
+          if (skip) continue;
+          for (int i : cells[((size_t)q[2] * nc[1] + q[1]) * nc[0] + q[0]]) {
+            double d2 = 0.0;
+            for (int d = 0; d < prm_.dim; d++) {
+              double s = x[i][d] - x[w][d];
+              const double L = prm_.boxhi[d] - prm_.boxlo[d];
+              if (prm_.periodic[d]) s -= L * std::round(s / L);
+              d2 += s * s;
+            }
+            if (d2 < r2) {
+              near = 1;
+              break;
+            }
+          }
+        }
+  }
+  if (multi_) {
+    double v[2] = {(double)near, (double)nwall};
+    sphdem_mpi::sum(world, v, 2);
+    near = v[0] > 0, nwall = (int)v[1];
+  }
+  if (!near && comm->me == 0)
+    sphdem_compat::warning(error, FLERR,
+                           "Fix sph/fluid: none of the " + std::to_string(nwall) + " atoms of the wall group " +
+                               wall_group_ + " is within 2h of a fluid particle of fix " + id +
+                               ": the wall term is on and unused at set-up (fine if the fluid reaches the walls later; "
+                               "otherwise drop the keyword wall, or check the wall atoms' positions)");
 }
 
 bool FixSPHFluid::attach_coupler(SPHCoupler *c) {

@@ -93,6 +93,7 @@ class FixSPHFluid : public Fix {
   std::string wall_group_;
   long sync_every_, check_every_;
   bool hydrostatic_;
+  bool hydro_auto_ = false; /* hydrostatic auto: ZSURF from the highest fluid particle + dx/2 at the first set-up */
   bool mass_scaled_; /* hydrostatic init scaled per-atom masses by rho/rho0 */
   double zsurf_;
   bool walls_move_;
@@ -153,6 +154,13 @@ class FixSPHFluid : public Fix {
   [[noreturn]] void blowup(const std::string &msg, bool from_device = true);
   std::string write_failure_dump(bool from_device);
   void check_scene(bool fresh); /* set-up checks of the uploaded fluid: masses against rho0 dx^dim, spacing */
+  /* set-up checks of the scene around the fix (collective): other fixes acting on fluid or wall atoms, the
+   * granular pair style acting on them without a neigh_modify exclusion */
+  void check_other_fixes();
+  void check_pair_exclusions();
+  void resolve_hydrostatic_auto(); /* hydrostatic auto: the free surface from the fluid atoms (collective) */
+  std::string terms_line() const;  /* the physical terms that are on, for the set-up line */
+  void note_unused_walls();        /* a note when no wall atom is within 2h of a fluid particle (collective) */
   bool failure_dump_;         /* failure_dump yes (default) | FILE; no = off */
   std::string failure_file_;  /* FILE, empty = sphdem_failure.<step>.dump */
   bool have_dx_;
