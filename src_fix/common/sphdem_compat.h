@@ -28,7 +28,10 @@
 #include "pointers.h"
 #ifdef SPHDEM_ENGINE_LAMMPS
 #include "utils.h"
+#else
+#include "fix_insert_pack.h"
 #endif
+#include "region.h"
 
 namespace sphdem_compat {
 
@@ -236,6 +239,29 @@ inline NeighborExclusions neighbor_exclusions(LAMMPS_NS::Neighbor *n) {
 #endif
   e.include = n->includegroup;
   return e;
+}
+
+/* The insertion region of an insertion fix whose fill counts the atoms already in its region (LIGGGHTS insert/pack
+ * and insert/rate/region: volumefraction_region, particles_in_region); nullptr for every other fix (LAMMPS' pour
+ * and deposit test overlaps only). FixInsertPack::ins_region is protected: the explicit-instantiation idiom. */
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+namespace detail {
+struct InsRegionTag {
+  typedef LAMMPS_NS::Region *LAMMPS_NS::FixInsertPack::*type;
+  friend type member_of(InsRegionTag);
+};
+template struct Expose<InsRegionTag, &LAMMPS_NS::FixInsertPack::ins_region>;
+}  // namespace detail
+#endif
+inline LAMMPS_NS::Region *insertion_region(LAMMPS_NS::Fix *f) {
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+  const std::string style = f->style;
+  if (style != "insert/pack" && style != "insert/rate/region") return nullptr;
+  return static_cast<LAMMPS_NS::FixInsertPack *>(f)->*member_of(detail::InsRegionTag());
+#else
+  (void)f;
+  return nullptr;
+#endif
 }
 
 /* The communication cutoff (comm->cutghostuser) that brings every ghost atom within `band` of a subdomain.

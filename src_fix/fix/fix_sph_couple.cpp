@@ -394,8 +394,12 @@ void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
   gfd_.resize(3 * n);
   gfp_.resize(3 * n);
   gt_.resize(3 * n);
-  check(ctx, sphdem_get_grain_forces(ctx, gf_.data(), gfd_.data(), gfp_.data(), cp_.torque ? gt_.data() : nullptr),
-        "get_grain_forces");
+  const int rc = sphdem_get_grain_forces(ctx, gf_.data(), gfd_.data(), gfp_.data(), cp_.torque ? gt_.data() : nullptr);
+  if (rc != SPHDEM_OK && update->ntimestep > update->beginstep) /* during a run: the state with the failure dump */
+    fluid_->fail_with_dump(std::string("Fix sph/couple: get_grain_forces at step ") +
+                           std::to_string((long long)update->ntimestep) + ": " + sphdem_last_error(ctx) + " (" +
+                           sphdem_strerror(rc) + ")");
+  check(ctx, rc, "get_grain_forces");
   for (size_t k = 0; k < ngown_; k++) { /* the ghosts' forces belong to their owners */
     double *row = ca_[gidx_[k]];
     for (int d = 0; d < 3; d++) {

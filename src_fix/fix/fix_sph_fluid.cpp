@@ -487,7 +487,8 @@ bool starts_with(const std::string &s, const char *p) { return s.compare(0, std:
  *   warning on the walls (contacts computed and not used);
  * - gravity on the fluid: the fluid reads no forces of other fixes; an error without the gravity keyword (the
  *   fluid would feel no gravity), a warning with it;
- * - an insertion fix (insert/..., pour, deposit): a warning, its region's fill counts the fluid atoms. Collective. */
+ * - an insertion fix whose fill counts the atoms in its region (LIGGGHTS insert/pack, insert/rate/region): a warning
+ *   when fluid atoms lie in that region. Collective. */
 void FixSPHFluid::check_other_fixes() {
   const int nlocal = atom->nlocal;
   const int *mask = atom->mask;
@@ -502,7 +503,7 @@ void FixSPHFluid::check_other_fixes() {
     if (f == this) continue;
     const std::string style = f->style, fid = f->id;
     const bool integ = f->time_integrate != 0, adapt = style == "adapt", wallgran = starts_with(style, "wall/gran");
-    const bool grav = style == "gravity", insert = starts_with(style, "insert/") || style == "pour" || style == "deposit";
+    const bool grav = style == "gravity", insert = starts_with(style, "insert/");
     if (!integ && !adapt && !wallgran && !grav && !insert) continue;
     int hit[2] = {0, 0}, all[2];
     for (int i = 0; i < nlocal; i++) {
@@ -517,19 +518,25 @@ void FixSPHFluid::check_other_fixes() {
       if (comm->me == 0) sphdem_compat::warning(error, FLERR, "Fix sph/fluid: " + m);
     };
     if (insert) {
-      if (all[0] || group->count(igroup) > 0)
-        warn(which + " inserts atoms while " + me + " has fluid atoms: an insertion region that overlaps the fluid "
-             "counts the fluid atoms (insert/pack volumefraction_region and particles_in_region, the overlap test "
-             "of pour/deposit) and may insert few or no grains. Insert the grains into a region clear of the fluid, "
-             "or before the fluid atoms are created");
+      Region *reg = sphdem_compat::insertion_region(f);
+      if (!reg) continue; /* no region to inspect, or one whose fill does not count the atoms in it */
+      double nin = 0.0;
+      for (int i = 0; i < nlocal; i++)
+        if ((mask[i] & groupbit) && reg->match(atom->x[i][0], atom->x[i][1], atom->x[i][2])) nin += 1.0;
+      sphdem_mpi::sum(world, &nin, 1);
+      if (nin > 0)
+        warn(which + " fills a region that holds " + std::to_string((long long)nin) + " fluid atoms of " + me +
+             ": its fill (volumefraction_region, particles_in_region) counts the fluid atoms too and may insert few "
+             "or no grains. Insert the grains into a region clear of the fluid, or before the fluid atoms exist");
       continue;
     }
     if (!all[0] && !all[1]) continue;
     if (integ) {
       if (all[0])
         sphdem_compat::error_all(error, FLERR,
-                                 "Fix sph/fluid integrates its own group; " + which + " also integrates atoms of " +
-                                     "the fluid group " + group->names[igroup] + " of fix " + id + "." + instead);
+                                 "Fix sph/fluid integrates its own group; fix " + fid + " (style " + style +
+                                     ") also integrates atoms of group " + group->names[f->igroup] + ", the fluid "
+                                     "group " + group->names[igroup] + " of fix " + id + " among them." + instead);
       walls_move_ = true;
       if (style != "move" && !starts_with(style, "rigid"))
         warn(which + " integrates wall atoms of " + me + ": the walls then move under the forces on them "

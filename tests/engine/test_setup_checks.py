@@ -12,7 +12,8 @@ other fix's ID and style, the grain's diameter and the limit, the line to add) a
 must stay silent (the same words absent, the run ends normally):
   grain_size  a grain of 4 hc is refused naming its diameter and the limit (2D dam break with grains, 3D settling);
               a grain in the warning band (porosity of a lone grain in [eps_min, 0.5]) runs with a WARNING
-  fixes       nve/sphere, fix move, fix adapt, fix gravity on the fluid; nve/sphere on the walls; an insertion fix
+  fixes       nve/sphere, fix move, fix adapt, fix gravity on the fluid; nve/sphere on the walls; insert/pack
+              into the water (LIGGGHTS) and above it
   pair        the granular pair style on the fluid without neigh_modify exclude (error), with the fluid excluded
               from the grains only (warning), with 'neigh_modify exclude group fluid all' (silent)
   terms       the set-up line of the terms that are on; walls out of the fluid's reach; grains out of the coupling's
@@ -119,10 +120,11 @@ def test_fixes(exe, engine, settling):
     fluid_fix = "fix water fluid sph/fluid"
     expect(exe, os.path.join(root, "nve_all"), "nve/sphere on all",
            R(base, "fix nvs grains nve/sphere", "fix nvs all nve/sphere"), "error",
-           ["fix nvs (style nve/sphere, group all)", "fluid group fluid", "fix nvs grains nve/sphere"])
+           ["fix nvs (style nve/sphere) also integrates atoms of group all", "fluid group fluid",
+            "fix nvs grains nve/sphere"])
     expect(exe, os.path.join(root, "move_fluid"), "fix move on the fluid",
            R(base, "fix nvs grains", "fix mv fluid move linear 0 0 0\nfix nvs grains"), "error",
-           ["fix mv (style move, group fluid)", "fluid group fluid"])
+           ["fix mv (style move) also integrates atoms of group fluid", "fluid group fluid"])
     expect(exe, os.path.join(root, "nve_walls"), "nve/sphere on the walls",
            R(base, "fix nvs grains", "fix wmv walls nve/sphere\nfix nvs grains"), "warn",
            ["fix wmv (style nve/sphere, group walls)", "wall atoms", "fix wmv grains nve/sphere", "fix move"])
@@ -140,22 +142,27 @@ def test_fixes(exe, engine, settling):
            "error", ["fix grav (style gravity, group all)", "would feel no gravity", "keyword gravity gx gy gz"])
     expect(exe, os.path.join(root, "gravity_grains"), "fix gravity on the grains (correct)", base, "silent",
            ["fix grav", "fix nvs"])
-    if engine == "lammps":
+    if engine == "lammps":  # pour and deposit test overlaps only: nothing to say beside the fluid
         ins = "region rdep block 0.05 0.13 0.21 0.25 -0.005 0.005 units box\n" \
               "fix dep grains deposit 1 3 1000 12345 region rdep near 0.006\n"
-        scene = R(base, fluid_fix, ins + fluid_fix)
-    else:  # LIGGGHTS' particle templates are 3D only: examples/settling, insertion postponed past the run
-        with open(settling) as f:
-            scene = re.sub(r"(?m)^run\s+\S+", "run 2", f.read())
-        ins = ("fix pts all particletemplate/sphere 15485863 atom_type 3 density constant 2500 radius constant 0.0005\n"
-               "fix pdd all particledistribution/discrete 32452843 1 pts 1.0\n"
-               "region rdep block 0 0.03 0 0.03 0 0.05 units box\n"
-               "fix dep grain insert/pack seed 32452867 distributiontemplate pdd insert_every 1000 start 100000 "
-               "overlapcheck yes volumefraction_region 0.1 region rdep\n")
-        scene = R(scene, "fix           water fluid", ins + "fix           water fluid")
-    style, grp = ("deposit", "grains") if engine == "lammps" else ("insert/pack", "grain")
-    expect(exe, os.path.join(root, "insert"), "an insertion fix beside the fluid", scene, "warn",
-           ["fix dep (style %s, group %s)" % (style, grp), "counts the fluid atoms", "region clear of the fluid"])
+        expect(exe, os.path.join(root, "deposit"), "fix deposit beside the fluid (no fill count)",
+               R(base, fluid_fix, ins + fluid_fix), "silent", ["fix dep"])
+        return
+    # LIGGGHTS' particle templates are 3D only: examples/settling, the insertion postponed past the run
+    with open(settling) as f:
+        scene = re.sub(r"(?m)^run\s+\S+", "run 2", f.read())
+    ins = ("fix pts all particletemplate/sphere 15485863 atom_type 3 density constant 2500 radius constant 0.0005\n"
+           "fix pdd all particledistribution/discrete 32452843 1 pts 1.0\n"
+           "region rdep block 0 0.03 0 0.03 ZLO ZHI units box\n"
+           "fix dep grain insert/pack seed 32452867 distributiontemplate pdd insert_every 1000 start 100000 "
+           "overlapcheck yes volumefraction_region 0.1 region rdep\n")
+    into = R(scene, "fix           water fluid", ins.replace("ZLO ZHI", "0.03 0.05") + "fix           water fluid")
+    # the region holds the fluid layers with z in (0.03, 0.05): 15 x 15 x 10 lattice sites
+    expect(exe, os.path.join(root, "insert_into"), "insert/pack into a region of the water", into, "warn",
+           ["fix dep (style insert/pack, group grain) fills a region that holds 2250 fluid atoms",
+            "volumefraction_region", "region clear of the fluid"])
+    above = R(scene, "fix           water fluid", ins.replace("ZLO ZHI", "0.065 0.08") + "fix           water fluid")
+    expect(exe, os.path.join(root, "insert_above"), "insert/pack above the water", above, "silent", ["fix dep"])
 
 
 # ---- the granular pair style -------------------------------------------------------------------------------------
