@@ -134,8 +134,8 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
 
 #define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag) X(lcp)
 #define FACE_ARRAYS(X) X(u) X(us) X(cf) X(af) X(K) X(Kv)
-#define GRAIN3_ARRAYS(X) X(gx) X(gv) X(gfd) X(gfp) X(gfb)
-#define GRAIN1_ARRAYS(X) X(grad) X(gK)
+#define GRAIN3_ARRAYS(X) X(gfd) X(gfp) X(gfb)
+#define GRAIN1_ARRAYS(X) X(gK)
 
 /* n zeroed doubles on the device */
 static int dalloc(struct sphdem_cfd_s *m, double **ptr, int64_t n) {
@@ -155,6 +155,47 @@ static void free_grains(struct sphdem_cfd_s *m) {
 #undef F3_
 #undef F1_
   m->cap_n = 0;
+}
+
+static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s *g, int n, const int32_t *idx,
+                      int bad_input, double *fdrag, double *fpg);
+
+/* the copies of the grains an index list picks */
+static void free_selection(struct sphdem_cfd_s *m) {
+  rt_free(&m->rt, (void **)&m->sel_x, 3 * sizeof(double) * (size_t)m->cap_sel);
+  rt_free(&m->rt, (void **)&m->sel_v, 3 * sizeof(double) * (size_t)m->cap_sel);
+  rt_free(&m->rt, (void **)&m->sel_rad, sizeof(double) * (size_t)m->cap_sel);
+  sphdem_idx_free(&m->rt, &m->sel_idx);
+  m->cap_sel = 0;
+}
+
+/* D->gx, gv, grad for the grains of the view (store g, n, idx) */
+static int bind_grains(struct sphdem_cfd_s *m, struct sphdem_grains_s *g, int64_t n, const int32_t *idx) {
+  cfd_dev *D = &m->D;
+  int rc = sphdem_grains_device(g, &m->rt);
+  if (rc || !idx) {
+    D->gx = g->dx, D->gv = g->dv, D->grad = g->drad;
+    return rc;
+  }
+  if (n > m->cap_sel) {
+    const int64_t cap = n + n / 4 + 16;
+    rt_free(&m->rt, (void **)&m->sel_x, 3 * sizeof(double) * (size_t)m->cap_sel);
+    rt_free(&m->rt, (void **)&m->sel_v, 3 * sizeof(double) * (size_t)m->cap_sel);
+    rt_free(&m->rt, (void **)&m->sel_rad, sizeof(double) * (size_t)m->cap_sel);
+    m->cap_sel = 0;
+    if ((rc = dalloc(m, &m->sel_x, 3 * cap)) || (rc = dalloc(m, &m->sel_v, 3 * cap)) ||
+        (rc = dalloc(m, &m->sel_rad, cap)))
+      return rc;
+    m->cap_sel = cap;
+  }
+  const int32_t *id = NULL;
+  if ((rc = sphdem_idx_upload(&m->rt, &m->sel_idx, idx, n, &id)) ||
+      (rc = sphdem_grains_copy(&m->rt, m->sel_x, g->dx, id, n, 3)) ||
+      (rc = sphdem_grains_copy(&m->rt, m->sel_v, g->dv, id, n, 3)) ||
+      (rc = sphdem_grains_copy(&m->rt, m->sel_rad, g->drad, id, n, 1)))
+    return rc;
+  D->gx = m->sel_x, D->gv = m->sel_v, D->grad = m->sel_rad;
+  return SPHDEM_OK;
 }
 
 static int grow_grains(struct sphdem_cfd_s *m, int64_t n) {
@@ -335,6 +376,8 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   GRAIN3_ARRAYS(F_)
   GRAIN1_ARRAYS(F_)
 #undef F_
+  free_selection(m);
+  sphdem_grains_destroy(&m->gstore);
   for (int l = 1; l < D->nlev; l++) {
     cfd_level *L = &D->L[l];
     void **lv[] = {(void **)&L->af, (void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
@@ -468,27 +511,44 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
 int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
                     double *fdrag, double *fpg) {
   if (!c) return SPHDEM_ERR_ARG;
-  struct sphdem_cfd_s *m = c;
+  /* a bad count or pointer is refused by sphdem_cfd_step_store (after every rank agreed on it) */
+  const int bad = n < 0 || (n > 0 && (!x || !v || !radius));
+  int rc = sphdem_grains_put_private(&c->gstore, &c->rt, c->backend, bad ? 0 : n, x, v, NULL, radius, NULL);
+  if (rc) return rc;
+  return step_store(c, dt, c->gstore, n, NULL, bad, fdrag, fpg);
+}
+
+int sphdem_cfd_step_store(sphdem_cfd c, double dt, sphdem_grain_store g, int n, const int32_t *idx, double *fdrag,
+                          double *fpg) {
+  if (!c) return SPHDEM_ERR_ARG;
+  return step_store(c, dt, g, n, idx, 0, fdrag, fpg);
+}
+
+static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s *g, int n, const int32_t *idx,
+                      int bad_input, double *fdrag, double *fpg) {
+  struct sphdem_cfd_s *c = m;
   cfd_dev *D = &m->D;
   const cfd_ops *o = m->ops;
   /* a rank whose own input is bad still takes part in the first deposit sum (with its failure flag), so that
    * every rank stops at the same point */
   int rc = SPHDEM_OK;
   if (!(dt > 0.0) || !isfinite(dt)) rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "dt: gas step must be > 0 (got %g)", dt);
-  else if (n < 0 || (n > 0 && (!x || !v || !radius)))
-    rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "grains: n = %d with a NULL x, v or radius", n);
-  for (int i = 0; !rc && i < n; i++)
-    if (!(radius[i] > 0.0) || !isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
-      rc = sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[i]);
+  else if (bad_input) rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG, "grains: n = %d with a NULL x, v or radius", n);
+  else rc = sphdem_grains_check(g, &m->rt, m->backend, n, idx, "cfd_step");
+  const double *x = g ? g->hx : NULL, *radius = g ? g->hrad : NULL;
+  for (int i = 0; !rc && i < n; i++) {
+    const int64_t s = sphdem_grains_at(idx, i);
+    if (!(radius[s] > 0.0) || !isfinite(x[3 * s]) || !isfinite(x[3 * s + 1]) || !isfinite(x[3 * s + 2]))
+      rc = sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[s]);
+  }
+  if (rc) n = 0; /* the failing rank deposits nothing */
   double t0 = rt_now();
   if (!rc) rc = grow_grains(m, n);
   if (!rc) {
     D->n = n;
     D->dt = dt;
   }
-  if (!rc && n) rc = rt_h2d(&m->rt, D->gx, x, sizeof(double) * 3 * (size_t)n);
-  if (!rc && n) rc = rt_h2d(&m->rt, D->gv, v, sizeof(double) * 3 * (size_t)n);
-  if (!rc && n) rc = rt_h2d(&m->rt, D->grad, radius, sizeof(double) * (size_t)n);
+  if (!rc && n) rc = bind_grains(m, g, n, idx);
   double t1 = rt_now();
   m->timers[SPHDEM_CFD_T_TRANSFER] += t1 - t0;
   /* voidage: the previous one becomes eps_old; the solid volume of this rank's grains, summed over the ranks */

@@ -2,6 +2,7 @@
 #ifndef SPHDEM_CFD_INTERNAL_H
 #define SPHDEM_CFD_INTERNAL_H
 
+#include "grains.h"
 #include "sph_internal.h"
 
 #define SPHDEM_CFD_MAX_CELLS (1LL << 26)
@@ -114,6 +115,12 @@ struct sphdem_cfd_s {
   const cfd_ops *ops;
   int backend;
   int64_t cap_n;
+  /* grains: D->gx, gv, grad point at the grain store's device view, or at these copies of the grains an
+   * index list picks (cap_sel grains) */
+  double *sel_x, *sel_v, *sel_rad;
+  int64_t cap_sel;
+  sphdem_idx_buf sel_idx;
+  struct sphdem_grains_s *gstore; /* private store of sphdem_cfd_step (a shim hands its own store) */
   double timers[SPHDEM_CFD_NTIMERS];
   sphdem_cfd_stats st;
   void *backend_data;

@@ -53,8 +53,15 @@ static int cpu_zero(sphdem_rt *rt, void *ptr, size_t bytes) {
   return SPHDEM_OK;
 }
 static int cpu_sync(sphdem_rt *rt) { (void)rt; return SPHDEM_OK; }
+static int cpu_gather(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
+  (void)rt;
+  for (int64_t k = 0; k < n; k++)
+    for (int j = 0; j < width; j++) dst[k * width + j] = src[(int64_t)idx[k] * width + j];
+  return SPHDEM_OK;
+}
 
-const sphdem_rt_mem sphdem_rt_cpu_mem = {"cpu", cpu_alloc, cpu_free, cpu_copy, cpu_copy, cpu_copy, cpu_zero, cpu_sync};
+const sphdem_rt_mem sphdem_rt_cpu_mem = {"cpu", cpu_alloc, cpu_free, cpu_copy, cpu_copy, cpu_copy, cpu_zero, cpu_sync,
+                                         cpu_gather};
 
 void sphdem_rt_init(sphdem_rt *rt, int dev) {
   rt->mem = &sphdem_rt_cpu_mem;

@@ -5,6 +5,7 @@
 
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "sphdem.h"
 
@@ -24,6 +25,8 @@ typedef struct {
   int (*d2d)(sphdem_rt *rt, void *dst, const void *src, size_t bytes);
   int (*zero)(sphdem_rt *rt, void *ptr, size_t bytes);
   int (*sync)(sphdem_rt *rt);
+  /* dst[k width + j] = src[idx[k] width + j] for k < n, j < width (idx on the device) */
+  int (*gather)(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width);
 } sphdem_rt_mem;
 
 /* One per context (embedded): which memory the context's arrays live in, how much of it they hold, and the
@@ -88,6 +91,10 @@ static inline int rt_d2d(sphdem_rt *rt, void *dst, const void *src, size_t bytes
 }
 static inline int rt_zero(sphdem_rt *rt, void *ptr, size_t bytes) {
   return bytes ? rt->mem->zero(rt, ptr, bytes) : SPHDEM_OK;
+}
+/* Rows of src picked by the device index list idx (width doubles a row); nothing for n = 0. */
+static inline int rt_gather(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
+  return n > 0 ? rt->mem->gather(rt, dst, src, idx, n, width) : SPHDEM_OK;
 }
 /* Wait for the device's queued work (a kernel's error surfaces here). */
 static inline int rt_sync(sphdem_rt *rt) { return rt->mem->sync(rt); }

@@ -28,10 +28,21 @@ static int cu_zero(sphdem_rt *rt, void *ptr, size_t bytes) {
   return rt_cuda_check(rt, cudaMemset(ptr, 0, bytes), "memset");
 }
 static int cu_sync(sphdem_rt *rt) { return rt_cuda_check(rt, cudaDeviceSynchronize(), "kernel execution"); }
+__global__ void k_gather_rows(double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
+  const int64_t t = RT_THREAD_INDEX();
+  if (t < n * width) dst[t] = src[(int64_t)idx[t / width] * width + t % width];
+}
+static int cu_gather(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
+  const int64_t m = n * width;
+  k_gather_rows<<<(unsigned)((m + 255) / 256), 256>>>(dst, src, idx, n, width);
+  RT_LAUNCHED(rt, "grain gather");
+  return SPHDEM_OK;
+}
 
 extern "C" {
 
-const sphdem_rt_mem sphdem_rt_cuda_mem = {"cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_d2d, cu_zero, cu_sync};
+const sphdem_rt_mem sphdem_rt_cuda_mem = {"cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_d2d, cu_zero, cu_sync,
+                                          cu_gather};
 
 int sphdem_rt_gpu_probe(char *msg, size_t msglen) {
   int n = 0;

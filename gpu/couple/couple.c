@@ -37,6 +37,7 @@
 #include <string.h>
 
 #include "couple_bodies.h"
+#include "grains.h"
 #include "sph_internal.h"
 
 #define TRYC(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
@@ -166,6 +167,8 @@ static void couple_release(struct sphdem_ctx_s *c) {
   free(c->hgf);
   c->hgf = NULL;
   c->cap_hgf = 0;
+  sphdem_idx_free(&c->rt, &c->gidx_buf);
+  sphdem_grains_destroy(&c->gstore);
   D->ng = 0;
   D->couple = D->couple_eos = D->pressure_volume_form = 0;
   c->nforces = 0;
@@ -216,18 +219,20 @@ int sphdem_couple_get(sphdem_ctx c, sphdem_couple_params *cp) {
   return SPHDEM_OK;
 }
 
-int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, const double *radius,
-                      const double *omega) {
+/* The grains of the coupling from a store: checked on the host view, copied on the device into the coupling's
+ * arrays (which the grain sort permutes), bounding box and largest diameter from the host view. */
+int sphdem_set_grains_store(sphdem_ctx c, sphdem_grain_store g, int n, const int32_t *idx, int with_omega) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: negative grain count %d", n);
-  if (n > 0 && (!x || !v || !radius))
-    return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: x, v and radius are required");
+  TRYC(sphdem_grains_check(g, &c->rt, c->backend, n, idx, "set_grains"));
+  if (with_omega && n > 0 && !g->hom) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: the grain store has no omega");
+  const double *x = g->hx, *v = g->hv, *radius = g->hrad;
   int dim = c->D.P.dim;
   for (int i = 0; i < n; i++) {
-    if (!(radius[i] > 0) || !isfinite(radius[i]))
-      return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has radius %g; must be > 0", i, radius[i]);
+    const int64_t s = sphdem_grains_at(idx, i);
+    if (!(radius[s] > 0) || !isfinite(radius[s]))
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has radius %g; must be > 0", i, radius[s]);
     for (int d = 0; d < dim; d++)
-      if (!isfinite(x[3 * i + d]) || !isfinite(v[3 * i + d]))
+      if (!isfinite(x[3 * s + d]) || !isfinite(v[3 * s + d]))
         return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has a non-finite position or velocity", i);
   }
   sphdem_dev *D = &c->D;
@@ -240,27 +245,41 @@ int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, con
     int rc = rt_h2d(&c->rt, D->gtag, tag, 8 * (size_t)n);
     free(tag);
     TRYC(rc);
-    TRYC(rt_h2d(&c->rt, D->gx, x, 24 * (size_t)n));
-    TRYC(rt_h2d(&c->rt, D->gv, v, 24 * (size_t)n));
-    TRYC(rt_h2d(&c->rt, D->grad, radius, 8 * (size_t)n));
-    if (omega) TRYC(rt_h2d(&c->rt, D->gom, omega, 24 * (size_t)n));
+    const int32_t *id = NULL;
+    TRYC(sphdem_grains_device(g, &c->rt));
+    TRYC(sphdem_idx_upload(&c->rt, &c->gidx_buf, idx, n, &id));
+    TRYC(sphdem_grains_copy(&c->rt, D->gx, g->dx, id, n, 3));
+    TRYC(sphdem_grains_copy(&c->rt, D->gv, g->dv, id, n, 3));
+    TRYC(sphdem_grains_copy(&c->rt, D->grad, g->drad, id, n, 1));
+    if (with_omega) TRYC(sphdem_grains_copy(&c->rt, D->gom, g->dom, id, n, 3));
     else TRYC(rt_zero(&c->rt, D->gom, 24 * (size_t)n));
   }
   /* bounding box and largest diameter for the grain grid (host loop over the host arrays) */
   c->gdmax = 0.0;
   for (int d = 0; d < 3; d++) { c->gbb_lo[d] = 0.0; c->gbb_hi[d] = 0.0; }
   for (int i = 0; i < n; i++) {
+    const int64_t s = sphdem_grains_at(idx, i);
     for (int d = 0; d < dim; d++) {
-      double xd = x[3 * i + d];
+      double xd = x[3 * s + d];
       if (i == 0 || xd < c->gbb_lo[d]) c->gbb_lo[d] = xd;
       if (i == 0 || xd > c->gbb_hi[d]) c->gbb_hi[d] = xd;
     }
-    if (2.0 * radius[i] > c->gdmax) c->gdmax = 2.0 * radius[i];
+    if (2.0 * radius[s] > c->gdmax) c->gdmax = 2.0 * radius[s];
   }
   D->ng = n;
   c->ngown = n;
   c->grains_dirty = 1;
   return SPHDEM_OK;
+}
+
+int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, const double *radius,
+                      const double *omega) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: negative grain count %d", n);
+  if (n > 0 && (!x || !v || !radius))
+    return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: x, v and radius are required");
+  TRYC(sphdem_grains_put_private(&c->gstore, &c->rt, c->backend, n, x, v, omega, radius, NULL));
+  return sphdem_set_grains_store(c, c->gstore, n, NULL, omega != NULL);
 }
 
 int sphdem_couple_set_ghosts(sphdem_ctx c, int nghost) {

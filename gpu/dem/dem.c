@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "dem_internal.h"
+#include "grains.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -198,7 +199,8 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   if (!pm || !*pm) return SPHDEM_OK;
   struct sphdem_dem_s *m = *pm;
   dem_dev *D = &m->D;
-  if (m->zero_copy) D->x = D->v = D->om = D->rad = D->mass = D->f = D->tq = NULL; /* the caller's arrays */
+  D->x = D->v = D->om = D->rad = D->mass = NULL; /* the grain store's arrays */
+  if (m->zero_copy) D->f = D->tq = NULL;         /* the caller's arrays */
   void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
                   D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat,
@@ -207,6 +209,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hx0);
   free(m->htag);
   free(m->cpu_pfb);
+  sphdem_grains_destroy(&m->gstore);
   free(m);
   *pm = NULL;
   return SPHDEM_OK;
@@ -335,14 +338,9 @@ static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
   if (n <= m->cap_n && m->D.sidx) return SPHDEM_OK;
   dem_dev *D = &m->D;
   int64_t cap = n + n / 4 + 16, rc = 0;
-  if (!m->zero_copy) {
-    rc |= grow(m, (void **)&D->x, 3 * sizeof(double), n, cap);
-    rc |= grow(m, (void **)&D->v, 3 * sizeof(double), n, cap);
-    rc |= grow(m, (void **)&D->om, 3 * sizeof(double), n, cap);
+  if (!m->zero_copy) { /* x, v, om, rad, mass are the grain store's */
     rc |= grow(m, (void **)&D->f, 3 * sizeof(double), n, cap);
     rc |= grow(m, (void **)&D->tq, 3 * sizeof(double), n, cap);
-    rc |= grow(m, (void **)&D->rad, sizeof(double), n, cap);
-    rc |= grow(m, (void **)&D->mass, sizeof(double), n, cap);
   }
   rc |= grow(m, (void **)&D->flags, sizeof(int32_t), n, cap);
   rc |= grow(m, (void **)&D->tag, sizeof(int64_t), n, cap);
@@ -482,10 +480,22 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
                        const double *omega, const double *radius, const double *mass, const int *flags,
                        double dt, int update_history, double *f, double *torque, double *virial) {
   if (!m) return SPHDEM_ERR_ARG;
-  dem_dev *D = &m->D;
   if (n < 0) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "n: %d grains", n);
   if (n > 0 && (!tag || !x || !v || !omega || !radius || !mass || !f || !torque))
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag, x, v, omega, radius, mass, f, torque: all needed (one is NULL)");
+  TRY(sphdem_grains_put_private(&m->gstore, &m->rt, m->backend, n, x, v, omega, radius, mass));
+  return sphdem_dem_compute_store(m, m->gstore, tag, flags, dt, update_history, f, torque, virial);
+}
+
+int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *tag, const int *flags, double dt,
+                             int update_history, double *f, double *torque, double *virial) {
+  if (!m) return SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  TRY(sphdem_grains_check(g, &m->rt, m->backend, 0, NULL, "dem_compute"));
+  const int n = g->have ? g->nown + g->nghost : 0;
+  const double *x = g->hx, *radius = g->hrad, *mass = g->hmass;
+  if (n > 0 && (!tag || !g->hom || !mass || !f || !torque))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag, omega, mass, f, torque: all needed (one is NULL)");
   if (!(dt >= 0.0) || !isfinite(dt)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "dt: must be finite and >= 0 (got %g)", dt);
   double t0 = rt_now(), t1;
   double rmax = 0.0;
@@ -528,16 +538,11 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
   t0 = t1;
   if (n) {
-    if (m->zero_copy) { /* CPU backend: the loops read the caller's arrays and write f, torque in place */
-      D->x = (double *)x, D->v = (double *)v, D->om = (double *)omega;
-      D->rad = (double *)radius, D->mass = (double *)mass, D->f = f, D->tq = torque;
-    } else {
-      TRY(rt_h2d(&m->rt, D->x, x, sizeof(double) * 3 * n));
-      TRY(rt_h2d(&m->rt, D->v, v, sizeof(double) * 3 * n));
-      TRY(rt_h2d(&m->rt, D->om, omega, sizeof(double) * 3 * n));
-      TRY(rt_h2d(&m->rt, D->rad, radius, sizeof(double) * n));
-      TRY(rt_h2d(&m->rt, D->mass, mass, sizeof(double) * n));
-    }
+    /* the grains are read where the store keeps them (CPU backend: the caller's arrays); the CPU writes f,
+     * torque in place */
+    TRY(sphdem_grains_device(g, &m->rt));
+    D->x = g->dx, D->v = g->dv, D->om = g->dom, D->rad = g->drad, D->mass = g->dmass;
+    if (m->zero_copy) D->f = f, D->tq = torque;
     if (flags) TRY(rt_h2d(&m->rt, D->flags, flags, sizeof(int32_t) * n));
     else TRY(rt_zero(&m->rt, D->flags, sizeof(int32_t) * n));
     if (new_tags) {

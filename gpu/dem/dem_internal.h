@@ -107,8 +107,9 @@ struct sphdem_dem_s {
   int roll_valid;              /* D->rin holds the rolling torques of the current list */
   int64_t cap_roll, cap_rold;  /* capacities (pairs) of rin/rout and roll_old */
   int tags_valid;              /* device tag array matches htag */
-  int zero_copy;               /* CPU backend: x, v, om, rad, mass, f, tq point at the caller's arrays
-                                  during sphdem_dem_compute (no copies) */
+  int zero_copy;               /* CPU backend: f, tq point at the caller's arrays during sphdem_dem_compute
+                                  (x, v, om, rad, mass always at the grain store's device view) */
+  struct sphdem_grains_s *gstore; /* private store of sphdem_dem_compute (a shim hands its own store) */
   int64_t nbuilds, ncontacts;
   int has_ghosts;              /* the last grains had SPHDEM_DEM_GHOST or SPHDEM_DEM_IMAGE flags */
   /* host copies for the rebuild decision */

@@ -207,6 +207,33 @@ int sphdem_check_spacing(sphdem_ctx ctx, double rmin, double out[8]);
  * (either may be NULL). */
 int sphdem_get_wall_state(sphdem_ctx ctx, double *p, double *rho);
 
+/* ---- Grain store (shared by the coupling, the DEM contacts and the gas grid) ----------------------
+ * The grains of one engine step, handed once and read by every context that needs them: a host view (the
+ * caller's arrays, borrowed until the next put) and a device copy on the store's backend (on the CPU backend
+ * the host view itself). Own grains first, then ghost copies of other ranks' grains. The stamp says which
+ * step and atom ordering the grains belong to; a reader that finds the stamp current reads what is there
+ * (no copy). The readers (sphdem_set_grains_store, sphdem_dem_compute_store, sphdem_cfd_step_store) take
+ * the first n grains of the store or a list of indices into it; a store is read by contexts of its backend. */
+typedef struct sphdem_grains_s *sphdem_grain_store;
+#define SPHDEM_GRAINS_STAMP 6 /* the stamp: 6 integers (the shims: step, run, setup flag, list builds, own, ghosts) */
+int sphdem_grains_create(sphdem_grain_store *out, sphdem_device dev, char *msg, size_t msglen); /* dev CPU or GPU */
+int sphdem_grains_destroy(sphdem_grain_store *g);
+const char *sphdem_grains_last_error(sphdem_grain_store g);
+/* The grains of a step: nown own grains then nghost ghosts; x, v, omega 3 per grain, radius and mass one;
+ * omega and mass may be NULL (readers that need them refuse the store). The arrays stay the caller's and
+ * must not change until the next put; the device copy is made here (one upload). */
+int sphdem_grains_put(sphdem_grain_store g, const int64_t stamp[SPHDEM_GRAINS_STAMP], int nown, int nghost,
+                      const double *x, const double *v, const double *omega, const double *radius,
+                      const double *mass);
+/* 1 if the last put had this stamp (the grains are current), 0 if not. */
+int sphdem_grains_current(sphdem_grain_store g, const int64_t stamp[SPHDEM_GRAINS_STAMP]);
+/* Grains of the last put: own and ghost counts (either pointer may be NULL). */
+int sphdem_grains_count(sphdem_grain_store g, int *nown, int *nghost);
+/* Host-to-device grain uploads so far: of this store, or (g NULL) of every store of the process, including
+ * the private stores behind sphdem_set_grains, sphdem_dem_compute and sphdem_cfd_step. On the CPU backend an
+ * upload is counted where the GPU backend would copy (the device view is the host view there). */
+int64_t sphdem_grains_uploads(sphdem_grain_store g);
+
 /* ---- SPH-DEM coupling (He 2018 §2.3, unresolved, two-way) -------------------------------------
  * The engine keeps the DEM (contacts, integration); each fluid step it uploads the grains, the
  * core computes the porosity at fluid particles (eq 26), uses it as superficial density in
@@ -259,6 +286,9 @@ int sphdem_couple_get(sphdem_ctx ctx, sphdem_couple_params *c);
  * for torque). Called before each sphdem_compute_rates that should see them; n may change. */
 int sphdem_set_grains(sphdem_ctx ctx, int n, const double *x, const double *v, const double *radius,
                       const double *omega);
+/* The same from a grain store of the context's backend: n grains, the first n of the store (idx NULL) or
+ * store grains idx[0..n); with_omega takes their spin (the store must have it), else zero. */
+int sphdem_set_grains_store(sphdem_ctx ctx, sphdem_grain_store g, int n, const int32_t *idx, int with_omega);
 /* Fluid force on each grain from the last sphdem_compute_rates, in the order of the last
  * sphdem_set_grains: total f (eq 27), its drag part fdrag (eq 30) and pressure-gradient/viscous
  * part fpg (eqs 28-29), torque. 3n each; any pointer may be NULL. */
@@ -507,6 +537,10 @@ int sphdem_dem_request_build(sphdem_dem dem);
 int sphdem_dem_compute(sphdem_dem dem, int n, const int64_t *tag, const double *x, const double *v,
                        const double *omega, const double *radius, const double *mass, const int *flags,
                        double dt, int update_history, double *f, double *torque, double *virial);
+/* The same for every grain of a store of the context's backend (own then ghosts, which need the flags);
+ * the store must have omega and mass. */
+int sphdem_dem_compute_store(sphdem_dem dem, sphdem_grain_store g, const int64_t *tag, const int *flags, double dt,
+                             int update_history, double *f, double *torque, double *virial);
 /* Counters: candidate pairs (within r_a + r_b + skin, walls included), touching contacts at the
  * last call, pair-list builds so far. */
 typedef struct { int64_t npairs, ncontacts, nbuilds; } sphdem_dem_stats;
@@ -630,6 +664,9 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p);
  * non-finite field (the message names the likely cause). */
 int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
                     double *fdrag, double *fpg);
+/* The same from a grain store of the context's backend: the first n grains (idx NULL) or grains idx[0..n). */
+int sphdem_cfd_step_store(sphdem_cfd c, double dt, sphdem_grain_store g, int n, const int32_t *idx, double *fdrag,
+                          double *fpg);
 int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s);
 /* Cell fields, x fastest (index i + nx (j + ny k)): voidage (before the floor), pressure, gas
  * velocity at the cell centre (interstitial, 3 per cell, mean of the two faces). Any may be NULL. */

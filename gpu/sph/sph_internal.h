@@ -2,6 +2,7 @@
 #ifndef SPHDEM_INTERNAL_H
 #define SPHDEM_INTERNAL_H
 
+#include "grains.h"
 #include "runtime.h"
 #include "sphdem.h"
 #include "sph_passes.h"
@@ -174,6 +175,8 @@ struct sphdem_ctx_s {
   double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
   int64_t cap_hgf;
   int forces_valid;
+  struct sphdem_grains_s *gstore; /* private store of sphdem_set_grains (a shim hands its own store) */
+  sphdem_idx_buf gidx_buf;      /* device copy of the index list of sphdem_set_grains_store */
   /* CPU: the fluid-grain pairs of the current coupling step (couple_cpu.c): per fluid particle its grains
    * (cpl_f, CSR cpl_fs), per grain its fluid particles (cpl_g, CSR cpl_gs), per-thread buffers */
   int64_t *cpl_fs, *cpl_gs, cap_cplfs, cap_cplgs, cap_cplf, cap_cplg;

@@ -516,7 +516,11 @@ void FixCFDGrid::gas_step() {
   gfp_.resize(3 * n);
   const double t1 = wall_seconds();
   const double dt_gas = (double)every_ * update->dt;
-  const int rc = sphdem_cfd_step(ctx_, dt_gas, (int)n, gx_.data(), gv_.data(), grad_.data(), gfd_.data(), gfp_.data());
+  std::string gerr;
+  const auto gv = grains_.hand_group(lmp, sphdem_cfd_backend(ctx_), groupbit, nloop(), gidx_, n, gx_, gv_, grad_,
+                                     nullptr, gerr);
+  if (!gv.g) sphdem_compat::error_all(error, FLERR, "Fix cfd/grid: grain store: " + gerr);
+  const int rc = sphdem_cfd_step_store(ctx_, dt_gas, gv.g, gv.n, gv.idx, gfd_.data(), gfp_.data());
   /* the core agrees on failures of its deposit stages itself; the same stop on every rank for any other */
   std::string why;
   if (rc != SPHDEM_OK) {

@@ -15,6 +15,7 @@ FixStyle(cfd/grid,FixCFDGrid)
 
 #include "fix.h"
 #include "sphdem.h"
+#include "sphdem_grains.h"
 #include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
@@ -67,6 +68,7 @@ class FixCFDGrid : public Fix {
 
   std::vector<int> gidx_;
   std::vector<double> gx_, gv_, grad_, gfd_, gfp_;
+  sphdem_grains::Store grains_; /* the grains handed to the core (or read from another shim's current store) */
   sphdem_cfd_stats stats_;
   bool keep_stats_;            /* stats_ came from a restart file: keep them at the next setup */
   double host_time_;           /* fix-side time of the gas steps (gather, scatter, VTK) this run */

@@ -378,7 +378,11 @@ void FixSPHCouple::couple_before_rates(sphdem_ctx ctx) {
     }
     n = gidx_.size();
   }
-  int rc = sphdem_set_grains(ctx, (int)n, gx_.data(), gv_.data(), grad_.data(), cp_.torque ? gom_.data() : nullptr);
+  std::string gerr;
+  const auto gv = grains_.hand_group(lmp, sphdem_backend(ctx), groupbit, nloop(), gidx_, ngown_, gx_, gv_, grad_,
+                                     cp_.torque ? &gom_ : nullptr, gerr);
+  int rc = gv.g ? sphdem_set_grains_store(ctx, gv.g, gv.n, gv.idx, cp_.torque) : SPHDEM_ERR_ARG;
+  if (!gv.g) sphdem_compat::error_all(error, FLERR, "Fix sph/couple: grain store: " + gerr);
   if (rc == SPHDEM_OK && fluid_->many_ranks()) rc = sphdem_couple_set_ghosts(ctx, (int)(n - ngown_));
   /* grains that went non-finite during a run: the fluid fix writes its failure dump, with the grains */
   if (rc != SPHDEM_OK && update->ntimestep > update->beginstep)

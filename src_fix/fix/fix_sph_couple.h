@@ -14,6 +14,7 @@ FixStyle(sph/couple,FixSPHCouple)
 #include "fix.h"
 #include "fix_sph_fluid.h"
 #include "sphdem.h"
+#include "sphdem_grains.h"
 #include "sphdem_peratom.h"
 
 namespace LAMMPS_NS {
@@ -67,6 +68,7 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   size_t ngown_ = 0;          /* owned grains at the front of gidx_ */
   std::vector<double> gcomm_; /* many ranks: v, omega of every local and ghost atom (forward communication) */
   std::vector<double> gx_, gv_, grad_, gom_, gf_, gfd_, gfp_, gt_;
+  sphdem_grains::Store grains_; /* the grains handed to the core (or read from another shim's current store) */
 
   sphdem_couple_stats cstats_;
   bool stats_dirty_;          /* cstats_ predates the last rate evaluation (fetched on demand: O(fluid)) */

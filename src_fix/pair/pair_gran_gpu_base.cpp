@@ -346,22 +346,23 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     for (int i = nlocal; i < n; i++) flags_[i] |= image_of_[i - nlocal] >= 0 ? SPHDEM_DEM_IMAGE : SPHDEM_DEM_GHOST;
     fl = flags_.data();
   }
-  /* x, v, omega are contiguous n x 3 blocks (memory->create), radius and rmass plain arrays: the core
-   * reads them in place */
-  const double *xp = n ? atom->x[0] : nullptr, *vp = n ? atom->v[0] : nullptr, *wp = n ? atom->omega[0] : nullptr;
   double vir[6];
   const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps; many
    * ranks: on every one (the ghost atoms are new) */
   if ((follow_list_builds || ghosts_) && neighbor->ago == 0) sphdem_dem_request_build(dem_);
   /* during setup the forces are evaluated without advancing the shear history (as the stock style) */
-  int rc = sphdem_dem_compute(dem_, n, tags_.data(), xp, vp, wp, atom->radius, atom->rmass, fl, update->dt,
-                              update->setupflag ? 0 : 1, fbuf_.data(), tbuf_.data(), vflag_global ? vir : nullptr);
+  /* the atoms go to the grain store in place (x, v, omega contiguous n x 3 blocks, radius and rmass) */
+  std::string gerr;
+  sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, gerr);
+  int rc = g ? sphdem_dem_compute_store(dem_, g, tags_.data(), fl, update->dt, update->setupflag ? 0 : 1, fbuf_.data(),
+                                        tbuf_.data(), vflag_global ? vir : nullptr)
+             : SPHDEM_ERR_ARG;
   if (ghosts_) {
-    const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? sphdem_dem_last_error(dem_) : "");
+    const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "");
     if (!err.empty()) fail("DEM core: " + err);
   } else if (rc) {
-    fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
+    fail(std::string("DEM core: ") + (g ? sphdem_dem_last_error(dem_) : gerr));
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   double **f = atom->f, **t = atom->torque;

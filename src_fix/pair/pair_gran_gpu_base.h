@@ -12,6 +12,7 @@
 #include "pair.h"
 #include "pair_gran_gpu_restart.h"
 #include "pair_gran_gpu_timers.h"
+#include "sphdem_grains.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -39,6 +40,8 @@ class PairGranGPUBase : public Pair {
   std::vector<double> fbuf_, tbuf_;
   std::vector<int> flags_;
   sphdem_pair_timers::RunTimers timers_;           /* keyword timers on */
+  sphdem_grains::Store grains_;                    /* every atom of the step, read by the core (and by fix
+                                                      sph/couple, fix cfd/grid when their grains are there) */
   sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
   /* Many MPI ranks: the core gets the owned atoms and then the ghost atoms (flags SPHDEM_DEM_GHOST or
    * SPHDEM_DEM_IMAGE); every rank evaluates each pair that has one of its own atoms and adds the force to its
