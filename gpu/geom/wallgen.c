@@ -191,6 +191,51 @@ long sphdem_points_merge(sphdem_points *p, double dmin) {
   return removed;
 }
 
+/* appends to dst each point of src that is not closer than dmin to a point of dst (earlier ones or those
+ * appended); returns the count left out or -SPHDEM_ERR_ALLOC */
+long sphdem_points_merge_into(sphdem_points *dst, const sphdem_points *src, double dmin) {
+  cellhash h;
+  long total = dst->n + src->n;
+  if (src->n == 0) return 0;
+  if (cellhash_init(&h, total, dmin) != SPHDEM_OK) {
+    cellhash_free(&h);
+    return -SPHDEM_ERR_ALLOC;
+  }
+  for (long i = 0; i < dst->n; i++) cellhash_insert(&h, i, dst->x + 3 * i);
+  double d2min = dmin * dmin;
+  long left = 0;
+  for (long s = 0; s < src->n; s++) {
+    const double *x = src->x + 3 * s;
+    int64_t ci = cell_of(x[0], h.inv), cj = cell_of(x[1], h.inv), ck = cell_of(x[2], h.inv);
+    int close = 0;
+    for (int a = -1; a <= 1 && !close; a++)
+      for (int b = -1; b <= 1 && !close; b++)
+        for (int c = -1; c <= 1 && !close; c++) {
+          uint64_t k = cell_key(ci + a, cj + b, ck + c);
+          for (long m = h.head[key_hash(k, h.mask)]; m >= 0; m = h.next[m]) {
+            if (h.key[m] != k) continue;
+            double d[3];
+            sub3(x, dst->x + 3 * m, d);
+            if (dot3(d, d) < d2min) {
+              close = 1;
+              break;
+            }
+          }
+        }
+    if (close) {
+      left++;
+      continue;
+    }
+    if (sphdem_points_push(dst, x[0], x[1], x[2]) != SPHDEM_OK) {
+      cellhash_free(&h);
+      return -SPHDEM_ERR_ALLOC;
+    }
+    cellhash_insert(&h, dst->n - 1, dst->x + 3 * (dst->n - 1));
+  }
+  cellhash_free(&h);
+  return left;
+}
+
 long sphdem_points_exclude(sphdem_points *p, const double *xr, long ns, double gap, double tol) {
   if (p->n == 0 || ns <= 0) return 0;
   double rmax = 0.0;
@@ -566,7 +611,7 @@ int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const dou
   double L = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]) + 2 * R;
   facetgrid g;
   facet_frame *F = (facet_frame *)malloc((size_t)m->nfacet * sizeof *F);
-  sphdem_points cand = {NULL, 0, 0};
+  sphdem_points cand = {NULL, 0, 0}, fill = {NULL, 0, 0};
   int rc = SPHDEM_OK;
   if (!F || facetgrid_build(&g, m, R, fmax(R, L / 128.0)) != SPHDEM_OK) {
     free(F);
@@ -627,11 +672,14 @@ int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const dou
             }
           }
           if (best < 0 || bs > -1e-6 * dx) continue; /* on the fluid side of its nearest facet, or on the mesh */
-          /* a point over another facet's slab is that facet's: this one keeps it only where it is (one of) the
-           * nearest (behind an edge or corner, where the extensions fill the wedge) */
+          /* a point over another facet's slab is that facet's: this one keeps it first only where it is (one of)
+           * the nearest (its slab, or behind an edge or corner, where the extensions fill the wedge); elsewhere it
+           * is a filler, used only where no kept point is within 0.9 dx (facets narrower than dx have no lattice
+           * column of their own) */
+          int filler = 0;
           {
             double q[3];
-            if (closest_on_triangle(c, m->f[f].v[0], m->f[f].v[1], m->f[f].v[2], q) > bd2 + tie) continue;
+            if (closest_on_triangle(c, m->f[f].v[0], m->f[f].v[1], m->f[f].v[2], q) > bd2 + tie) filler = 1;
           }
           /* nothing beyond an open edge: drop the point when the nearest point of the mesh lies on an open edge
            * (of any facet) and the point is beyond it in that facet's plane */
@@ -675,13 +723,33 @@ int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const dou
             }
             if (too_deep) continue;
           }
-          if (sphdem_points_push(&cand, c[0], c[1], c[2]) != SPHDEM_OK) rc = SPHDEM_ERR_ALLOC;
+          if (sphdem_points_push(filler ? &fill : &cand, c[0], c[1], c[2]) != SPHDEM_OK) rc = SPHDEM_ERR_ALLOC;
         }
       }
   }
   free(F);
   free(g.p);
   if (rc == SPHDEM_OK && sphdem_points_merge(&cand, 0.5 * dx) < 0) rc = SPHDEM_ERR_ALLOC;
+  /* the fillers after the kept points, each kept only where nothing is within 0.9 dx (a lattice of spacing dx
+   * leaves no point of space farther than 0.87 dx from it, so fillers go only into holes) */
+  if (rc == SPHDEM_OK && fill.n) {
+    long nk = cand.n;
+    for (long i = 0; i < fill.n && rc == SPHDEM_OK; i++)
+      if (sphdem_points_push(&cand, fill.x[3 * i], fill.x[3 * i + 1], fill.x[3 * i + 2]) != SPHDEM_OK)
+        rc = SPHDEM_ERR_ALLOC;
+    if (rc == SPHDEM_OK) {
+      /* merge at 0.9 dx over the whole list keeps the first of each close group; the kept points come first and
+       * are at least 0.5 dx apart, so re-add those the 0.9 dx merge would drop among themselves */
+      sphdem_points tail = {NULL, 0, 0};
+      for (long i = nk; i < cand.n && rc == SPHDEM_OK; i++)
+        if (sphdem_points_push(&tail, cand.x[3 * i], cand.x[3 * i + 1], cand.x[3 * i + 2]) != SPHDEM_OK)
+          rc = SPHDEM_ERR_ALLOC;
+      cand.n = nk;
+      if (rc == SPHDEM_OK && sphdem_points_merge_into(&cand, &tail, 0.9 * dx) < 0) rc = SPHDEM_ERR_ALLOC;
+      sphdem_points_free(&tail);
+    }
+  }
+  sphdem_points_free(&fill);
   for (long i = 0; i < cand.n && rc == SPHDEM_OK; i++)
     if (sphdem_points_push(out, cand.x[3 * i], cand.x[3 * i + 1], cand.x[3 * i + 2]) != SPHDEM_OK) rc = SPHDEM_ERR_ALLOC;
   sphdem_points_free(&cand);

@@ -50,14 +50,18 @@ void sphdem_mesh_bbox(const sphdem_mesh *m, double lo[3], double hi[3]);
  * extended by layers*dx across every edge another facet touches (open edges are not extended); each sample gives
  * `layers` points at depths (k + 1/2) dx, k = 0 .. layers-1, on the side opposite the normal. A point is dropped
  * when it lies on the fluid side of (or on) its nearest facet, or when it is farther than layers*dx from the mesh
- * and deeper than layers*dx behind a facet whose extended triangle it lies over; points closer than dx/2 to an
- * earlier one are merged (the first is kept). The result is deterministic (file order). Appends to *out. */
+ * and deeper than layers*dx behind a facet whose extended triangle it lies over. A point from a facet that is
+ * not its nearest facet is a filler, kept only where no other point is within 0.9 dx (facets narrower than dx);
+ * the others closer than dx/2 to an earlier one are merged (the first is kept). The result is deterministic (file order). Appends to *out. */
 int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const double origin[3], sphdem_points *out,
                           char *msg, size_t msglen);
 
 /* Removes every point closer than dmin to an earlier one (the first is kept; order kept). Returns the count removed
  * (>= 0) or -SPHDEM_ERR_ALLOC. */
 long sphdem_points_merge(sphdem_points *p, double dmin);
+/* Appends to dst each point of src not closer than dmin to a point of dst (including those appended before it).
+ * Returns the count left out (>= 0) or -SPHDEM_ERR_ALLOC. */
+long sphdem_points_merge_into(sphdem_points *dst, const sphdem_points *src, double dmin);
 /* Removes every point closer than r_j + gap - tol to one of the spheres xr[4*j .. 4*j+3] = (x, y, z, r), j < ns.
  * Returns the count removed (>= 0) or -SPHDEM_ERR_ALLOC. */
 long sphdem_points_exclude(sphdem_points *p, const double *xr, long ns, double gap, double tol);

@@ -6,7 +6,9 @@
 #include "compute_sph_probe.h"
 #include "fix_cfd_grid.h"
 #include "fix_sph_couple.h"
+#include "fix_sph_fill.h"
 #include "fix_sph_fluid.h"
+#include "fix_sph_wall.h"
 #include "lammps.h"
 #include "pair_gran_hertz_history_gpu.h"
 #include "pair_gran_hooke_history_gpu.h"
@@ -46,6 +48,10 @@ const PluginStyle kStyles[] = {
     {"fix", "cfd/grid",
      "sphdem " SPHDEM_VERSION " coarse-grid gas of CFD-DEM (drag and pressure-gradient force on grains)", nullptr,
      &style_creator<LAMMPS_NS::FixCFDGrid>},
+    {"fix", "sph/wall", "sphdem " SPHDEM_VERSION " dummy-wall particles behind an STL mesh or outside a region", nullptr,
+     &style_creator<LAMMPS_NS::FixSPHWall>},
+    {"fix", "sph/fill", "sphdem " SPHDEM_VERSION " fluid particles on a lattice in a region", nullptr,
+     &style_creator<LAMMPS_NS::FixSPHFill>},
     {"compute", "sph/probe", "sphdem " SPHDEM_VERSION " fluid fields at fixed points", nullptr,
      &style_creator<LAMMPS_NS::ComputeSPHProbe>},
     {"pair", "gran/hooke/history/gpu",

@@ -8,7 +8,9 @@
 #include "compute_sph_probe.h"
 #include "fix_cfd_grid.h"
 #include "fix_sph_couple.h"
+#include "fix_sph_fill.h"
 #include "fix_sph_fluid.h"
+#include "fix_sph_wall.h"
 #include "input.h"
 #include "lammps.h"
 #include "modify.h"
@@ -23,6 +25,8 @@ void sphdem_register_styles(LAMMPS *lmp) {
   fixes["sph/fluid"] = &sphdem_compat::fix_creator<FixSPHFluid>;
   fixes["sph/couple"] = &sphdem_compat::fix_creator<FixSPHCouple>;
   fixes["cfd/grid"] = &sphdem_compat::fix_creator<FixCFDGrid>;
+  fixes["sph/wall"] = &sphdem_compat::fix_creator<FixSPHWall>;
+  fixes["sph/fill"] = &sphdem_compat::fix_creator<FixSPHFill>;
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   computes["sph/probe"] = &sphdem_compat::compute_creator<ComputeSPHProbe>;
   sphdem_register_pair_gran_gpu(lmp); /* pair styles of this engine (pair_gran_gpu_register.h) */

@@ -276,6 +276,31 @@ static void test_drum(void) {
   sphdem_mesh_free(&m);
 }
 
+/* facets narrower than dx (128 facets on a radius of 12 dx): no lattice column of their own; the fillers close
+ * the shell */
+static void test_narrow_facets(void) {
+  const double dx = 0.005, r = 12 * dx, len = 6 * dx, O[3] = {0.5 * dx, 0.5 * dx, 0.5 * dx};
+  char msg[256];
+  sphdem_mesh m;
+  make_drum(&m, r, len, 128, 1);
+  sphdem_points got = {0};
+  int rc = sphdem_wall_from_mesh(&m, dx, 3, O, &got, msg, sizeof msg);
+  TEST_ASSERT(rc == SPHDEM_OK, "narrow facets: %s", msg);
+  double worst = 0;
+  for (int a = 0; a < 1440; a++) {
+    double t = 2 * M_PI * (a + 0.37) / 1440, rr = r + (0.2 + 1.6 * (a % 7) / 6.0) * dx;
+    double x[3] = {rr * cos(t), -0.5 * len + (0.5 + (a % 6)) * dx, rr * sin(t)};
+    worst = fmax(worst, nearest(&got, x));
+  }
+  printf("  drum with 128 facets of width %.2f dx: %ld points, largest distance from the shell to a wall point "
+         "%.3f dx\n", 2 * r * sin(M_PI / 128) / dx, got.n, worst / dx);
+  TEST_ASSERT(worst <= dx, "narrow facets: no gap in the shell (%.3f dx, bound 1)", worst / dx);
+  double dmin = min_pair_distance(&got);
+  TEST_ASSERT(dmin >= 0.5 * dx, "narrow facets: no two points closer than dx/2 (min %.3f dx)", dmin / dx);
+  sphdem_points_free(&got);
+  sphdem_mesh_free(&m);
+}
+
 static void test_tilted(void) {
   const double dx = 0.01, O[3] = {0.5 * dx, 0.5 * dx, 0.5 * dx}, ang = 15.0 * M_PI / 180.0;
   const double lo[3] = {0, 0, 0}, hi[3] = {10 * dx, 5 * dx, 8 * dx};
@@ -369,6 +394,7 @@ static void test_stl(void) {
 int main(void) {
   test_box();
   test_drum();
+  test_narrow_facets();
   test_tilted();
   test_points();
   test_stl();

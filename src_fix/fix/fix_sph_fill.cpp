@@ -1,0 +1,198 @@
+/* fix_sph_fill.cpp - fix sph/fill: the sc lattice inside a region, less the points near the atoms of the exclude
+ * groups (gpu/geom/wallgen.c, sphdem_points_exclude), created as atoms (sphdem_create_atoms.h); prints the count
+ * and the top of the fluid. Runs once, in the constructor; the fix does nothing during runs. */
+#include "fix_sph_fill.h"
+
+#include <mpi.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "group.h"
+#include "region.h"
+#include "sphdem_args.h"
+#include "sphdem_compat.h"
+#include "sphdem_create_atoms.h"
+#include "sphdem_geom.h"
+
+using namespace LAMMPS_NS;
+
+namespace {
+const char *const SYNTAX =
+    "fix ID group-ID sph/fill region REGION-ID spacing DX type T (mass M | density RHO0) [diameter D] "
+    "[exclude GROUP-ID [GROUP-ID ...]] [gap G] [origin OX OY OZ]";
+const char *const KEYWORDS = "region, spacing, type, mass, density, diameter, exclude, gap, origin";
+bool is_keyword(const char *s) {
+  for (const char *k : {"region", "spacing", "type", "mass", "density", "diameter", "exclude", "gap", "origin"})
+    if (!std::strcmp(s, k)) return true;
+  return false;
+}
+}  // namespace
+
+void FixSPHFill::fail(const std::string &msg) {
+  sphdem_compat::error_all(error, FLERR, std::string("Fix sph/fill: ") + msg);
+}
+
+FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg), created_(0), top_(0.0) {
+  scalar_flag = 1;
+  vector_flag = 1;
+  size_vector = 2;
+  global_freq = 1;
+  extscalar = 0;
+  extvector = 0;
+  auto failf = [this](const std::string &m) { fail(m); };
+  auto num = [&](int i, const char *kw) -> double {
+    if (i >= narg) fail(std::string(kw) + " needs a value (usage: " + SYNTAX + ")");
+    return sphdem_args::number(failf, kw, arg[i], SYNTAX);
+  };
+  std::string region_id;
+  std::vector<int> exclude;
+  double dx = 0, mass = 0, density = 0, diameter = 0, gap = 0, origin[3] = {0, 0, 0};
+  long type = 0;
+  bool have_dx = false, have_type = false, have_mass = false, have_density = false, have_diameter = false;
+  bool have_gap = false, have_origin = false;
+  for (int i = 3; i < narg;) {
+    const std::string kw = arg[i];
+    if (kw == "region") {
+      if (i + 1 >= narg) fail(std::string("region needs a region ID (usage: ") + SYNTAX + ")");
+      region_id = arg[i + 1], i += 2;
+    } else if (kw == "spacing") {
+      dx = num(i + 1, "spacing"), have_dx = true, i += 2;
+      if (!(dx > 0)) fail("spacing must be > 0 (got " + std::string(arg[i - 1]) + ")");
+    } else if (kw == "type") {
+      if (i + 1 >= narg || !sphdem_compat::to_int(arg[i + 1], &type))
+        fail(std::string("type expects an atom type, got '") + (i + 1 < narg ? arg[i + 1] : "") + "'");
+      if (type < 1 || type > atom->ntypes)
+        fail("type must be 1 .. " + std::to_string(atom->ntypes) + " (got " + std::to_string(type) + ")");
+      have_type = true, i += 2;
+    } else if (kw == "mass") {
+      mass = num(i + 1, "mass"), have_mass = true, i += 2;
+      if (!(mass > 0)) fail("mass must be > 0");
+    } else if (kw == "density") {
+      density = num(i + 1, "density"), have_density = true, i += 2;
+      if (!(density > 0)) fail("density must be > 0");
+    } else if (kw == "diameter") {
+      diameter = num(i + 1, "diameter"), have_diameter = true, i += 2;
+      if (!(diameter > 0)) fail("diameter must be > 0");
+    } else if (kw == "gap") {
+      gap = num(i + 1, "gap"), have_gap = true, i += 2;
+      if (!(gap >= 0)) fail("gap must be >= 0");
+    } else if (kw == "origin") {
+      for (int d = 0; d < 3; d++) origin[d] = num(i + 1 + d, "origin");
+      have_origin = true, i += 4;
+    } else if (kw == "exclude") {
+      i++;
+      int before = (int)exclude.size();
+      /* group IDs up to the next keyword */
+      while (i < narg && !is_keyword(arg[i])) {
+        int g = sphdem_compat::find_group(group, arg[i]);
+        if (g < 0) fail(std::string("exclude: group ") + arg[i] + " does not exist");
+        exclude.push_back(g);
+        i++;
+      }
+      if ((int)exclude.size() == before) fail("exclude needs at least one group ID");
+    } else {
+      fail("unknown keyword '" + kw + "' (allowed: " + KEYWORDS + "; usage: " + SYNTAX + ")");
+    }
+  }
+  if (region_id.empty()) fail(std::string("region REGION-ID is required (usage: ") + SYNTAX + ")");
+  if (!have_dx) fail("spacing DX is required");
+  if (!have_type) fail("type T is required");
+  if (have_mass == have_density) fail("give one of mass M and density RHO0");
+  if (!domain->box_exist) fail("create the simulation box first (create_box or read_data)");
+  const std::string style_problem = sphdem_atoms::atom_style_problem(atom);
+  if (!style_problem.empty()) fail(style_problem);
+  const int dim = domain->dimension;
+  if (!have_diameter) diameter = dx;
+  if (have_density) mass = density * std::pow(dx, dim);
+  if (!have_gap) gap = 0.5 * dx;
+  int ireg = domain->find_region(region_id.c_str());
+  if (ireg < 0) fail("region " + region_id + " does not exist");
+  Region *reg = domain->regions[ireg];
+  reg->init();
+  reg->prematch();
+
+  /* search: the region's bounding box (where it has one) within the simulation box */
+  double lo[3], hi[3];
+  for (int d = 0; d < 3; d++) lo[d] = domain->boxlo[d], hi[d] = domain->boxhi[d];
+  if (reg->bboxflag) {
+    const double elo[3] = {reg->extent_xlo, reg->extent_ylo, reg->extent_zlo};
+    const double ehi[3] = {reg->extent_xhi, reg->extent_yhi, reg->extent_zhi};
+    for (int d = 0; d < dim; d++) lo[d] = std::fmax(lo[d], elo[d]), hi[d] = std::fmin(hi[d], ehi[d]);
+  }
+  sphdem_atoms::ScLattice L{dx, have_origin, {origin[0], origin[1], origin[2]}};
+  sphdem_points pts = {nullptr, 0, 0};
+  bool oom = false;
+  sphdem_atoms::for_lattice(L, lo, hi, dim, [&](double *x) {
+    if (reg->match(x[0], x[1], x[2]) && sphdem_points_push(&pts, x[0], x[1], x[2]) != SPHDEM_OK) oom = true;
+  });
+  if (oom) fail("out of memory for the fluid points");
+  const long long in_region = pts.n;
+
+  /* the atoms of the exclude groups, from every rank */
+  long long removed = 0;
+  if (!exclude.empty()) {
+    int mask_any = 0;
+    for (int g : exclude) mask_any |= group->bitmask[g];
+    std::vector<double> mine;
+    for (int i = 0; i < atom->nlocal; i++)
+      if (atom->mask[i] & mask_any) {
+        mine.push_back(atom->x[i][0]);
+        mine.push_back(atom->x[i][1]);
+        mine.push_back(atom->x[i][2]);
+        mine.push_back(atom->radius[i]);
+      }
+    int n = (int)mine.size(), nprocs = comm->nprocs;
+    std::vector<int> counts(nprocs), displs(nprocs);
+    MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+    long long total = 0;
+    for (int p = 0; p < nprocs; p++) displs[p] = (int)total, total += counts[p];
+    std::vector<double> all((size_t)total + 1);
+    MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, world);
+    long r = sphdem_points_exclude(&pts, all.data(), (long)(total / 4), gap, 1e-6 * dx);
+    if (r < 0) fail("out of memory excluding the points near the exclude groups");
+    removed = r;
+  }
+  if (pts.n == 0) {
+    sphdem_points_free(&pts);
+    fail("no lattice point of spacing " + std::to_string(dx) + " lies in region " + region_id +
+         (removed ? " away from the exclude groups" : "") + " inside the simulation box");
+  }
+  const int up = dim == 2 ? 1 : 2;
+  double top = -HUGE_VAL;
+  for (long i = 0; i < pts.n; i++) top = std::fmax(top, pts.x[3 * i + up]);
+  top_ = top + 0.5 * dx;
+  sphdem_atoms::Result r = sphdem_atoms::create(lmp, pts, (int)type, diameter, mass, groupbit);
+  sphdem_points_free(&pts);
+  created_ = r.created;
+  if (r.created != r.generated) {
+    char b[160];
+    std::snprintf(b, sizeof b, "%lld of the %lld fluid points were not created (outside the simulation box?)",
+                  r.generated - r.created, r.generated);
+    fail(b);
+  }
+  if (comm->me == 0) {
+    char b[640];
+    std::snprintf(b, sizeof b,
+                  "fix sph/fill %s: created %lld atoms (IDs %lld-%lld) of type %ld in group %s in region %s at "
+                  "spacing %g (%lld lattice points in the region, %lld near the exclude groups left out), diameter %g, "
+                  "mass %g\n  bounding box of the fluid atoms: %s\n  top of the fluid (highest %s + spacing/2): %.10g "
+                  "(f_%s; for fix sph/fluid ... hydrostatic)\n",
+                  id, r.created, r.first_tag, r.first_tag + r.created - 1, type, group->names[igroup],
+                  region_id.c_str(), dx, in_region, removed, diameter, mass, sphdem_atoms::bbox_text(r).c_str(),
+                  dim == 2 ? "y" : "z", top_, id);
+    sphdem_compat::logmesg(lmp, b);
+  }
+}
+
+int FixSPHFill::setmask() { return 0; }
+
+double FixSPHFill::compute_scalar() { return top_; }
+
+double FixSPHFill::compute_vector(int i) { return i == 0 ? (double)created_ : top_; }
