@@ -140,34 +140,6 @@ inline void pre_set_arrays(LAMMPS_NS::Fix *f) {
 #endif
 }
 
-/* Atom creation (fix sph/wall, fix sph/fill; src_fix/common/sphdem_create_atoms.h). data_atoms: n lines of a data
- * file's Atoms section in buf, each ending in a newline; each rank keeps the atoms in its subdomain (LAMMPS: no
- * id/molecule/type offsets, no shift). */
-inline void data_atoms(LAMMPS_NS::Atom *atom, int n, char *buf) {
-#ifdef SPHDEM_ENGINE_LAMMPS
-  atom->data_atoms(n, buf, 0, 0, 0, 0, nullptr);
-#else
-  atom->data_atoms(n, buf);
-#endif
-}
-/* the per-atom density of LIGGGHTS' granular atom styles; nullptr in LAMMPS (which has none) */
-inline double *atom_density(LAMMPS_NS::Atom *atom) {
-#ifdef SPHDEM_ENGINE_LAMMPS
-  (void)atom;
-  return nullptr;
-#else
-  return atom->density_flag ? atom->density : nullptr;
-#endif
-}
-/* before the set_arrays(i) calls for atoms created after set-up (LIGGGHTS' pre_set_arrays; nothing in LAMMPS) */
-inline void pre_set_arrays(LAMMPS_NS::Fix *f) {
-#ifdef SPHDEM_ENGINE_LAMMPS
-  (void)f;
-#else
-  f->pre_set_arrays();
-#endif
-}
-
 /* Style registration. Modify::fix_map is public in LAMMPS and private in LIGGGHTS; there the
  * pointer-to-member comes from an explicit instantiation, where access checks do not apply
  * ([temp.explicit]). The creator signature is the same in both engines. */
