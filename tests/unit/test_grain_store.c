@@ -158,5 +158,12 @@ int main(void) {
   sphdem_destroy(&fa); sphdem_destroy(&fb);
   sphdem_dem_destroy(&da); sphdem_dem_destroy(&db);
   sphdem_cfd_destroy(&ca); sphdem_cfd_destroy(&cb);
+  for (int k = 0; k < 2; k++) {
+    free(f[k]); free(t[k]); free(cf[k]); free(ct[k]); free(cfd[k]); free(cfp[k]); free(gfd[k]); free(gfp[k]);
+    free(eps[k]);
+  }
+  free(x); free(v); free(om); free(r); free(m); free(tag); free(gi);
+  free(gx); free(gv); free(gom); free(gr); free(bx); free(bv); free(br);
+  scene_free(&s);
   return test_summary("unit_grain_store");
 }
