@@ -30,6 +30,49 @@ inline std::string atom_style_problem(LAMMPS_NS::Atom *atom) {
          "own (atom_style is " + st + ")";
 }
 
+/* The particle keywords both fixes take: spacing DX, type T, mass M | density RHO0, diameter D. parse() consumes
+ * arg[i] (and its value) when it is one of them, advancing i, and returns false otherwise; finish() checks that the
+ * required ones were given and fills the defaults (diameter DX, mass RHO0 DX^dim). NUM(i, kw) reads arg[i] as a
+ * number, FAIL(msg) stops with the fix's message. */
+struct ParticleKeywords {
+  double dx = 0, mass = 0, density = 0, diameter = 0;
+  long type = 0;
+  bool have_dx = false, have_type = false, have_mass = false, have_density = false, have_diameter = false;
+
+  template <class Num, class Fail>
+  bool parse(const std::string &kw, int &i, int narg, char **arg, int ntypes, Num num, Fail fail) {
+    if (kw == "spacing") {
+      dx = num(i + 1, "spacing"), have_dx = true, i += 2;
+      if (!(dx > 0)) fail("spacing must be > 0 (got " + std::string(arg[i - 1]) + ")");
+    } else if (kw == "type") {
+      if (i + 1 >= narg || !sphdem_compat::to_int(arg[i + 1], &type))
+        fail(std::string("type expects an atom type, got '") + (i + 1 < narg ? arg[i + 1] : "") + "'");
+      if (type < 1 || type > ntypes)
+        fail("type must be 1 .. " + std::to_string(ntypes) + " (got " + std::to_string(type) + ")");
+      have_type = true, i += 2;
+    } else if (kw == "mass" || kw == "density" || kw == "diameter") {
+      double &v = kw == "mass" ? mass : kw == "density" ? density : diameter;
+      v = num(i + 1, kw.c_str()), i += 2;
+      (kw == "mass" ? have_mass : kw == "density" ? have_density : have_diameter) = true;
+      if (!(v > 0)) fail(kw + " must be > 0");
+    } else {
+      return false;
+    }
+    return true;
+  }
+  /* the checks after the keyword loop that come before the engine-state checks */
+  template <class Fail>
+  void require(Fail fail) const {
+    if (!have_dx) fail("spacing DX is required");
+    if (!have_type) fail("type T is required");
+    if (have_mass == have_density) fail("give one of mass M and density RHO0");
+  }
+  void defaults(int dim) {
+    if (!have_diameter) diameter = dx;
+    if (have_density) mass = density * std::pow(dx, dim);
+  }
+};
+
 /* the lattice indices i0..i1 of the points o + i dx in [lo, hi) */
 inline void lattice_range(double lo, double hi, double o, double dx, long &i0, long &i1) {
   i0 = (long)std::ceil((lo - o) / dx - 1e-9);

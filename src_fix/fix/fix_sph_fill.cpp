@@ -53,33 +53,15 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   };
   std::string region_id;
   std::vector<int> exclude;
-  double dx = 0, mass = 0, density = 0, diameter = 0, gap = 0, origin[3] = {0, 0, 0};
-  long type = 0;
-  bool have_dx = false, have_type = false, have_mass = false, have_density = false, have_diameter = false;
+  sphdem_atoms::ParticleKeywords pk;
+  double gap = 0, origin[3] = {0, 0, 0};
   bool have_gap = false, have_origin = false;
   for (int i = 3; i < narg;) {
     const std::string kw = arg[i];
+    if (pk.parse(kw, i, narg, arg, atom->ntypes, num, failf)) continue;
     if (kw == "region") {
       if (i + 1 >= narg) fail(std::string("region needs a region ID (usage: ") + SYNTAX + ")");
       region_id = arg[i + 1], i += 2;
-    } else if (kw == "spacing") {
-      dx = num(i + 1, "spacing"), have_dx = true, i += 2;
-      if (!(dx > 0)) fail("spacing must be > 0 (got " + std::string(arg[i - 1]) + ")");
-    } else if (kw == "type") {
-      if (i + 1 >= narg || !sphdem_compat::to_int(arg[i + 1], &type))
-        fail(std::string("type expects an atom type, got '") + (i + 1 < narg ? arg[i + 1] : "") + "'");
-      if (type < 1 || type > atom->ntypes)
-        fail("type must be 1 .. " + std::to_string(atom->ntypes) + " (got " + std::to_string(type) + ")");
-      have_type = true, i += 2;
-    } else if (kw == "mass") {
-      mass = num(i + 1, "mass"), have_mass = true, i += 2;
-      if (!(mass > 0)) fail("mass must be > 0");
-    } else if (kw == "density") {
-      density = num(i + 1, "density"), have_density = true, i += 2;
-      if (!(density > 0)) fail("density must be > 0");
-    } else if (kw == "diameter") {
-      diameter = num(i + 1, "diameter"), have_diameter = true, i += 2;
-      if (!(diameter > 0)) fail("diameter must be > 0");
     } else if (kw == "gap") {
       gap = num(i + 1, "gap"), have_gap = true, i += 2;
       if (!(gap >= 0)) fail("gap must be >= 0");
@@ -102,15 +84,14 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     }
   }
   if (region_id.empty()) fail(std::string("region REGION-ID is required (usage: ") + SYNTAX + ")");
-  if (!have_dx) fail("spacing DX is required");
-  if (!have_type) fail("type T is required");
-  if (have_mass == have_density) fail("give one of mass M and density RHO0");
+  pk.require(failf);
   if (!domain->box_exist) fail("create the simulation box first (create_box or read_data)");
   const std::string style_problem = sphdem_atoms::atom_style_problem(atom);
   if (!style_problem.empty()) fail(style_problem);
   const int dim = domain->dimension;
-  if (!have_diameter) diameter = dx;
-  if (have_density) mass = density * std::pow(dx, dim);
+  pk.defaults(dim);
+  const double dx = pk.dx, mass = pk.mass, diameter = pk.diameter;
+  const long type = pk.type;
   if (!have_gap) gap = 0.5 * dx;
   int ireg = domain->find_region(region_id.c_str());
   if (ireg < 0) fail("region " + region_id + " does not exist");

@@ -42,41 +42,24 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     return sphdem_args::number(failf, kw, arg[i], SYNTAX);
   };
   std::string mesh_file, region_id;
-  double dx = 0, mass = 0, density = 0, diameter = 0, scale = 1.0, move[3] = {0, 0, 0}, orient[3] = {0, 0, 0};
-  long layers = 0, type = 0;
-  bool have_dx = false, have_layers = false, have_type = false, have_mass = false, have_density = false;
-  bool have_diameter = false, have_orient = false, have_scale = false, have_move = false;
+  sphdem_atoms::ParticleKeywords pk;
+  double scale = 1.0, move[3] = {0, 0, 0}, orient[3] = {0, 0, 0};
+  long layers = 0;
+  bool have_layers = false, have_orient = false, have_scale = false, have_move = false;
   int flip = 0;
   for (int i = 3; i < narg;) {
     const std::string kw = arg[i];
+    if (pk.parse(kw, i, narg, arg, atom->ntypes, num, failf)) continue;
     if (kw == "mesh" || kw == "region") {
       if (i + 1 >= narg) fail(kw + " needs a " + (kw == "mesh" ? "file name" : "region ID") + " (usage: " + SYNTAX + ")");
       if (!mesh_file.empty() || !region_id.empty()) fail("give one of mesh FILE and region REGION-ID, once");
       (kw == "mesh" ? mesh_file : region_id) = arg[i + 1];
       i += 2;
-    } else if (kw == "spacing") {
-      dx = num(i + 1, "spacing"), have_dx = true, i += 2;
-      if (!(dx > 0)) fail("spacing must be > 0 (got " + std::string(arg[i - 1]) + ")");
     } else if (kw == "layers") {
       if (i + 1 >= narg || !sphdem_compat::to_int(arg[i + 1], &layers))
         fail(std::string("layers expects an integer >= 1, got '") + (i + 1 < narg ? arg[i + 1] : "") + "'");
       if (layers < 1) fail("layers must be >= 1 (got " + std::to_string(layers) + ")");
       have_layers = true, i += 2;
-    } else if (kw == "type") {
-      if (i + 1 >= narg || !sphdem_compat::to_int(arg[i + 1], &type))
-        fail(std::string("type expects an atom type, got '") + (i + 1 < narg ? arg[i + 1] : "") + "'");
-      if (type < 1 || type > atom->ntypes)
-        fail("type must be 1 .. " + std::to_string(atom->ntypes) + " (got " + std::to_string(type) + ")");
-      have_type = true, i += 2;
-    } else if (kw == "mass") {
-      mass = num(i + 1, "mass"), have_mass = true, i += 2;
-      if (!(mass > 0)) fail("mass must be > 0");
-    } else if (kw == "density") {
-      density = num(i + 1, "density"), have_density = true, i += 2;
-      if (!(density > 0)) fail("density must be > 0");
-    } else if (kw == "diameter") {
-      diameter = num(i + 1, "diameter"), have_diameter = true, i += 2;
-      if (!(diameter > 0)) fail("diameter must be > 0");
     } else if (kw == "scale") {
       scale = num(i + 1, "scale"), have_scale = true, i += 2;
       if (!(scale > 0)) fail("scale must be > 0");
@@ -92,10 +75,9 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     }
   }
   if (mesh_file.empty() && region_id.empty()) fail(std::string("give mesh FILE or region REGION-ID (usage: ") + SYNTAX + ")");
-  if (!have_dx) fail("spacing DX is required");
+  if (!pk.have_dx) fail("spacing DX is required");
   if (!have_layers) fail("layers N is required");
-  if (!have_type) fail("type T is required");
-  if (have_mass == have_density) fail("give one of mass M and density RHO0");
+  pk.require(failf);
   if (have_orient && flip) fail("orient and flip yes exclude each other (orient sets every normal)");
   if (!region_id.empty() && (have_scale || have_move || have_orient || flip))
     fail("scale, move, orient and flip apply to a mesh only");
@@ -104,8 +86,9 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   if (!style_problem.empty()) fail(style_problem);
   const int dim = domain->dimension;
   if (!mesh_file.empty() && dim == 2) fail("mesh is for 3D only (dimension 2): use region REGION-ID");
-  if (!have_diameter) diameter = dx;
-  if (have_density) mass = density * std::pow(dx, dim);
+  pk.defaults(dim);
+  const double dx = pk.dx, mass = pk.mass, diameter = pk.diameter;
+  const long type = pk.type;
 
   sphdem_points pts = {nullptr, 0, 0};
   std::string source;
