@@ -599,6 +599,30 @@ static void frame_of(const sphdem_facet *f, const double origin[3], double dx, f
   }
 }
 
+/* the nearest of the n listed facets to x (squared distance *d2, signed distance of x to its plane *s, > 0 on
+ * the fluid side); on ties (an edge or a corner is nearest) the one whose plane is farthest decides, which gives
+ * the side of x. Returns the facet, or -1 when none is listed. */
+static long nearest_facet(const sphdem_mesh *m, const fpair *list, long n, const double *x, double tie, double *d2o,
+                          double *so) {
+  long best = -1;
+  double bd2 = HUGE_VAL, bs = 0.0;
+  for (long t = 0; t < n; t++) {
+    long o = list ? list[t].facet : t;
+    double q[3], r[3];
+    double d2 = closest_on_triangle(x, m->f[o].v[0], m->f[o].v[1], m->f[o].v[2], q);
+    sub3(x, m->f[o].v[0], r);
+    double s = dot3(r, m->f[o].n);
+    if (d2 < bd2 - tie || (d2 <= bd2 + tie && fabs(s) > fabs(bs))) {
+      if (d2 < bd2) bd2 = d2;
+      bs = s;
+      best = o;
+    }
+  }
+  *d2o = bd2;
+  *so = bs;
+  return best;
+}
+
 int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const double origin[3], sphdem_points *out,
                           char *msg, size_t msglen) {
   if (!(dx > 0) || layers < 1 || !m || m->nfacet < 1) {
@@ -656,21 +680,9 @@ int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const dou
         for (int k = 0; k < layers; k++) {
           double c[3], depth = (k + 0.5) * dx;
           for (int d = 0; d < 3; d++) c[d] = Fr->op[d] + (i * dx) * Fr->e1[d] + (j * dx) * Fr->e2[d] - depth * n[d];
-          /* nearest facet; on ties (an edge or a corner is nearest) the one whose plane is farthest decides */
-          long first, nf = facetgrid_cell(&g, c, &first), best = -1;
-          double bd2 = HUGE_VAL, bs = 0.0;
-          for (long t = first; t < first + nf; t++) {
-            long o = g.p[t].facet;
-            double q[3], r[3];
-            double d2 = closest_on_triangle(c, m->f[o].v[0], m->f[o].v[1], m->f[o].v[2], q);
-            sub3(c, m->f[o].v[0], r);
-            double s = dot3(r, m->f[o].n);
-            if (d2 < bd2 - tie || (d2 <= bd2 + tie && fabs(s) > fabs(bs))) {
-              if (d2 < bd2) bd2 = d2;
-              bs = s;
-              best = o;
-            }
-          }
+          long first, nf = facetgrid_cell(&g, c, &first);
+          double bd2, bs;
+          long best = nearest_facet(m, &g.p[first], nf, c, tie, &bd2, &bs);
           if (best < 0 || bs > -1e-6 * dx) continue; /* on the fluid side of its nearest facet, or on the mesh */
           /* a point over another facet's slab is that facet's: this one keeps it first only where it is (one of)
            * the nearest (its slab, or behind an edge or corner, where the extensions fill the wedge); elsewhere it
@@ -755,4 +767,125 @@ int sphdem_wall_from_mesh(const sphdem_mesh *m, double dx, int layers, const dou
   sphdem_points_free(&cand);
   if (rc != SPHDEM_OK) GEOM_MSG("wall from mesh: out of memory");
   return rc;
+}
+
+/* ---------------------------------------------------------------- fluid points on the fluid side of a mesh */
+/* lattice key of a point of a lattice of spacing dx through x0 */
+static uint64_t lattice_key(const double *x, const double *x0, double dx) {
+  int64_t i[3];
+  for (int d = 0; d < 3; d++) {
+    double c = floor((x[d] - x0[d]) / dx + 0.5);
+    if (c < -1048575.0) c = -1048575.0;
+    if (c > 1048575.0) c = 1048575.0;
+    i[d] = (int64_t)c;
+  }
+  return cell_key(i[0], i[1], i[2]);
+}
+
+static long uf_find(long *parent, long i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+long sphdem_points_clip_mesh(sphdem_points *p, const sphdem_mesh *m, double dx, double gap) {
+  if (p->n == 0 || !m || m->nfacet < 1 || !(dx > 0) || !(gap >= 0)) return 0;
+  /* near: within R of the mesh, where the nearest facet gives the side; R > dx, so two lattice neighbours that are
+   * both farther than R from the mesh lie on one side (the segment between them does not cross it) */
+  const double R = fmax(1.5 * dx, gap + 0.5 * dx), tie = 1e-10 * dx * dx, tol = 1e-9 * dx;
+  double lo[3], hi[3];
+  sphdem_mesh_bbox(m, lo, hi);
+  double L = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]) + 2 * R;
+  facetgrid g;
+  if (facetgrid_build(&g, m, R, fmax(R, L / 128.0)) != SPHDEM_OK) {
+    free(g.p);
+    return -SPHDEM_ERR_ALLOC;
+  }
+  const long n = p->n;
+  signed char *keep = (signed char *)malloc((size_t)n); /* 1 keep, 0 drop, -1 far (decided below) */
+  long *parent = (long *)malloc((size_t)n * sizeof(long));
+  cellhash h;
+  int rc = (keep && parent && cellhash_init(&h, n, 1.0) == SPHDEM_OK) ? SPHDEM_OK : SPHDEM_ERR_ALLOC;
+  if (rc != SPHDEM_OK) {
+    free(keep);
+    free(parent);
+    free(g.p);
+    return -SPHDEM_ERR_ALLOC;
+  }
+  long nfar = 0;
+  for (long i = 0; i < n; i++) {
+    const double *x = p->x + 3 * i;
+    long first, nf = facetgrid_cell(&g, x, &first);
+    double d2 = HUGE_VAL, s = 0.0;
+    long best = nf ? nearest_facet(m, &g.p[first], nf, x, tie, &d2, &s) : -1;
+    parent[i] = i;
+    if (best >= 0 && d2 <= R * R) {
+      keep[i] = (s > -tol && sqrt(d2) >= gap - tol) ? 1 : 0;
+    } else {
+      keep[i] = -1;
+      nfar++;
+    }
+  }
+  if (nfar) {
+    /* far points: lattice neighbours (6) form components; a component takes the side of a near point next to it,
+     * or (none next to it) of the nearest facet of its first point over the whole mesh */
+    const double *x0 = p->x;
+    for (long i = 0; i < n; i++) {
+      uint64_t k = lattice_key(p->x + 3 * i, x0, dx);
+      size_t b = key_hash(k, h.mask);
+      h.key[i] = k;
+      h.next[i] = h.head[b];
+      h.head[b] = i;
+    }
+    long *side = (long *)malloc((size_t)n * sizeof(long)); /* per root: -1 unknown, else 0/1 */
+    if (!side) rc = SPHDEM_ERR_ALLOC;
+    for (long i = 0; i < n && rc == SPHDEM_OK; i++) side[i] = -1;
+    static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int pass = 0; pass < 2 && rc == SPHDEM_OK; pass++)
+      for (long i = 0; i < n; i++) {
+        if (keep[i] != -1) continue;
+        for (int a = 0; a < 6; a++) {
+          double y[3];
+          for (int d = 0; d < 3; d++) y[d] = p->x[3 * i + d] + nb[a][d] * dx;
+          uint64_t k = lattice_key(y, x0, dx);
+          for (long j = h.head[key_hash(k, h.mask)]; j >= 0; j = h.next[j]) {
+            if (h.key[j] != k) continue;
+            if (pass == 0 && keep[j] == -1) { /* pass 0: join the far components */
+              long ri = uf_find(parent, i), rj = uf_find(parent, j);
+              if (ri != rj) parent[ri < rj ? rj : ri] = ri < rj ? ri : rj;
+            } else if (pass == 1 && keep[j] != -1) { /* pass 1: a near neighbour decides */
+              long r = uf_find(parent, i);
+              if (side[r] < 0) side[r] = keep[j];
+            }
+          }
+        }
+      }
+    for (long i = 0; i < n && rc == SPHDEM_OK; i++) {
+      if (keep[i] != -1) continue;
+      long r = uf_find(parent, i);
+      if (side[r] < 0) {
+        double d2, s;
+        nearest_facet(m, NULL, m->nfacet, p->x + 3 * r, tie, &d2, &s);
+        side[r] = s > -tol ? 1 : 0;
+      }
+      keep[i] = (signed char)side[r];
+    }
+    free(side);
+  }
+  long kept = 0;
+  if (rc == SPHDEM_OK) {
+    for (long i = 0; i < n; i++) {
+      if (!keep[i]) continue;
+      if (kept != i) memmove(p->x + 3 * kept, p->x + 3 * i, 3 * sizeof(double));
+      kept++;
+    }
+    p->n = kept;
+  }
+  cellhash_free(&h);
+  free(keep);
+  free(parent);
+  free(g.p);
+  return rc == SPHDEM_OK ? n - kept : -SPHDEM_ERR_ALLOC;
 }

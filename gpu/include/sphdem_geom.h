@@ -65,6 +65,12 @@ long sphdem_points_merge_into(sphdem_points *dst, const sphdem_points *src, doub
 /* Removes every point closer than r_j + gap - tol to one of the spheres xr[4*j .. 4*j+3] = (x, y, z, r), j < ns.
  * Returns the count removed (>= 0) or -SPHDEM_ERR_ALLOC. */
 long sphdem_points_exclude(sphdem_points *p, const double *xr, long ns, double gap, double tol);
+/* Keeps the points on the fluid side of mesh m (the side its normals point to) at least gap from it: a point within
+ * max(1.5 dx, gap + dx/2) of the mesh takes the side of its nearest facet (sphdem_wall_from_mesh's tie rule); the
+ * points farther away take the side of the near points next to them on their lattice of spacing dx (the points are
+ * such a lattice, e.g. a fill), or, where none is next to them, of the nearest facet over the whole mesh. Returns the
+ * count removed (>= 0) or -SPHDEM_ERR_ALLOC. */
+long sphdem_points_clip_mesh(sphdem_points *p, const sphdem_mesh *m, double dx, double gap);
 int sphdem_points_push(sphdem_points *p, double x, double y, double z);
 void sphdem_points_free(sphdem_points *p);
 

@@ -14,7 +14,9 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "fix_sph_wall.h"
 #include "group.h"
+#include "modify.h"
 #include "region.h"
 #include "sphdem_args.h"
 #include "sphdem_compat.h"
@@ -26,10 +28,10 @@ using namespace LAMMPS_NS;
 namespace {
 const char *const SYNTAX =
     "fix ID group-ID sph/fill region REGION-ID spacing DX type T (mass M | density RHO0) [diameter D] "
-    "[exclude GROUP-ID [GROUP-ID ...]] [gap G] [origin OX OY OZ]";
-const char *const KEYWORDS = "region, spacing, type, mass, density, diameter, exclude, gap, origin";
+    "[inside WALL-FIX-ID] [exclude GROUP-ID [GROUP-ID ...]] [gap G] [origin OX OY OZ]";
+const char *const KEYWORDS = "region, spacing, type, mass, density, diameter, inside, exclude, gap, origin";
 bool is_keyword(const char *s) {
-  for (const char *k : {"region", "spacing", "type", "mass", "density", "diameter", "exclude", "gap", "origin"})
+  for (const char *k : {"region", "spacing", "type", "mass", "density", "diameter", "inside", "exclude", "gap", "origin"})
     if (!std::strcmp(s, k)) return true;
   return false;
 }
@@ -51,7 +53,7 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     if (i >= narg) fail(std::string(kw) + " needs a value (usage: " + SYNTAX + ")");
     return sphdem_args::number(failf, kw, arg[i], SYNTAX);
   };
-  std::string region_id;
+  std::string region_id, inside_id;
   std::vector<int> exclude;
   sphdem_atoms::ParticleKeywords pk;
   double gap = 0, origin[3] = {0, 0, 0};
@@ -62,6 +64,9 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     if (kw == "region") {
       if (i + 1 >= narg) fail(std::string("region needs a region ID (usage: ") + SYNTAX + ")");
       region_id = arg[i + 1], i += 2;
+    } else if (kw == "inside") {
+      if (i + 1 >= narg) fail(std::string("inside needs the ID of a fix sph/wall (usage: ") + SYNTAX + ")");
+      inside_id = arg[i + 1], i += 2;
     } else if (kw == "gap") {
       gap = num(i + 1, "gap"), have_gap = true, i += 2;
       if (!(gap >= 0)) fail("gap must be >= 0");
@@ -92,7 +97,17 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   pk.defaults(dim);
   const double dx = pk.dx, mass = pk.mass, diameter = pk.diameter;
   const long type = pk.type;
-  if (!have_gap) gap = 0.5 * dx;
+  if (!have_gap) gap = 0.0;
+  const FixSPHWall *walls = nullptr;
+  if (!inside_id.empty()) {
+    for (int m = 0; m < modify->nfix && !walls; m++)
+      if (inside_id == modify->fix[m]->id) {
+        if (std::strcmp(modify->fix[m]->style, "sph/wall"))
+          fail("inside: fix " + inside_id + " is a fix " + modify->fix[m]->style + ", not a fix sph/wall");
+        walls = static_cast<const FixSPHWall *>(modify->fix[m]);
+      }
+    if (!walls) fail("inside: no fix with ID " + inside_id + " (define the fix sph/wall before the fill)");
+  }
   int ireg = domain->find_region(region_id.c_str());
   if (ireg < 0) fail("region " + region_id + " does not exist");
   Region *reg = domain->regions[ireg];
@@ -115,6 +130,32 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   });
   if (oom) fail("out of memory for the fluid points");
   const long long in_region = pts.n;
+
+  /* the fluid side of the walls of a fix sph/wall: its mesh (sphdem_points_clip_mesh) or its region */
+  long long outside = 0;
+  if (walls && !walls->facets().empty()) {
+    sphdem_mesh mesh = {const_cast<sphdem_facet *>(walls->facets().data()), (long)walls->facets().size(), 0, 0};
+    long c = sphdem_points_clip_mesh(&pts, &mesh, dx, gap);
+    if (c < 0) fail("out of memory keeping the points inside the mesh of fix " + inside_id);
+    outside = c;
+  } else if (walls) {
+    int iw = domain->find_region(walls->region_id().c_str());
+    if (iw < 0) fail("inside: the region " + walls->region_id() + " of fix " + inside_id + " no longer exists");
+    Region *wr = domain->regions[iw];
+    wr->init();
+    wr->prematch();
+    long kept = 0;
+    for (long i = 0; i < pts.n; i++) {
+      double *x = pts.x + 3 * i, xn[3] = {x[0], x[1], x[2]};
+      bool in = wr->match(x[0], x[1], x[2]);
+      if (in && gap > 0) in = (wr->interior ? wr->surface_interior(xn, gap) : wr->surface_exterior(xn, gap)) == 0;
+      if (!in) continue;
+      if (kept != i) std::memmove(pts.x + 3 * kept, x, 3 * sizeof(double));
+      kept++;
+    }
+    outside = pts.n - kept;
+    pts.n = kept;
+  }
 
   /* the atoms of the exclude groups, from every rank */
   long long removed = 0;
@@ -143,7 +184,7 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   if (pts.n == 0) {
     sphdem_points_free(&pts);
     fail("no lattice point of spacing " + std::to_string(dx) + " lies in region " + region_id +
-         (removed ? " away from the exclude groups" : "") + " inside the simulation box");
+         (outside ? " on the fluid side of the walls" : "") + (removed ? " away from the exclude groups" : "") + " inside the simulation box");
   }
   const int up = dim == 2 ? 1 : 2;
   double top = -HUGE_VAL;
@@ -162,11 +203,12 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     char b[640];
     std::snprintf(b, sizeof b,
                   "fix sph/fill %s: created %lld atoms (IDs %lld-%lld) of type %ld in group %s in region %s at "
-                  "spacing %g (%lld lattice points in the region, %lld near the exclude groups left out), diameter %g, "
+                  "spacing %g (%lld lattice points in the region, %lld outside the walls, %lld near the exclude groups "
+                  "left out), diameter %g, "
                   "mass %g\n  bounding box of the fluid atoms: %s\n  top of the fluid (highest %s + spacing/2): %.10g "
                   "(f_%s; for fix sph/fluid ... hydrostatic)\n",
                   id, r.created, r.first_tag, r.first_tag + r.created - 1, type, group->names[igroup],
-                  region_id.c_str(), dx, in_region, removed, diameter, mass, sphdem_atoms::bbox_text(r).c_str(),
+                  region_id.c_str(), dx, in_region, outside, removed, diameter, mass, sphdem_atoms::bbox_text(r).c_str(),
                   dim == 2 ? "y" : "z", top_, id);
     sphdem_compat::logmesg(lmp, b);
   }

@@ -105,6 +105,7 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     const double origin[3] = {0.5 * dx, 0.5 * dx, 0.5 * dx};
     rc = sphdem_wall_from_mesh(&mesh, dx, (int)layers, origin, &pts, msg, sizeof msg);
     long nfacet = mesh.nfacet, ndeg = mesh.ndegenerate, ndis = mesh.ndisagree;
+    facets_.assign(mesh.f, mesh.f + mesh.nfacet);
     sphdem_mesh_free(&mesh);
     if (rc != SPHDEM_OK) fail(msg);
     source = "mesh " + mesh_file + " (" + std::to_string(nfacet) + " facets";
@@ -161,6 +162,7 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     });
     if (oom) fail("out of memory for the wall points");
     source = "region " + region_id;
+    region_id_ = region_id;
     const int per[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
     bool nonper_clip = false;
     for (int d = 0; d < dim; d++) nonper_clip = nonper_clip || !per[d];

@@ -9,7 +9,10 @@ FixStyle(sph/wall,FixSPHWall)
 
 #include <string>
 
+#include <vector>
+
 #include "fix.h"
+#include "sphdem_geom.h"
 
 namespace LAMMPS_NS {
 
@@ -19,11 +22,17 @@ class FixSPHWall : public Fix {
   int setmask() override;
   void init() override;
   double compute_scalar() override;
+  /* the walls' mesh as used (scaled, moved, oriented; empty for region walls) and the region ID (empty for a mesh):
+   * fix sph/fill ... inside ID keeps its points on the fluid side of them */
+  const std::vector<sphdem_facet> &facets() const { return facets_; }
+  const std::string &region_id() const { return region_id_; }
 
  private:
   [[noreturn]] void fail(const std::string &msg);
   long long created_;
   bool warned_;
+  std::vector<sphdem_facet> facets_;
+  std::string region_id_;
 };
 
 }  // namespace LAMMPS_NS

@@ -6,10 +6,12 @@
                               pressure at z = H/4 and H/2 after 0.25 s: the two within 1 % of each other and each
                               within 5 % of rho0 g (H - z); the created atoms equal the hand-built ones (positions)
   tilted  EXE ENGINE          water in a box mesh tilted by 15 deg about y (fill: the intersection of plane regions):
-                              after 0.3 s no fluid particle outside the box, max speed < 0.1 sqrt(g H)
+                              after 0.3 s no fluid particle beyond the first wall layer, max speed < 0.1 sqrt(g H)
   drum    EXE ENGINE          a closed drum mesh (tools/stl_shapes.py cylinder, axis y, 32 facets), half filled from
-                              a region cylinder: after 0.3 s no fluid particle outside the drum, max speed
-                              < 0.1 sqrt(g R)
+                              a region cylinder at the facets' inner radius: after 0.3 s no fluid particle beyond the
+                              first wall layer (dx/2 beyond the facets), max speed < 0.1 sqrt(g R)
+  drum_inside EXE ENGINE      the same drum half filled from a block covering the lower half of the box, kept inside
+                              the mesh by sph/fill ... inside (the far points outside the drum included); same bounds
   region2d EXE ENGINE         2D: walls from a region (sph/wall region) equal the lattice walls minus the corner
                               points farther than layers*dx from the region; fill's top printed and in f_ID
   badinput EXE ENGINE         missing file, unknown keyword (named with the allowed ones), spacing <= 0, layers < 1,
@@ -178,7 +180,9 @@ def settle_script(box, dx, make_walls, fill_region, fill_top, gravity_dir, settl
     return s, steps
 
 
-def check_rest(exe, engine, name, script, inside, vbound, natoms_before):
+def check_rest(exe, engine, name, script, depth, dx, vbound):
+    """runs script; depth(x, y, z) is how far a point lies beyond the container's surface (< 0 inside). Pass: the
+    largest fluid speed below vbound and no fluid particle beyond the first wall layer (depth dx/2)."""
     wd = os.path.abspath("sph_create_%s_%s" % (name, engine))
     rc, out = E.run([exe], wd, script, timeout=300)
     if rc != 0 or "ERROR" in out:
@@ -187,10 +191,12 @@ def check_rest(exe, engine, name, script, inside, vbound, natoms_before):
     r = E.thermo_rows(out)
     v = [r[-1][2]] if r and len(r[-1]) == 3 else None
     rows = E.read_dump(os.path.join(wd, "final.dump"))
-    nout = sum(1 for r in rows.values() if not inside(r[0], r[1], r[2]))
+    dmax = max(depth(r[0], r[1], r[2]) for r in rows.values()) if rows else float("nan")
+    nout = sum(1 for r in rows.values() if depth(r[0], r[1], r[2]) > 0.5 * dx)
     ok = v is not None and v[0] < vbound and nout == 0 and len(rows) > 0
-    print("%s %s %s: %d fluid atoms at rest: max speed %.4f m/s (bound %.4f), %d outside the container"
-          % ("PASS" if ok else "FAIL", name, engine, len(rows), v[0] if v else float("nan"), vbound, nout))
+    print("%s %s %s: %d fluid atoms at rest: max speed %.4f m/s (bound %.4f), deepest fluid particle %+.2f dx beyond "
+          "the surface (bound +0.50: the first wall layer), %d beyond it"
+          % ("PASS" if ok else "FAIL", name, engine, len(rows), v[0] if v else float("nan"), vbound, dmax / dx, nout))
     return 0 if ok else 1
 
 
@@ -223,30 +229,51 @@ def test_tilted(exe, engine):
     walls = "fix mkw walls sph/wall mesh tilted.stl spacing %g layers 3 type 2 density %g\n" % (dx, RHO0)
     script, _ = settle_script("-0.04 0.1 -0.03 0.06 -0.04 0.12", dx, walls, reg, zs, 2, 0.3, None)
 
-    def inside(x, y, z):
+    def depth(x, y, z):
         c, s = math.cos(-ang), math.sin(-ang)
         x0, z0 = x - piv[0], z - piv[2]
         bx, bz = piv[0] + c * x0 + s * z0, piv[2] - s * x0 + c * z0
-        return 0 <= bx <= W and 0 <= y <= D and 0 <= bz <= Hb
-    return check_rest(exe, engine, "tilted", script, inside, 0.1 * math.sqrt(G * Hw), None)
+        return max(-bx, bx - W, -y, y - D, -bz, bz - Hb)
+    return check_rest(exe, engine, "tilted", script, depth, dx, 0.1 * math.sqrt(G * Hw))
+
+
+def drum_scene(exe, engine, variant):
+    """variant "region": fill a region cylinder at the facets' inner radius; "inside": fill the lower half of the
+    simulation box and keep the points inside the drum's mesh (sph/fill ... inside mkw)"""
+    dx = 0.005
+    R, L, NF = 12 * dx, 6 * dx, 32
+    name = "drum" if variant == "region" else "drum_inside"
+    wd = os.path.abspath("sph_create_%s_%s" % (name, engine))
+    os.makedirs(wd, exist_ok=True)
+    stl_shapes.write_stl(os.path.join(wd, "drum.stl"),
+                         stl_shapes.cylinder((0, 0, 0), (0, 1, 0), R, L, NF, True), "drum")
+    walls = "fix mkw walls sph/wall mesh drum.stl spacing %g layers 3 type 2 density %g\n" % (dx, RHO0)
+    if variant == "region":
+        reg = ("region cyl cylinder y 0 0 %.10g -%.10g %.10g units box\n" % (R * math.cos(math.pi / NF), L / 2, L / 2) +
+               "region low block INF INF INF INF INF 0 units box\n"
+               "region inside intersect 2 cyl low units box\n")
+        inside = ""
+    else:
+        reg = "region inside block INF INF INF INF INF 0 units box\n"
+        inside = " inside mkw"
+    script, _ = settle_script("-0.09 0.09 -0.04 0.04 -0.09 0.09", dx, walls, reg, R, 2, 0.3, None)
+    script = script.replace(" exclude walls", inside + " exclude walls")
+
+    def depth(x, y, z):
+        # beyond the polygon's facet through the particle's angle (the facets' inner radius R cos(pi/NF))
+        a = math.atan2(z, x)
+        k = math.floor(a / (2 * math.pi / NF))
+        mid = (k + 0.5) * 2 * math.pi / NF
+        return max(x * math.cos(mid) + z * math.sin(mid) - R * math.cos(math.pi / NF), abs(y) - L / 2)
+    return check_rest(exe, engine, name, script, depth, dx, 0.1 * math.sqrt(G * R))
 
 
 def test_drum(exe, engine):
-    dx = 0.005
-    R, L = 12 * dx, 6 * dx
-    wd = os.path.abspath("sph_create_drum_%s" % engine)
-    os.makedirs(wd, exist_ok=True)
-    stl_shapes.write_stl(os.path.join(wd, "drum.stl"),
-                         stl_shapes.cylinder((0, 0, 0), (0, 1, 0), R, L, 32, True), "drum")
-    walls = "fix mkw walls sph/wall mesh drum.stl spacing %g layers 3 type 2 density %g\n" % (dx, RHO0)
-    reg = ("region cyl cylinder y 0 0 %.10g -%.10g %.10g units box\n" % (R * math.cos(math.pi / 32), L / 2, L / 2) +
-           "region low block INF INF INF INF INF 0 units box\n"
-           "region inside intersect 2 cyl low units box\n")
-    script, _ = settle_script("-0.09 0.09 -0.04 0.04 -0.09 0.09", dx, walls, reg, R, 2, 0.3, None)
+    return drum_scene(exe, engine, "region")
 
-    def inside(x, y, z):
-        return math.hypot(x, z) <= R and abs(y) <= L / 2
-    return check_rest(exe, engine, "drum", script, inside, 0.1 * math.sqrt(G * R), None)
+
+def test_drum_inside(exe, engine):
+    return drum_scene(exe, engine, "inside")
 
 
 # ------------------------------------------------------------------ 2D region walls
@@ -259,7 +286,7 @@ def test_region2d(exe, engine):
               "region water block 0 0.1 0 0.2 -%g %g units box\n" % (dx / 2, dx / 2) +
               "group walls type 2\ngroup fluid type 1\n"
               "fix mkw walls sph/wall region tank spacing %g layers 3 type 2 mass 0.00625 diameter 0.003\n" % dx +
-              "fix mkf fluid sph/fill region water spacing %g type 1 density 1000 exclude walls\n" % dx +
+              "fix mkf fluid sph/fill region water spacing %g type 1 density 1000 exclude walls gap %g\n" % (dx, dx / 2) +
               'print "FILL $(f_mkf) $(f_mkf[1]) $(f_mkf[2]) $(count(walls)) $(count(fluid))"\n'
               "write_dump all custom atoms.dump id type x y z radius mass modify sort id\n")
     rc, out = E.run([exe], wd, script, timeout=60)
@@ -283,7 +310,7 @@ def test_region2d(exe, engine):
           % ("PASS" if ok else "FAIL", len(walls), len(want)))
     fl = [a for a in atoms.values() if a[0] == 1]
     wa = [a for a in atoms.values() if a[0] == 2]
-    # the walls' radius 0.0015 + gap dx/2 = 0.00275 > dx: the fluid column/row next to the left, right and bottom
+    # the walls' radius 0.0015 + gap dx/2 (given) = 0.00275 > dx: the fluid column/row next to the left, right and bottom
     # walls (dx away) is left out: 38 x 79 of the 40 x 80 points
     good = len(fl) == 38 * 79 and all(abs(a[4] - 0.0015) < 1e-15 and abs(a[5] - 0.00625) < 1e-15 for a in wa) \
         and all(abs(a[4] - dx / 2) < 1e-15 and abs(a[5] - 1000 * dx * dx) < 1e-15 for a in fl)
@@ -337,7 +364,15 @@ def test_badinput(exe, engine):
          "units box\ngroup walls type 2\n" + W + "region r spacing 0.1 layers 2 type 2 density 1000\n",
          "needs atom_style sphere (LIGGGHTS: sphere or granular)"),
         ("fill: unknown keyword", BAD3 + "fix f all sph/fill region r spacing 0.1 type 1 density 1000 excl walls\n",
-         "unknown keyword 'excl' (allowed: region, spacing, type, mass, density, diameter, exclude, gap, origin"),
+         "unknown keyword 'excl' (allowed: region, spacing, type, mass, density, diameter, inside, exclude, gap, "
+         "origin"),
+        ("fill: inside an unknown fix", BAD3 + "fix f all sph/fill region r spacing 0.1 type 1 density 1000 inside w\n",
+         "inside: no fix with ID w (define the fix sph/wall before the fill)"),
+        ("fill: inside a fix of another style", BAD3 + "fix nv all nve\n"
+         "fix f all sph/fill region r spacing 0.1 type 1 density 1000 inside nv\n",
+         "inside: fix nv is a fix nve, not a fix sph/wall"),
+        ("fill: gap < 0", BAD3 + "fix f all sph/fill region r spacing 0.1 type 1 density 1000 gap -0.1\n",
+         "gap must be >= 0"),
         ("fill: spacing 0", BAD3 + "fix f all sph/fill region r spacing 0 type 1 density 1000\n",
          "spacing must be > 0"),
         ("fill: exclude unknown group", BAD3 + "fix f all sph/fill region r spacing 0.1 type 1 density 1 exclude g\n",

@@ -1,6 +1,8 @@
 /* test_wallgen.c - dummy-wall points behind STL meshes (gpu/geom/wallgen.c): a lattice-aligned box gives the
  * hand-built lattice walls exactly, closed and open-top; no two points closer than dx/2; a drum's shell has
- * 2 pi r_k / dx points per ring and no gaps; flip and orient; a tilted box; exclusion near spheres; STL errors. */
+ * 2 pi r_k / dx points per ring and no gaps; flip and orient; a tilted box; exclusion near spheres; the fluid side of a
+ * mesh (clip: a lattice in a large block keeps exactly the points inside a tilted box, an open-top box and a drum,
+ * the far ones on both sides included); STL errors. */
 #include <math.h>
 
 #include "sphdem_geom.h"
@@ -391,12 +393,93 @@ static void test_stl(void) {
   sphdem_mesh_free(&m);
 }
 
+/* the lattice of spacing dx through (dx/2, dx/2, dx/2) in [lo, hi] */
+static void lattice(sphdem_points *p, const double *lo, const double *hi, double dx) {
+  for (double x = lo[0] + 0.5 * dx; x < hi[0]; x += dx)
+    for (double y = lo[1] + 0.5 * dx; y < hi[1]; y += dx)
+      for (double z = lo[2] + 0.5 * dx; z < hi[2]; z += dx) sphdem_points_push(p, x, y, z);
+}
+
+/* clip a lattice in a block much larger than the mesh: the kept points are those with inside(x) (an analytic
+ * signed distance, > 0 inside) >= gap, up to the points within 1e-6 dx of that level */
+static void clip_case(const char *what, sphdem_mesh *m, const double *lo, const double *hi, double dx, double gap,
+                      double (*inside)(const double *)) {
+  sphdem_points p = {0};
+  lattice(&p, lo, hi, dx);
+  long n0 = p.n, want = 0, amb = 0;
+  for (long i = 0; i < n0; i++) {
+    double s = inside(p.x + 3 * i);
+    if (fabs(s - gap) < 1e-6 * dx) amb++;
+    else if (s > gap) want++;
+  }
+  long rm = sphdem_points_clip_mesh(&p, m, dx, gap);
+  long wrong = 0;
+  for (long i = 0; i < p.n; i++)
+    if (inside(p.x + 3 * i) < gap - 1e-6 * dx) wrong++;
+  printf("  clip %s (gap %.2f dx): %ld of %ld lattice points kept, %ld expected (+ up to %ld on the level), "
+         "%ld kept on the wrong side\n", what, gap / dx, p.n, n0, want, amb, wrong);
+  TEST_ASSERT(rm >= 0 && wrong == 0 && p.n >= want && p.n <= want + amb,
+              "clip %s: exactly the points on the fluid side (kept %ld, expected %ld..%ld, wrong %ld)", what, p.n,
+              want, want + amb, wrong);
+  sphdem_points_free(&p);
+}
+
+static const double CB_LO[3] = {0.013, 0.021, 0.017}, CB_HI[3] = {0.093, 0.071, 0.117};
+static double CB_ANG = 0.0;
+static double in_box(const double *x) { /* distance to the nearest face of the (rotated) box, > 0 inside */
+  double piv[3], y[3] = {x[0], x[1], x[2]};
+  for (int d = 0; d < 3; d++) piv[d] = 0.5 * (CB_LO[d] + CB_HI[d]);
+  rot(y, -CB_ANG, piv);
+  double s = HUGE_VAL;
+  for (int d = 0; d < 3; d++) s = fmin(s, fmin(y[d] - CB_LO[d], CB_HI[d] - y[d]));
+  return s;
+}
+static double in_open_box(const double *x) { /* open top: the top does not bound; above it the side walls' edges */
+  double s = HUGE_VAL;
+  for (int d = 0; d < 3; d++) {
+    s = fmin(s, x[d] - CB_LO[d]);
+    if (d < 2) s = fmin(s, CB_HI[d] - x[d]);
+  }
+  return s;
+}
+static double in_drum(const double *x) { /* 24-gon of circumradius 0.05 along y, length 0.04 */
+  double a = atan2(x[2], x[0]), w = 2 * M_PI / 24, mid = (floor(a / w) + 0.5) * w;
+  double s = 0.05 * cos(M_PI / 24) - (x[0] * cos(mid) + x[2] * sin(mid));
+  return fmin(s, 0.02 - fabs(x[1]));
+}
+
+static void test_clip(void) {
+  const double dx = 0.005;
+  sphdem_mesh m;
+  const double lo[3] = {-0.04, -0.03, -0.05}, hi[3] = {0.16, 0.13, 0.18};
+  make_box(&m, CB_LO, CB_HI, 0, 0.0);
+  CB_ANG = 0.0;
+  clip_case("closed box", &m, lo, hi, dx, 0.0, in_box);
+  clip_case("closed box", &m, lo, hi, dx, 0.2 * dx, in_box);
+  sphdem_mesh_free(&m);
+  CB_ANG = 15.0 * M_PI / 180.0;
+  make_box(&m, CB_LO, CB_HI, 0, CB_ANG);
+  clip_case("box tilted 15 deg", &m, lo, hi, dx, 0.0, in_box);
+  sphdem_mesh_free(&m);
+  make_box(&m, CB_LO, CB_HI, 1, 0.0);
+  /* an open top: the points above the box within the side walls' planes count as inside (their nearest facet is
+   * a side wall, whose normal points in); compare below the top only, where the answer is unambiguous */
+  const double hi_open[3] = {0.16, 0.13, CB_HI[2] - 0.25 * dx};
+  clip_case("open-top box (below its top)", &m, lo, hi_open, dx, 0.0, in_open_box);
+  sphdem_mesh_free(&m);
+  make_drum(&m, 0.05, 0.04, 24, 1);
+  const double dlo[3] = {-0.09, -0.06, -0.09}, dhi[3] = {0.09, 0.06, 0.09};
+  clip_case("closed drum (24 facets)", &m, dlo, dhi, dx, 0.0, in_drum);
+  sphdem_mesh_free(&m);
+}
+
 int main(void) {
   test_box();
   test_drum();
   test_narrow_facets();
   test_tilted();
   test_points();
+  test_clip();
   test_stl();
   printf("%d passed, %d failed\n", test_npass_, test_nfail_);
   return test_nfail_ ? 1 : 0;
