@@ -41,6 +41,16 @@ constexpr const char *engine_name = "LAMMPS";
 constexpr const char *engine_name = "LIGGGHTS";
 #endif
 
+/* Region::match with open faces ignored. LAMMPS: a region with open faces (`open N`, meant for fix
+ * wall/gran/region) matches every point; the walls and the fill need its closed shape (inside() tested against
+ * the region's side). A moving region with open faces keeps match() (its inverse transform is not public). */
+inline bool region_match_closed(LAMMPS_NS::Region *r, double x, double y, double z) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  if (r->openflag && !r->dynamic_check()) return (r->inside(x, y, z) != 0) == (r->interior != 0);
+#endif
+  return r->match(x, y, z) != 0;
+}
+
 /* Errors. LAMMPS: only the std::string overloads exist without fmt (a string literal would pick
  * the fmt template). LIGGGHTS: const char * only, and Error::all is not marked noreturn. */
 [[noreturn]] inline void error_end(LAMMPS_NS::Error *e, bool all, const char *file, int line, const std::string &msg) {

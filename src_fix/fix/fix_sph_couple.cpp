@@ -48,6 +48,9 @@ const char *drag_name(int d) {
 FixSPHCouple::FixSPHCouple(LAMMPS *lmp, int narg, char **arg)
     : Fix(lmp, narg, arg), fluid_(nullptr), have_mu_(false), have_hc_(false), ca_(nullptr), nmax_(0),
       stats_dirty_(false) {
+  /* the grains are gathered by group mask at every call, so a dynamic group (LAMMPS: the grains fix pour adds to
+   * "all", selected as !(fluid || walls)) works */
+  dynamic_group_allow = 1;
   std::memset(&cstats_, 0, sizeof cstats_);
   cstats_.eps_min = 1.0;
   for (int d = 0; d < 3; d++) pgrain_[d] = 0.0;

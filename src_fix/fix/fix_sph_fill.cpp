@@ -126,7 +126,7 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
   sphdem_points pts = {nullptr, 0, 0};
   bool oom = false;
   sphdem_atoms::for_lattice(L, lo, hi, dim, [&](double *x) {
-    if (reg->match(x[0], x[1], x[2]) && sphdem_points_push(&pts, x[0], x[1], x[2]) != SPHDEM_OK) oom = true;
+    if (sphdem_compat::region_match_closed(reg, x[0], x[1], x[2]) && sphdem_points_push(&pts, x[0], x[1], x[2]) != SPHDEM_OK) oom = true;
   });
   if (oom) fail("out of memory for the fluid points");
   const long long in_region = pts.n;
@@ -147,7 +147,7 @@ FixSPHFill::FixSPHFill(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     long kept = 0;
     for (long i = 0; i < pts.n; i++) {
       double *x = pts.x + 3 * i, xn[3] = {x[0], x[1], x[2]};
-      bool in = wr->match(x[0], x[1], x[2]);
+      bool in = sphdem_compat::region_match_closed(wr, x[0], x[1], x[2]);
       if (in && gap > 0) in = (wr->interior ? wr->surface_interior(xn, gap) : wr->surface_exterior(xn, gap)) == 0;
       if (!in) continue;
       if (kept != i) std::memmove(pts.x + 3 * kept, x, 3 * sizeof(double));

@@ -155,7 +155,7 @@ FixSPHWall::FixSPHWall(LAMMPS *lmp, int narg, char **arg) : Fix(lmp, narg, arg),
     sphdem_atoms::ScLattice L{dx, false, {0, 0, 0}};
     bool oom = false;
     sphdem_atoms::for_lattice(L, lo, hi, dim, [&](double *x) {
-      if (reg->match(x[0], x[1], x[2])) return;
+      if (sphdem_compat::region_match_closed(reg, x[0], x[1], x[2])) return;
       double xn[3] = {x[0], x[1], x[2]};
       int n = reg->interior ? reg->surface_exterior(xn, cut) : reg->surface_interior(xn, cut);
       if (n > 0 && sphdem_points_push(&pts, x[0], x[1], x[2]) != SPHDEM_OK) oom = true;
