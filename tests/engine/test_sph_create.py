@@ -16,12 +16,15 @@
                               points farther than layers*dx from the region; fill's top printed and in f_ID
   badinput EXE ENGINE         missing file, unknown keyword (named with the allowed ones), spacing <= 0, layers < 1,
                               mesh in 2D, atom style without radius, mass and density together, no mesh/region
+  movemesh EXE ENGINE        LIGGGHTS: a fix move/mesh turning the walls' mesh without a fix move on the wall group
+                              gives the warning naming the group; with the fix move, none (LAMMPS: skipped)
   mpi     EXE ENGINE MPIEXEC  mesh walls, region walls and an excluding fill on 2 ranks: the same atoms (ID, type,
                               position, diameter, mass) as on 1 rank
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
 import os
+import shutil
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -385,6 +388,44 @@ def test_badinput(exe, engine):
     for i, (what, script, want) in enumerate(cases):
         if not E.refused(exe, os.path.abspath("sph_create_bad_%s_%d" % (engine, i)), what, script, want,
                          crash_codes=(134, 139)):
+            fails += 1
+    return 0 if fails == 0 else 1
+
+
+# ------------------------------------------------------------------ a moving mesh (LIGGGHTS)
+def test_movemesh(exe, engine):
+    """fix move/mesh turns the mesh the walls were made from: without a fix move on the wall group fix sph/wall
+    warns (naming the group) at the run; with one it does not"""
+    if engine != "liggghts":
+        print("SKIP movemesh: fix move/mesh is LIGGGHTS only")
+        return 0
+    wd = os.path.abspath("sph_create_movemesh")
+    os.makedirs(wd, exist_ok=True)
+    stl_shapes.write_stl(os.path.join(wd, "drum.stl"), stl_shapes.cylinder((0, 0, 0), (0, 1, 0), 0.05, 0.03, 24), "d")
+    base = ("units si\natom_style granular\natom_modify map array sort 0 0\nboundary f f f\n"
+            "communicate single vel yes\nnewton off\n"
+            "region box block -0.08 0.08 -0.04 0.04 -0.08 0.08 units box\ncreate_box 2 box\ngroup walls type 2\n"
+            "fix m1 all property/global youngsModulus peratomtype 1e7 1e7\n"
+            "fix m2 all property/global poissonsRatio peratomtype 0.3 0.3\n"
+            "fix m3 all property/global coefficientRestitution peratomtypepair 2 0.5 0.5 0.5 0.5\n"
+            "fix m4 all property/global coefficientFriction peratomtypepair 2 0.5 0.5 0.5 0.5\n"
+            "fix drum all mesh/surface file drum.stl type 2\n"
+            "fix spin all move/mesh mesh drum rotate origin 0. 0. 0. axis 0. 1. 0. period 1.0\n"
+            "fix mkw walls sph/wall mesh drum.stl spacing 0.005 layers 2 type 2 density 1000\n")
+    fails = 0
+    for name, extra, want_warn in (("no fix move", "", True),
+                                   ("fix move on the walls", "fix turn walls move rotate 0 0 0 0 1 0 1.0\n", False)):
+        sub = os.path.join(wd, "w" if want_warn else "m")
+        os.makedirs(sub, exist_ok=True)
+        shutil.copy(os.path.join(wd, "drum.stl"), sub)
+        rc, out = E.run([exe], sub, base + extra + "timestep 1e-5\nrun 2\n")
+        warned = "a fix move/mesh moves a mesh but no fix move acts on group walls" in out
+        ok = rc == 0 and "ERROR" not in out and warned == want_warn
+        print("%s movemesh, %s: exit %d, warning %s (expected %s)" % ("PASS" if ok else "FAIL", name, rc,
+                                                                      "printed" if warned else "absent",
+                                                                      "printed" if want_warn else "absent"))
+        if not ok:
+            print(out[-1500:])
             fails += 1
     return 0 if fails == 0 else 1
 
