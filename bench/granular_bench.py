@@ -9,14 +9,17 @@ atom sorting every 1000 steps), each run with the stock style and with granular/
   gas     a loose granular gas: lattice spacing 5.5 mm, random velocities of ~0.5 m/s
 Models (pair_coeff * *): mindlin = hertz/material 5e6 0.5 0.45 tangential mindlin NULL 1.0 0.5 (damping
 viscoelastic), roll_twist = the same plus rolling sds 1e-3 1e-6 0.2 twisting marshall.
-Printed per run: the loop time and the Pair time of the engine's timing table, the contacts at the end;
-then the ratios granular/gpu / stock, and the load average (1 minute) before and after.
+Printed per run (the best loop time of --repeat runs): the loop time and the Pair time of the engine's timing
+table, the contacts at the end, the CPU seconds of the process (set-up included; less sensitive than the loop
+time to other jobs on a shared machine); then the ratios granular/gpu / stock, and the load average (1 minute)
+before and after.
 
   python3 bench/granular_bench.py [--build build] [--nx 20] [--nz 25] [--steps 1000] [--repeat 1]
 python3 standard library only. A benchmark: it prints numbers and asserts nothing.
 """
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -71,15 +74,18 @@ def run(lmp, text, wd):
     with open(os.path.join(wd, "in.bench"), "w") as f:
         f.write(text)
     env = dict(os.environ, OMP_NUM_THREADS="1")
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.run([lmp, "-in", "in.bench", "-log", "none"], cwd=wd, env=env, stdout=subprocess.PIPE,
                        stderr=subprocess.STDOUT)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     out = p.stdout.decode(errors="replace")
     loop = re.search(r"Loop time of ([0-9.eE+-]+)", out)
     pair = re.search(r"^Pair\s+\|\s+([0-9.eE+-]+)", out, re.M)
     rows = [l.split() for l in out.splitlines() if re.match(r"\s+\d+\s+\d+\s+[0-9.eE+-]+\s+[0-9.eE+-]+\s*$", l)]
     if p.returncode or not loop or not pair:
         sys.exit("run failed in %s:\n%s" % (wd, out[-2000:]))
-    return float(loop.group(1)), float(pair.group(1)), int(rows[-1][1]), float(rows[-1][3]) / 2
+    return float(loop.group(1)), float(pair.group(1)), int(rows[-1][1]), float(rows[-1][3]) / 2, cpu
 
 
 def main():
@@ -93,8 +99,8 @@ def main():
     if not os.path.exists(lmp):
         sys.exit("no %s: build the project first" % lmp)
     print("load average (1 min) before: %s" % loadavg())
-    print("%-7s %-10s %-13s %7s %9s %10s %9s %8s" % ("scene", "model", "style", "grains", "contacts", "loop s",
-                                                    "pair s", "pair %"))
+    print("%-7s %-10s %-13s %7s %9s %10s %9s %8s %8s" % ("scene", "model", "style", "grains", "contacts", "loop s",
+                                                         "pair s", "pair %", "cpu s"))
     ratios = []
     for scene, sc in SCENES.items():
         a = sc["a"]
@@ -109,15 +115,15 @@ def main():
                         r = run(lmp, SCRIPT.format(style=style, coeff=coeff, **text0), wd)
                     best = r if best is None or r[0] < best[0] else best
                 res[style] = best
-                loop, pair, n, nc = best
-                print("%-7s %-10s %-13s %7d %9.0f %10.3f %9.3f %7.1f%%" % (scene, model, style, n, nc, loop, pair,
-                                                                         100 * pair / loop))
+                loop, pair, n, nc, cpu = best
+                print("%-7s %-10s %-13s %7d %9.0f %10.3f %9.3f %7.1f%% %8.2f" % (scene, model, style, n, nc, loop, pair,
+                                                                               100 * pair / loop, cpu))
             s, g = res["granular"], res["granular/gpu"]
-            ratios.append((scene, model, g[0] / s[0], g[1] / s[1]))
+            ratios.append((scene, model, g[0] / s[0], g[1] / s[1], g[4] / s[4]))
     print("load average (1 min) after: %s" % loadavg())
     print("granular/gpu (CPU backend, 1 core) / stock granular:")
-    for scene, model, rl, rp in ratios:
-        print("  %-7s %-10s loop time x%.2f, pair time x%.2f" % (scene, model, rl, rp))
+    for scene, model, rl, rp, rc in ratios:
+        print("  %-7s %-10s loop time x%.2f, pair time x%.2f, process CPU time x%.2f" % (scene, model, rl, rp, rc))
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "fix.h"
 #include "force.h"
 #include "memory.h"
@@ -260,6 +261,10 @@ void PairGranularGPU::init_style() {
   if (roll_twist && ghosts_)
     fail("rolling and twisting models on more than one MPI rank are not supported (run on one rank, or use the "
          "stock pair_style granular)");
+  if (roll_twist && !force->newton_pair && (domain->periodicity[0] || domain->periodicity[1] || domain->periodicity[2]))
+    fail("rolling and twisting models with newton off in a periodic box are not supported (the stock style then keeps "
+         "two histories for a pair across the boundary, one per atom, whose signs its history transfer can make "
+         "differ); use newton on (the default)");
   track_order_ = roll_twist;
   if (track_order_) neighbor->request(this, instance_me); /* order_prev_ is kept from run to run, as the history */
   /* the radii per type (stock init_style): the grains, frozen ones apart, and what fix pour / deposit insert */

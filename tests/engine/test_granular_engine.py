@@ -9,7 +9,11 @@
                pair_coeff * * or its own pair_coeff 1 2; rolling and twisting; 320 grains in a periodic box falling onto a
                wall/gran floor with random velocities and spins, 1500 steps, atom sorting every 100 steps):
                positions within 1e-8 d of the stock run, the run had contacts, both had the same number of atoms
+  pour   LMP   fix pour into an empty box (lj units, d = 1, rolling sds + twisting marshall, 5000 steps): the same
+               warnings as stock (no cutoff or sorting warnings), positions within 1e-8 d
   restart LMP  granular/gpu continued from write_restart / read_restart equals the unbroken run (1e-9 d)
+  mpi    LMP MPIRUN  granular/gpu on 2 ranks vs stock on 1 (pack hooke_explicit_12, 1e-8 d); rolling or twisting
+               on 2 ranks stops naming it
   badinput LMP unsupported words and values stop with an ERROR naming the keyword and the allowed values
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -153,7 +157,8 @@ def thermo(out):
 
 
 def run_pair(lmp, wd, text):
-    rc, out = E.run([lmp], wd, text, timeout=120)
+    """lmp: the launcher, or a whole command (a list, e.g. mpirun ... lmp)"""
+    rc, out = E.run(lmp if isinstance(lmp, list) else [lmp], wd, text, timeout=120)
     if rc != 0 or "ERROR" in out:
         print("FAIL in %s: rc %d\n%s" % (wd, rc, out[-1500:]))
         return None, out
@@ -285,6 +290,8 @@ def badinput(lmp):
                       "pair_coeff 2 2 hooke 2e4 50 tangential linear_nohistory 0.5 0.4\n"
                       "pair_coeff 1 2 hooke 2e4 50 tangential linear_history 1e4 0.5 0.4")
     cases.append((mix.format(style="granular/gpu", coeff=""), ["linear_nohistory together with linear_history"]))
+    cases.append((POUR.format(style="granular/gpu", steps=10).replace("comm_modify", "newton off\ncomm_modify"),
+                  ["rolling and twisting models with newton off in a periodic box are not supported"]))
     for k, (text, want) in enumerate(cases):
         rc, out = E.run([lmp], os.path.join("gran_bad", str(k)), text, timeout=60)
         err = [l for l in out.splitlines() if "ERROR" in l]
@@ -294,7 +301,77 @@ def badinput(lmp):
     return ok
 
 
-MODES = {"pairs": pairs, "pack": pack, "badinput": badinput, "restart": restart}
+# fix pour into an empty box (after LAMMPS examples/granular/in.pour, the granular words): the cutoff comes from
+# the radii fix pour will insert, so no 'Communication cutoff 0.0' or 'Atom sorting' warnings, and the stock run
+# (newton on: rolling and twisting with newton off in a periodic box are refused, see badinput)
+POUR = """units           lj
+atom_style      sphere
+boundary        p p fm
+comm_modify     vel yes
+region          reg block -10 10 -10 10 -0.5 16 units box
+create_box      1 reg
+neighbor        0.2 bin
+neigh_modify    delay 0
+pair_style      {style}
+pair_coeff      * * hertz 2000.0 50.0 tangential linear_history 571.0 0.5 0.5 rolling sds 200 10 0.1 twisting marshall
+timestep        0.001
+fix             1 all nve/sphere
+fix             2 all gravity 1.0 spherical 0.0 -180.0
+fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
+region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
+fix             ins all pour 1000 1 300719 vol 0.13 50 region slab
+thermo_style    custom step atoms ke
+thermo_modify   lost ignore norm no format float %.12g
+thermo          1000
+run             {steps}
+write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+
+def pour(lmp, steps=5000):
+    res = {}
+    for tag, style in (("stock", "granular"), ("gpu", "granular/gpu")):
+        d, out = run_pair(lmp, os.path.join("gran_pour", tag), POUR.format(style=style, steps=steps))
+        if d is None:
+            return False
+        res[tag] = (d, out.count("WARNING"), "Atom sorting" in out or "Communication cutoff" in out)
+    a, b = res["stock"][0], res["gpu"][0]
+    same_ids = [r[0] for r in a] == [r[0] for r in b]
+    dx = max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) if same_ids else float("inf")
+    good = same_ids and len(a) > 500 and dx < 1e-8 and res["gpu"][1] == res["stock"][1] and not res["gpu"][2]
+    print("%s pour (%d grains, %d steps, rolling sds + twisting marshall): warnings stock %d, /gpu %d (cutoff or "
+          "sorting warnings: %s); max |x_gpu - x_stock| = %.3g d (bound 1e-8)" % (
+              "PASS" if good else "FAIL", len(a), steps, res["stock"][1], res["gpu"][1], res["gpu"][2], dx))
+    return good
+
+
+def mpi(lmp, mpirun, steps=1500):
+    """granular/gpu on 2 MPI ranks against the stock style on one, on a pack without rolling or twisting (those
+    are refused on several ranks, checked too): positions within 1e-8 d"""
+    dmin = 0.008
+    res = {}
+    for tag, cmd, style, coeffs in (
+            ("stock1", [lmp], "granular", PACKS["hooke_explicit_12"]),
+            ("gpu2", [mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp], "granular/gpu",
+             PACKS["hooke_explicit_12"])):
+        d, _ = run_pair(cmd, os.path.join("gran_mpi", tag), PACK.format(style=style, coeffs=coeffs, steps=steps))
+        if d is None:
+            return False
+        res[tag] = d
+    a, b = res["stock1"], res["gpu2"]
+    same_ids = [r[0] for r in a] == [r[0] for r in b]
+    dx = max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) if same_ids else float("inf")
+    good = same_ids and dx < 1e-8 * dmin
+    print("%s 2 ranks granular/gpu vs 1 rank stock: max |dx| = %.3g d (bound 1e-8)" % ("PASS" if good else "FAIL",
+                                                                                      dx / dmin))
+    rc, out = E.run([mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp], os.path.join("gran_mpi", "roll"),
+                    PACK.format(style="granular/gpu", coeffs=PACKS["rolling_twisting"], steps=10), timeout=120)
+    refused = rc != 0 and "rolling and twisting models on more than one MPI rank are not supported" in out
+    print("rolling/twisting on 2 ranks: %s" % ("stops naming it" if refused else "FAIL\n" + out[-800:]))
+    return good and refused
+
+
+MODES = {"pairs": pairs, "pack": pack, "badinput": badinput, "restart": restart, "mpi": mpi, "pour": pour}
 
 if __name__ == "__main__":
     sys.exit(E.dispatch(sys.argv, MODES, __doc__, prefix=""))
