@@ -457,7 +457,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
 
 /* Normal elastic force F_ne and the stiffness factor k_nfac (F_ne = k_nfac delta, dmt less the pull-off):
  * hooke k_n delta; hertz, hertz/material k_n a delta; dmt k_n a delta - 4 pi w R*. */
-SPHDEM_HD double gran_normal(const sphdem_dem_granular *C, double delta, double a, double reff, double *knfac) {
+DEM_HD_INLINE double gran_normal(const sphdem_dem_granular *C, double delta, double a, double reff, double *knfac) {
   double k = C->kn;
   if (C->normal != SPHDEM_GRAN_HOOKE) k *= a;
   *knfac = k;
@@ -468,7 +468,7 @@ SPHDEM_HD double gran_normal(const sphdem_dem_granular *C, double delta, double 
 
 /* The normal damping prefactor eta_n = eta_n0 x {1, m*, a m*, sqrt(m* k_nfac)} (velocity, mass_velocity,
  * viscoelastic, tsuji; tsuji's eta_n0 is alpha(e), set when the coefficients were read). */
-SPHDEM_HD double gran_damping(const sphdem_dem_granular *C, double meff, double a, double knfac) {
+DEM_HD_INLINE double gran_damping(const sphdem_dem_granular *C, double meff, double a, double knfac) {
   double d;
   switch (C->damping) {
     case SPHDEM_GRAN_DAMP_VELOCITY: d = 1.0; break;
@@ -481,7 +481,7 @@ SPHDEM_HD double gran_damping(const sphdem_dem_granular *C, double meff, double 
 
 /* A history vector h (3) brought back into the tangent plane of n, keeping its length, when its normal part
  * matters (|h.n| k > EPSILON F_crit), then advanced by rate dt. */
-SPHDEM_HD void gran_history_advance(double *h, const double *n, double k, double fcrit, const double *rate, double dt) {
+DEM_HD_INLINE void gran_history_advance(double *h, const double *n, double k, double fcrit, const double *rate, double dt) {
   const double hn = h[0] * n[0] + h[1] * n[1] + h[2] * n[2];
   if (fabs(hn) * k > SPHDEM_GRAN_EPSILON * fcrit) {
     const double mag = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
@@ -495,7 +495,7 @@ SPHDEM_HD void gran_history_advance(double *h, const double *n, double k, double
 
 /* A spring-dashpot F = -k h - eta v capped at F_crit: beyond it the spring is set so that spring and dashpot
  * give the capped force (a zero spring: no force). Used by the tangential and the rolling history. */
-SPHDEM_HD void gran_spring_capped(double *h, double k, double eta, const double *v, double fcrit, double *F) {
+DEM_HD_INLINE void gran_spring_capped(double *h, double k, double eta, const double *v, double fcrit, double *F) {
   for (int d = 0; d < 3; d++) F[d] = -k * h[d] - eta * v[d];
   const double fm = sqrt(F[0] * F[0] + F[1] * F[1] + F[2] * F[2]);
   if (fm > fcrit) {
@@ -512,7 +512,7 @@ SPHDEM_HD void gran_spring_capped(double *h, double k, double eta, const double 
 /* Tangential force fs from the relative tangential velocity vtr at the contact: linear_nohistory a dashpot
  * eta_t |v_t| capped at F_scrit; linear_history and mindlin (k_t a) a spring on the accumulated displacement h
  * (kept in the history) with a dashpot, capped. Returns k_t as used (for marshall's twisting). */
-SPHDEM_HD double gran_tangential(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *vtr,
+DEM_HD_INLINE double gran_tangential(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *vtr,
                                  double a, double damp_t, double fscrit, double *h, double *fs) {
   if (C->tangential == SPHDEM_GRAN_TANG_LINEAR_NOHISTORY) {
     const double vrel = sqrt(vtr[0] * vtr[0] + vtr[1] * vtr[1] + vtr[2] * vtr[2]);
@@ -530,7 +530,7 @@ SPHDEM_HD double gran_tangential(const sphdem_dem_granular *C, int update, doubl
 
 /* Rolling resistance sds: the rolling velocity v_roll = R* (w_rel x n) (Wang 2015 eq 31) accumulated in hr
  * drives a spring-dashpot capped at mu_roll F_ncrit; torque on a R* (n x F_r), on b the opposite. */
-SPHDEM_HD void gran_rolling(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
+DEM_HD_INLINE void gran_rolling(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
                             double reff, double fncrit, double *hr, double *Tr) {
   const double vrl[3] = {reff * (wrel[1] * n[2] - wrel[2] * n[1]), reff * (wrel[2] * n[0] - wrel[0] * n[2]),
                          reff * (wrel[0] * n[1] - wrel[1] * n[0])};
@@ -546,7 +546,7 @@ SPHDEM_HD void gran_rolling(const sphdem_dem_granular *C, int update, double dt,
 /* Twisting: the twist rate w_rel.n accumulated in *ht drives M_t = -k ht - eta w_t, capped at mu F_ncrit
  * (Marshall 2009 eqs 29-34); marshall takes k = k_t a^2/2, eta = eta_t a^2/2, mu = 2/3 a mu_s. Returns M_t
  * (the torque on a is M_t n). */
-SPHDEM_HD double gran_twisting(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
+DEM_HD_INLINE double gran_twisting(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
                                double a, double kt, double damp_t, double fncrit, double *ht) {
   const double wt = wrel[0] * n[0] + wrel[1] * n[1] + wrel[2] * n[2];
   double k, eta, mu;
@@ -570,7 +570,7 @@ SPHDEM_HD double gran_twisting(const sphdem_dem_granular *C, int update, double 
 /* The contact of an overlapping pair under pair_style granular: the sub-models of the pair's types.
  * Fa force on a (b: -Fa); Ta, Tb torques; hout the history (tangential xyz, touch flag, twist; rolling in
  * D->rout). A wall (b < 0) is a flat partner at rest with R* = r_a. */
-SPHDEM_HD void dem_contact_granular(const dem_dev *D, int64_t p, int wall, const double *del, double r, double ra,
+DEM_HD_INLINE void dem_contact_granular(const dem_dev *D, int64_t p, int wall, const double *del, double r, double ra,
                                     double rb, double radsum, double meff, double *Fa, double *Ta, double *Tb,
                                     double *hout) {
   const int32_t a_ = D->pa[p], b_ = D->pb[p];
