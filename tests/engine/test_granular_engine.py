@@ -4,7 +4,7 @@
   pairs  LMP   for each supported model combination (MODELS): a head-on and an oblique collision of two spinning
                spheres (atom sorting every 50 steps, list builds during contact) with the stock style and with
                granular/gpu: final x, v, omega within 1e-10 of their magnitude (the largest component of
-               each vector over the two grains)
+               each vector over the two grains), thermo ke, press, pxy (the virial) within 1e-10
   pack   LMP   for each pack scene (PACKS: two grain types of different sizes and materials, the pair 1 2 from
                pair_coeff * * or its own pair_coeff 1 2; rolling and twisting; 320 grains in a periodic box falling onto a
                wall/gran floor with random velocities and spins, 1500 steps, atom sorting every 100 steps):
@@ -70,7 +70,7 @@ neighbor 0.001 bin
 neigh_modify delay 0 every 1 check yes
 fix 1 all nve/sphere
 timestep 1e-6
-thermo_style custom step ke
+thermo_style custom step ke press pxy
 thermo_modify format float %.12g
 thermo 250
 run 1500
@@ -181,10 +181,14 @@ def pairs(lmp):
             for g in (1, 4, 7):  # x, v, omega: each against the largest component of its vector over both grains
                 scale = max(abs(r[k]) for r in a for k in range(g, g + 3)) or 1e-300
                 worst = max(worst, max(abs(r[k] - q[k]) for r, q in zip(a, b) for k in range(g, g + 3)) / scale)
-            th = res["stock"][1]
+            th, tg = res["stock"][1], res["gpu"][1]
             touched = len(th) > 1 and float(th[0][1]) != float(th[-1][1])
-            good = worst < 1e-10 and touched and len(a) == len(b) == 2
-            print("%-8s %-40s max |difference| / magnitude %.3g%s" % (scene, name, worst, "" if good else "  <-- FAIL"))
+            # thermo ke, press, pxy (press and pxy: the pair virial) every 250 steps, 12 digits printed
+            tdiff = max((abs(float(x) - float(y)) / max(abs(float(x)), 1e-300) for r, q in zip(th, tg)
+                         for x, y in zip(r[1:], q[1:])), default=1.0) if len(th) == len(tg) else 1.0
+            good = worst < 1e-10 and tdiff < 1e-10 and touched and len(a) == len(b) == 2
+            print("%-8s %-40s max |difference| / magnitude %.3g; thermo (ke, press, pxy) %.3g%s" %
+                  (scene, name, worst, tdiff, "" if good else "  <-- FAIL"))
             ok &= good
     return ok
 
