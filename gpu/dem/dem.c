@@ -34,9 +34,9 @@ static int liggghts_model(int model) {
 
 int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen) {
   if (!p) BAD("params: NULL");
-  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS)
+  if (p->model < SPHDEM_DEM_HOOKE || p->model > SPHDEM_DEM_GRANULAR)
     BAD("model: %d is not a sphdem_dem_model (0 hooke, 1 hertz, 2 hertz_mindlin, 3 hertz_liggghts, 4 hooke_liggghts, "
-        "5 hooke_hysteresis_liggghts)", p->model);
+        "5 hooke_hysteresis_liggghts, 6 granular)", p->model);
   if (p->algo != SPHDEM_DEM_PAIR_PARALLEL && p->algo != SPHDEM_DEM_PARTICLE_PARALLEL)
     BAD("algo: %d is not a sphdem_dem_algo (0 pair-parallel, 1 particle-parallel)", p->algo);
   if (!(p->en >= 0.0 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside [0, 1]", p->en);
@@ -57,6 +57,9 @@ int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen
     if (!(p->E > 0.0)) BAD("E: Young's modulus must be > 0 (got %g)", p->E);
     if (!(p->nu >= 0.0 && p->nu <= 0.5)) BAD("nu: Poisson ratio %g outside [0, 0.5]", p->nu);
     if (!(p->en > 0.05 && p->en <= 1.0)) BAD("en: restitution coefficient %g outside (0.05, 1]", p->en);
+  } else if (p->model == SPHDEM_DEM_GRANULAR) {
+    if (p->first_contact) BAD("first_contact: not a word of LAMMPS pair_style granular");
+    if (p->mu_r != 0.0) BAD("mu_r: the granular model takes its rolling friction from its type-pair table");
   } else if (p->model != SPHDEM_DEM_HERTZ_MINDLIN) {
     if (!(p->kn > 0.0)) BAD("kn: normal stiffness must be > 0 (got %g)", p->kn);
     if (!(p->kt >= 0.0)) BAD("kt: tangential stiffness must be >= 0 (got %g)", p->kt);
@@ -204,7 +207,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   void *arrs[] = {D->x, D->v, D->om, D->rad, D->mass, D->f, D->tq, D->flags, D->tag, D->sidx, D->cell,
                   D->cnt, D->off, D->fstart, D->fend, D->rstart, D->rend, D->cstart, D->cend, D->pa, D->pb,
                   D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat,
-                  D->rin, D->rout, D->roll_old};
+                  D->rin, D->rout, D->roll_old, D->gran};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) rt_free(&m->rt, &arrs[k], 0);
   free(m->hx0);
   free(m->htag);
@@ -301,6 +304,94 @@ int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
   if (rc) return rc;
   D->nmat = n;
   return SPHDEM_OK;
+}
+
+int sphdem_dem_set_granular(sphdem_dem m, int n, const sphdem_dem_granular *g) {
+  if (!m) return SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  if (D->P.model != SPHDEM_DEM_GRANULAR)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular: a type-pair table is for the granular model (model 6)");
+  if (n < 1 || n > SPHDEM_DEM_MAX_MATERIALS)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular: n %d outside 1..%d", n, SPHDEM_DEM_MAX_MATERIALS);
+  if (!g) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular: pairs NULL");
+  int rolling = 0;
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) {
+      const sphdem_dem_granular *c = &g[(int64_t)i * n + j];
+      if (c->normal < SPHDEM_GRAN_HOOKE || c->normal > SPHDEM_GRAN_DMT)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d].normal: %d is not a sphdem_gran_normal", i, j, c->normal);
+      if (c->damping < SPHDEM_GRAN_DAMP_VELOCITY || c->damping > SPHDEM_GRAN_DAMP_TSUJI)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d].damping: %d is not a sphdem_gran_damping", i, j, c->damping);
+      if (c->tangential < SPHDEM_GRAN_TANG_LINEAR_NOHISTORY || c->tangential > SPHDEM_GRAN_TANG_MINDLIN)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d].tangential: %d is not a sphdem_gran_tangential", i, j,
+                               c->tangential);
+      if (c->rolling < SPHDEM_GRAN_ROLL_NONE || c->rolling > SPHDEM_GRAN_ROLL_SDS)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d].rolling: %d is not a sphdem_gran_rolling", i, j, c->rolling);
+      if (c->twisting < SPHDEM_GRAN_TWIST_NONE || c->twisting > SPHDEM_GRAN_TWIST_SDS)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d].twisting: %d is not a sphdem_gran_twisting", i, j,
+                               c->twisting);
+      const double v[] = {c->kn, c->damp, c->cohesion, c->kt, c->damp_t, c->mu, c->kr, c->damp_r, c->mu_r, c->ktw,
+                          c->damp_tw, c->mu_tw};
+      for (size_t k = 0; k < sizeof v / sizeof v[0]; k++)
+        if (!isfinite(v[k]))
+          return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular[%d][%d]: coefficient %d is not finite", i, j, (int)k);
+      if (memcmp(c, &g[(int64_t)j * n + i], sizeof *c) != 0)
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "granular: pairs [%d][%d] and [%d][%d] differ (the table must be "
+                               "symmetric)", i, j, j, i);
+      rolling |= c->rolling != SPHDEM_GRAN_ROLL_NONE;
+    }
+  rt_free(&m->rt, (void **)&D->gran, 0);
+  D->gran = NULL;
+  D->ngran = 0;
+  const size_t bytes = sizeof(sphdem_dem_granular) * (size_t)n * (size_t)n;
+  int rc = rt_alloc(&m->rt, (void **)&D->gran, bytes);
+  if (!rc) rc = rt_h2d(&m->rt, D->gran, g, bytes);
+  if (rc) return rc;
+  D->ngran = n;
+  if (rolling != D->gran_rolling) m->need_build = 1; /* the rolling history is allocated at a build */
+  D->gran_rolling = rolling;
+  return SPHDEM_OK;
+}
+
+static int cmp_u64(const void *a, const void *b) {
+  const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+  return x < y ? -1 : x > y;
+}
+
+/* A host round trip of the current history (the keys sorted, bisection), at the engine's list builds only. */
+int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
+  if (!m) return SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  if (n < 0 || (n > 0 && !keys)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "flip_history: n %lld, keys NULL", (long long)n);
+  const int64_t np = m->nbuilds ? D->np : 0;
+  if (n == 0 || np == 0 || D->P.model != SPHDEM_DEM_GRANULAR) return SPHDEM_OK;
+  uint64_t *pk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)np), *fk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
+  double *h = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  double *r = D->rin ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
+  int rc = (!pk || !fk || !h || (D->rin && !r)) ? sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)np)
+                                                 : SPHDEM_OK;
+  if (!rc) rc = rt_d2h(&m->rt, pk, D->key, sizeof(uint64_t) * (size_t)np);
+  if (!rc) rc = rt_d2h(&m->rt, h, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && r) rc = rt_d2h(&m->rt, r, D->rin, sizeof(double) * 3 * (size_t)np);
+  int changed = 0;
+  if (!rc) {
+    memcpy(fk, keys, sizeof(uint64_t) * (size_t)n);
+    qsort(fk, (size_t)n, sizeof(uint64_t), cmp_u64);
+    for (int64_t p = 0; p < np; p++) {
+      if (!bsearch(&pk[p], fk, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
+      h[SPHDEM_DEM_NHIST * p + 4] = -h[SPHDEM_DEM_NHIST * p + 4];
+      if (r)
+        for (int q = 0; q < 3; q++) r[3 * p + q] = -r[3 * p + q];
+      changed = 1;
+    }
+  }
+  if (!rc && changed) rc = rt_h2d(&m->rt, D->hin, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && changed && r) rc = rt_h2d(&m->rt, D->rin, r, sizeof(double) * 3 * (size_t)np);
+  free(pk);
+  free(fk);
+  free(h);
+  free(r);
+  return rc;
 }
 
 int sphdem_dem_set_walls(sphdem_dem m, int nw, const sphdem_dem_wall *w) {
@@ -424,7 +515,8 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(rt_d2d(&m->rt, D->hist_old, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * npold));
   }
   /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
-  const int roll = D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0;
+  const int roll = (D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0) ||
+                   (D->P.model == SPHDEM_DEM_GRANULAR && D->gran_rolling);
   D->roll_carry = roll && m->roll_valid && !m->seeded && npold > 0;
   if (D->roll_carry) {
     if (npold > m->cap_rold) {
@@ -500,6 +592,12 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   double t0 = rt_now(), t1;
   double rmax = 0.0;
   int has_ghosts = 0;
+  const int granular = D->P.model == SPHDEM_DEM_GRANULAR;
+  const int nmat = granular ? D->ngran : D->nmat > 0 ? D->nmat : 1;
+  if (granular && D->ngran == 0)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs its type-pair table (sphdem_dem_set_granular)");
+  if (granular && n > 0 && !flags)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs the grain types in the flags (NULL given)");
   for (int i = 0; i < n; i++) {
     if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
@@ -514,10 +612,9 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
                              x[3 * i], x[3 * i + 1], x[3 * i + 2]);
     if (radius[i] > rmax) rmax = radius[i];
     if (flags && (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE))) has_ghosts = 1;
-    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= (D->nmat > 0 ? D->nmat : 1)))
+    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat))
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
-                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, D->nmat > 0 ? D->nmat : 1,
-                             D->nmat > 1 ? "s are" : " is");
+                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, nmat, nmat > 1 ? "s are" : " is");
   }
   TRY(ensure_grains(m, n));
   if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */

@@ -446,6 +446,208 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   }
 }
 
+/* ---- LAMMPS pair_style granular (29 Sep 2021): one body per sub-model, composed per type pair ---------
+ * The registry: gran_normal (hooke, hertz, hertz/material, dmt), gran_damping (velocity, mass_velocity,
+ * viscoelastic, tsuji), gran_tangential (linear_nohistory, linear_history, mindlin), gran_rolling (sds),
+ * gran_twisting (marshall, sds); dem_contact_granular calls the ones of the pair's types (D->gran), and a
+ * rolling or twisting model that is off is not evaluated. Symbols as in the LAMMPS documentation:
+ * delta overlap, R* = r_a r_b / (r_a + r_b), a = sqrt(R* delta), n the unit normal from b to a. */
+
+#define SPHDEM_GRAN_EPSILON 1e-10 /* below EPSILON F_crit the history is already in the tangent plane */
+
+/* Normal elastic force F_ne and the stiffness factor k_nfac (F_ne = k_nfac delta, dmt less the pull-off):
+ * hooke k_n delta; hertz, hertz/material k_n a delta; dmt k_n a delta - 4 pi w R*. */
+DEM_HD_INLINE double gran_normal(const sphdem_dem_granular *C, double delta, double a, double reff, double *knfac) {
+  double k = C->kn;
+  if (C->normal != SPHDEM_GRAN_HOOKE) k *= a;
+  *knfac = k;
+  double F = k * delta;
+  if (C->normal == SPHDEM_GRAN_DMT) F -= 4.0 * M_PI * C->cohesion * reff;
+  return F;
+}
+
+/* The normal damping prefactor eta_n = eta_n0 x {1, m*, a m*, sqrt(m* k_nfac)} (velocity, mass_velocity,
+ * viscoelastic, tsuji; tsuji's eta_n0 is alpha(e), set when the coefficients were read). */
+DEM_HD_INLINE double gran_damping(const sphdem_dem_granular *C, double meff, double a, double knfac) {
+  double d;
+  switch (C->damping) {
+    case SPHDEM_GRAN_DAMP_VELOCITY: d = 1.0; break;
+    case SPHDEM_GRAN_DAMP_MASS_VELOCITY: d = meff; break;
+    case SPHDEM_GRAN_DAMP_VISCOELASTIC: d = a * meff; break;
+    default: d = sqrt(meff * knfac); break;
+  }
+  return C->damp * d;
+}
+
+/* A history vector h (3) brought back into the tangent plane of n, keeping its length, when its normal part
+ * matters (|h.n| k > EPSILON F_crit), then advanced by rate dt. */
+DEM_HD_INLINE void gran_history_advance(double *h, const double *n, double k, double fcrit, const double *rate, double dt) {
+  const double hn = h[0] * n[0] + h[1] * n[1] + h[2] * n[2];
+  if (fabs(hn) * k > SPHDEM_GRAN_EPSILON * fcrit) {
+    const double mag = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+    for (int d = 0; d < 3; d++) h[d] -= hn * n[d];
+    const double prj = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+    const double s = prj > 0.0 ? mag / prj : 0.0;
+    for (int d = 0; d < 3; d++) h[d] *= s;
+  }
+  for (int d = 0; d < 3; d++) h[d] += rate[d] * dt;
+}
+
+/* A spring-dashpot F = -k h - eta v capped at F_crit: beyond it the spring is set so that spring and dashpot
+ * give the capped force (a zero spring: no force). Used by the tangential and the rolling history. */
+DEM_HD_INLINE void gran_spring_capped(double *h, double k, double eta, const double *v, double fcrit, double *F) {
+  for (int d = 0; d < 3; d++) F[d] = -k * h[d] - eta * v[d];
+  const double fm = sqrt(F[0] * F[0] + F[1] * F[1] + F[2] * F[2]);
+  if (fm > fcrit) {
+    const double hm = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+    if (hm != 0.0) {
+      for (int d = 0; d < 3; d++) h[d] = -1.0 / k * (fcrit * F[d] / fm + eta * v[d]);
+      for (int d = 0; d < 3; d++) F[d] *= fcrit / fm;
+    } else {
+      F[0] = F[1] = F[2] = 0.0;
+    }
+  }
+}
+
+/* Tangential force fs from the relative tangential velocity vtr at the contact: linear_nohistory a dashpot
+ * eta_t |v_t| capped at F_scrit; linear_history and mindlin (k_t a) a spring on the accumulated displacement h
+ * (kept in the history) with a dashpot, capped. Returns k_t as used (for marshall's twisting). */
+DEM_HD_INLINE double gran_tangential(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *vtr,
+                                 double a, double damp_t, double fscrit, double *h, double *fs) {
+  if (C->tangential == SPHDEM_GRAN_TANG_LINEAR_NOHISTORY) {
+    const double vrel = sqrt(vtr[0] * vtr[0] + vtr[1] * vtr[1] + vtr[2] * vtr[2]);
+    const double fsm = damp_t * vrel;
+    const double Ft = vrel != 0.0 ? (fsm < fscrit ? fsm : fscrit) / vrel : 0.0;
+    for (int d = 0; d < 3; d++) fs[d] = -Ft * vtr[d];
+    return C->kt;
+  }
+  double kt = C->kt;
+  if (C->tangential == SPHDEM_GRAN_TANG_MINDLIN) kt *= a;
+  if (update) gran_history_advance(h, n, kt, fscrit, vtr, dt);
+  gran_spring_capped(h, kt, damp_t, vtr, fscrit, fs);
+  return kt;
+}
+
+/* Rolling resistance sds: the rolling velocity v_roll = R* (w_rel x n) (Wang 2015 eq 31) accumulated in hr
+ * drives a spring-dashpot capped at mu_roll F_ncrit; torque on a R* (n x F_r), on b the opposite. */
+DEM_HD_INLINE void gran_rolling(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
+                            double reff, double fncrit, double *hr, double *Tr) {
+  const double vrl[3] = {reff * (wrel[1] * n[2] - wrel[2] * n[1]), reff * (wrel[2] * n[0] - wrel[0] * n[2]),
+                         reff * (wrel[0] * n[1] - wrel[1] * n[0])};
+  const double frcrit = C->mu_r * fncrit;
+  if (update) gran_history_advance(hr, n, C->kr, frcrit, vrl, dt);
+  double fr[3];
+  gran_spring_capped(hr, C->kr, C->damp_r, vrl, frcrit, fr);
+  Tr[0] = reff * (n[1] * fr[2] - n[2] * fr[1]);
+  Tr[1] = reff * (n[2] * fr[0] - n[0] * fr[2]);
+  Tr[2] = reff * (n[0] * fr[1] - n[1] * fr[0]);
+}
+
+/* Twisting: the twist rate w_rel.n accumulated in *ht drives M_t = -k ht - eta w_t, capped at mu F_ncrit
+ * (Marshall 2009 eqs 29-34); marshall takes k = k_t a^2/2, eta = eta_t a^2/2, mu = 2/3 a mu_s. Returns M_t
+ * (the torque on a is M_t n). */
+DEM_HD_INLINE double gran_twisting(const sphdem_dem_granular *C, int update, double dt, const double *n, const double *wrel,
+                               double a, double kt, double damp_t, double fncrit, double *ht) {
+  const double wt = wrel[0] * n[0] + wrel[1] * n[1] + wrel[2] * n[2];
+  double k, eta, mu;
+  if (C->twisting == SPHDEM_GRAN_TWIST_MARSHALL) {
+    k = 0.5 * kt * a * a;
+    eta = 0.5 * damp_t * a * a;
+    mu = 2.0 / 3.0 * a * C->mu;
+  } else {
+    k = C->ktw, eta = C->damp_tw, mu = C->mu_tw;
+  }
+  if (update) *ht += wt * dt;
+  double M = -k * *ht - eta * wt;
+  const double sgn = (wt > 0) - (wt < 0), mcrit = mu * fncrit;
+  if (fabs(M) > mcrit) {
+    *ht = 1.0 / k * (mcrit * sgn - eta * wt);
+    M = -mcrit * sgn;
+  }
+  return M;
+}
+
+/* The contact of an overlapping pair under pair_style granular: the sub-models of the pair's types.
+ * Fa force on a (b: -Fa); Ta, Tb torques; hout the history (tangential xyz, touch flag, twist; rolling in
+ * D->rout). A wall (b < 0) is a flat partner at rest with R* = r_a. */
+DEM_HD_INLINE void dem_contact_granular(const dem_dev *D, int64_t p, int wall, const double *del, double r, double ra,
+                                    double rb, double radsum, double meff, double *Fa, double *Ta, double *Tb,
+                                    double *hout) {
+  const int32_t a_ = D->pa[p], b_ = D->pb[p];
+  const int ta = D->flags[a_] >> SPHDEM_DEM_MATERIAL_SHIFT, tb = wall ? ta : D->flags[b_] >> SPHDEM_DEM_MATERIAL_SHIFT;
+  const sphdem_dem_granular *C = &D->gran[(int64_t)ta * D->ngran + tb];
+  const double zero[3] = {0.0, 0.0, 0.0};
+  const double *va = D->v + 3 * (int64_t)a_, *wa = D->om + 3 * (int64_t)a_;
+  const double *vb = wall ? zero : D->v + 3 * (int64_t)b_, *wb = wall ? zero : D->om + 3 * (int64_t)b_;
+  const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
+  const double rinv = 1.0 / r;
+  const double n[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
+  const double vr[3] = {va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]};
+  const double vnnr = vr[0] * n[0] + vr[1] * n[1] + vr[2] * n[2];
+  const double reff = wall ? ra : ra * rb / radsum;
+  const double delta = radsum - r;
+  const double a = sqrt(delta * reff);
+  /* normal: elastic, damping, the limit */
+  double knfac;
+  const double Fne = gran_normal(C, delta, a, reff, &knfac);
+  const double damp_n = gran_damping(C, meff, a, knfac);
+  double Fntot = Fne - damp_n * vnnr;
+  if (C->limit_damping && Fntot < 0.0) Fntot = 0.0;
+  /* the critical normal force of the friction limits: |F_ntot|; dmt: |F_ne| (the stock 2021 code adds twice a
+   * pull-off force made of a cohesion it sets only for jkr pairs: 0 in a run without jkr, as measured) */
+  const double Fncrit = C->normal == SPHDEM_GRAN_DMT ? fabs(Fne) : fabs(Fntot);
+  /* relative tangential velocity at the contact point: v_t - n x (r_a w_a + r_b w_b) */
+  double vtr[3];
+  {
+    const double vn[3] = {n[0] * vnnr, n[1] * vnnr, n[2] * vnnr};
+    const double wr[3] = {ra * wa[0] + rb * wb[0], ra * wa[1] + rb * wb[1], ra * wa[2] + rb * wb[2]};
+    vtr[0] = (vr[0] - vn[0]) - (n[2] * wr[1] - n[1] * wr[2]);
+    vtr[1] = (vr[1] - vn[1]) - (n[0] * wr[2] - n[2] * wr[0]);
+    vtr[2] = (vr[2] - vn[2]) - (n[1] * wr[0] - n[0] * wr[1]);
+  }
+  double h[3] = {hin[0], hin[1], hin[2]}, fs[3];
+  const double damp_t = C->damp_t * damp_n;
+  const double kt = gran_tangential(C, D->update, D->dt, n, vtr, a, damp_t, C->mu * Fncrit, h, fs);
+  for (int d = 0; d < 3; d++) Fa[d] = n[d] * Fntot + fs[d];
+  const double tor[3] = {n[1] * fs[2] - n[2] * fs[1], n[2] * fs[0] - n[0] * fs[2], n[0] * fs[1] - n[1] * fs[0]};
+  const double ca = ra - 0.5 * delta, cb = rb - 0.5 * delta;
+  for (int d = 0; d < 3; d++) {
+    Ta[d] = -ca * tor[d];
+    Tb[d] = -cb * tor[d];
+  }
+  double twist = hin[4];
+  if (C->rolling != SPHDEM_GRAN_ROLL_NONE || C->twisting != SPHDEM_GRAN_TWIST_NONE) {
+    const double wrel[3] = {wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]};
+    if (C->twisting != SPHDEM_GRAN_TWIST_NONE) {
+      const double M = gran_twisting(C, D->update, D->dt, n, wrel, a, kt, damp_t, Fncrit, &twist);
+      for (int d = 0; d < 3; d++) {
+        Ta[d] += M * n[d];
+        Tb[d] -= M * n[d];
+      }
+    }
+    if (C->rolling != SPHDEM_GRAN_ROLL_NONE) {
+      const double *ro = D->rin + 3 * p;
+      double hr[3] = {ro[0], ro[1], ro[2]}, Tr[3];
+      gran_rolling(C, D->update, D->dt, n, wrel, reff, Fncrit, hr, Tr);
+      for (int d = 0; d < 3; d++) {
+        Ta[d] += Tr[d];
+        Tb[d] -= Tr[d];
+      }
+      if (hout)
+        for (int d = 0; d < 3; d++) D->rout[3 * p + d] = hr[d];
+    }
+  }
+  if (hout) {
+    if (D->rin && C->rolling == SPHDEM_GRAN_ROLL_NONE)
+      for (int d = 0; d < 3; d++) D->rout[3 * p + d] = 0.0;
+    hout[0] = h[0];
+    hout[1] = h[1];
+    hout[2] = h[2];
+    hout[3] = 1.0;
+    hout[4] = twist;
+  }
+}
+
 /* Force and torques of pair p. Fa: force on a (b gets -Fa); Ta, Tb torques on a and b; hout (NULL: not
  * written) the updated history; vir the pair virial r_ab Fa (xx yy zz xy xz yz). Returns 1 if touching.
  * Geometry, relative velocities and the tangential history (accumulated v_t dt, then projected on the
@@ -548,6 +750,14 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
       wrel[d] = wa[d];
     }
     meff = ma;
+  }
+  if (model == SPHDEM_DEM_GRANULAR) {
+    dem_contact_granular(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
+    if (D->want_virial) {
+      if (!wall) dem_pair_virial(del, Fa, vir), dem_pair_virial_shared(D, a, b, vir);
+      else for (int d = 0; d < 6; d++) vir[d] = 0.0;
+    }
+    return 1;
   }
   if (model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
     dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
@@ -690,6 +900,8 @@ SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *de
       return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ);
     case SPHDEM_DEM_HERTZ_MINDLIN:
       return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_MINDLIN);
+    case SPHDEM_DEM_GRANULAR:
+      return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_GRANULAR);
     default:
       return dem_contact_model(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, SPHDEM_DEM_HERTZ_LIGGGHTS);
   }

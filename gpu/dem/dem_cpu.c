@@ -157,6 +157,7 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
     case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, SPHDEM_DEM_HOOKE, serial); break;
     case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ, serial); break;
     case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
+    case SPHDEM_DEM_GRANULAR: nt = c_forward(D, n, pfb, SPHDEM_DEM_GRANULAR, serial); break;
     default: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
   }
   if (serial) {

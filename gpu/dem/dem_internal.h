@@ -6,7 +6,7 @@
 #include "dem_passes.h"
 
 #define SPHDEM_DEM_NHIST 5      /* per pair: tangential displacement xyz, touch flag, largest overlap
-                                   (hooke/hysteresis; 0 otherwise) */
+                                   (hooke/hysteresis) or twisting angle (granular twisting; 0 otherwise) */
 #define SPHDEM_DEM_MAX_CELLS (1 << 24)
 #define SPHDEM_DEM_MAX_WALLS 16 /* the walls travel in the kernel parameters: keep dem_dev small */
 #define SPHDEM_DEM_MAX_TAG 2147483647LL
@@ -41,6 +41,9 @@ typedef struct {
   dem_mat mat0;       /* the LIGGGHTS models: the material pair of the params' one material */
   int nmat;           /* 0: every grain is of mat0; else materials in the table mat (sphdem_dem_set_materials) */
   dem_mat *mat;       /* nmat x nmat material pairs (device), grain material index from its flags */
+  int ngran;          /* SPHDEM_DEM_GRANULAR: grain types in the table gran (sphdem_dem_set_granular), 0 before */
+  sphdem_dem_granular *gran; /* ngran x ngran type-pair coefficients (device), grain type from its flags */
+  int gran_rolling;   /* some type pair of gran has a rolling model: the rolling history rin/rout is kept */
   double L[3];
   double glo[3], cs_inv[3];
   int nc[3];
@@ -62,7 +65,8 @@ typedef struct {
   int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
   uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
   double *hin, *hout;
-  double *rin, *rout; /* ROLL_EPSD2: rolling spring torque per pair (3), double-buffered like hin/hout; NULL when off */
+  double *rin, *rout; /* ROLL_EPSD2: rolling spring torque per pair (3); GRANULAR rolling sds: the rolling
+                         displacement (3); double-buffered like hin/hout; NULL when off */
   int roll_carry;     /* this build carries roll_old (else the rolling torques start from zero) */
   double *roll_old;   /* rolling torques of the previous list, for the carry */
   int carry_touching; /* this build carries the history of touching pairs only (keep_history, build

@@ -415,11 +415,37 @@ typedef enum {
                                    k_n = 16/15 sqrt(R*) Y* (15 m* V^2 / (16 sqrt(R*) Y*))^(1/5) comes from E, nu and
                                    the characteristic velocity V (charvel), k_t = k_n (2/7 k_n with kt_to_kn),
                                    gamma_n = gamma_t = sqrt(4 m* k_n / (1 + (pi / ln e)^2)) */
-  SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS = 5 /* LIGGGHTS model hooke/hysteresis (Walton-Braun): loading on the
+  SPHDEM_DEM_HOOKE_HYSTERESIS_LIGGGHTS = 5, /* LIGGGHTS model hooke/hysteresis (Walton-Braun): loading on the
                                    k_n of HOOKE_LIGGGHTS (k_t = k_n), unloading and reloading on k_2 between k_n
                                    and kn2kcmax k_n (growing with the largest overlap, kept per pair), adhesion
                                    down to -kn2kc k_n delta; plasticity depth phif */
+  SPHDEM_DEM_GRANULAR = 6       /* LAMMPS pair_style granular: normal, damping, tangential, rolling and twisting
+                                   sub-models chosen per pair of grain types (sphdem_dem_set_granular) */
 } sphdem_dem_model;
+
+/* SPHDEM_DEM_GRANULAR sub-models (LAMMPS pair_style granular, 29 Sep 2021), one of each per type pair. */
+typedef enum { SPHDEM_GRAN_HOOKE = 0, SPHDEM_GRAN_HERTZ = 1, SPHDEM_GRAN_HERTZ_MATERIAL = 2, SPHDEM_GRAN_DMT = 3 }
+    sphdem_gran_normal;
+typedef enum { SPHDEM_GRAN_DAMP_VELOCITY = 0, SPHDEM_GRAN_DAMP_MASS_VELOCITY = 1, SPHDEM_GRAN_DAMP_VISCOELASTIC = 2,
+               SPHDEM_GRAN_DAMP_TSUJI = 3 } sphdem_gran_damping;
+typedef enum { SPHDEM_GRAN_TANG_LINEAR_NOHISTORY = 0, SPHDEM_GRAN_TANG_LINEAR_HISTORY = 1, SPHDEM_GRAN_TANG_MINDLIN = 2 }
+    sphdem_gran_tangential;
+typedef enum { SPHDEM_GRAN_ROLL_NONE = 0, SPHDEM_GRAN_ROLL_SDS = 1 } sphdem_gran_rolling;
+typedef enum { SPHDEM_GRAN_TWIST_NONE = 0, SPHDEM_GRAN_TWIST_MARSHALL = 1, SPHDEM_GRAN_TWIST_SDS = 2 } sphdem_gran_twisting;
+
+/* The coefficients of one type pair, as LAMMPS keeps them after pair_coeff and its mixing (init_one). */
+typedef struct {
+  int normal, damping, tangential, rolling, twisting; /* sphdem_gran_* */
+  int limit_damping;    /* 1: the normal force (elastic + damping) is never attractive */
+  double kn;            /* hooke: k_n (force/distance); hertz: k_n (pressure); hertz/material, dmt: 4/3 E_eff */
+  double damp;          /* normal damping coefficient eta_n0 (tsuji: alpha(e) already) */
+  double cohesion;      /* dmt: surface energy w (pull-off 4 pi w R*) */
+  double kt;            /* linear_history: k_t; mindlin: k_t per a = sqrt(R* delta) (8 G_eff for NULL) */
+  double damp_t;        /* tangential damping as a multiple of the normal damping prefactor */
+  double mu;            /* sliding friction */
+  double kr, damp_r, mu_r;    /* rolling sds: k_roll, gamma_roll, mu_roll */
+  double ktw, damp_tw, mu_tw; /* twisting sds: k_twist, gamma_twist, mu_twist (marshall: from the tangential) */
+} sphdem_dem_granular;
 
 /* Cohesion of the LIGGGHTS models, between overlapping grains: F = -k A along the normal (attractive),
  * k the cohesion energy density. */
@@ -525,6 +551,16 @@ typedef struct {
   const double *kn2kcmax, *kn2kc, *phif; /* n x n, HOOKE_HYSTERESIS_LIGGGHTS (needed there) */
 } sphdem_dem_materials;
 int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
+/* SPHDEM_DEM_GRANULAR: the coefficients of every pair of n grain types (n x n, row-major [i n + j], symmetric);
+ * a grain's type (0-based) is flags >> SPHDEM_DEM_MATERIAL_SHIFT. The params' kn, kt, mu, ... are unused. */
+int sphdem_dem_set_granular(sphdem_dem dem, int n, const sphdem_dem_granular *pairs);
+/* SPHDEM_DEM_GRANULAR: negate the rolling and twisting history of the listed pairs (keys (tag_a << 32) | tag_b,
+ * tag_a < tag_b; pairs not in the current list are skipped). LAMMPS' fix neigh/history stores the history with
+ * the pair's first atom in the engine's neighbour list and negates every value when the other atom becomes
+ * first at a list build; the tangential history is antisymmetric in the two atoms and the core keeps it in
+ * the frame of the lower tag, but the rolling and twisting ones are symmetric, so the stock style flips them:
+ * the shim lists the pairs whose order in the engine's list changed. */
+int sphdem_dem_flip_history(sphdem_dem dem, int64_t n, const uint64_t *keys);
 /* Fixed planes (replaces the previous set); nw may be 0. */
 int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
 /* The next sphdem_dem_compute rebuilds the pair list (call when the engine rebuilt its neighbour lists:

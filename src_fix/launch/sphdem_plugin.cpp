@@ -12,6 +12,7 @@
 #include "lammps.h"
 #include "pair_gran_hertz_history_gpu.h"
 #include "pair_gran_hooke_history_gpu.h"
+#include "pair_granular_gpu.h"
 #include "lammpsplugin_decl.h"
 #include "sphdem.h"
 
@@ -60,6 +61,9 @@ const PluginStyle kStyles[] = {
     {"pair", "gran/hertz/history/gpu",
      "sphdem " SPHDEM_VERSION " granular Hertz contacts with history on the sphdem DEM core (CPU or GPU)",
      &pair_creator<LAMMPS_NS::PairGranHertzHistoryGPU>, nullptr},
+    {"pair", "granular/gpu",
+     "sphdem " SPHDEM_VERSION " LAMMPS pair_style granular contacts on the sphdem DEM core (CPU or GPU)",
+     &pair_creator<LAMMPS_NS::PairGranularGPU>, nullptr},
 };
 }  // namespace
 

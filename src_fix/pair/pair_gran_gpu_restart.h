@@ -144,12 +144,12 @@ struct PendingHistory {
                     std::to_string(ta) + ", " + std::to_string(tb) + " (corrupt restart file)");
     }
     /* per pair: displacement xyz (finite), touch flag (0, +-1 or +-an image code: a whole number), largest
-     * overlap (>= 0) */
+     * overlap (hooke/hysteresis, >= 0) or twist angle (granular/gpu, signed): finite */
     const int H = SPHDEM_DEM_HIST_DOUBLES;
     for (size_t k = 0; k < keys.size(); k++) {
       const double *h = &hist[k * H];
       const bool good = std::isfinite(h[0]) && std::isfinite(h[1]) && std::isfinite(h[2]) && std::isfinite(h[3]) &&
-                        h[3] == std::floor(h[3]) && (H < 5 || (std::isfinite(h[4]) && h[4] >= 0.0));
+                        h[3] == std::floor(h[3]) && (H < 5 || std::isfinite(h[4]));
       if (!good)
         return fail("restart file: contact-history pair " + std::to_string(k) + " has values that no contact has "
                     "(corrupt restart file)");

@@ -166,4 +166,5 @@ template <typename T> static Pair *pair_creator(LAMMPS *lmp) { return new T(lmp)
 void sphdem_register_pair_gran_gpu(LAMMPS *lmp) {
   (*lmp->force->pair_map)["gran/hooke/history/gpu"] = &pair_creator<PairGranHookeHistoryGPU>;
   (*lmp->force->pair_map)["gran/hertz/history/gpu"] = &pair_creator<PairGranHertzHistoryGPU>;
+  sphdem_register_pair_granular_gpu(lmp);
 }

@@ -1,5 +1,6 @@
 /* test_dem_twin.c - GPU DEM: the CUDA backend against the CPU backend on the same input, step by step
- * (both force algorithms; LAMMPS Hertz, Hertz-Mindlin and LIGGGHTS Hertz with friction and rolling friction;
+ * (both force algorithms; LAMMPS Hertz, Hertz-Mindlin, LIGGGHTS Hertz with friction and rolling friction, and
+ * the granular model (two types, rolling sds, twisting marshall/sds);
  * periodic axes and walls). Exits 77
  * (skipped) where no GPU is usable. The trajectory is advanced with the CPU forces and fed to both. */
 #include <math.h>
@@ -28,15 +29,36 @@ int main(void) {
     }
   }
   sphdem_dem_wall walls[2] = {{{0, 0.02, 0}, {0, 1, 0}}, {{0, 1.45, 0}, {0, -1, 0}}};
-  for (int model = 1; model <= 3; model++)
+  /* the granular model: two grain types, every sub-model family (rolling and twisting history included) */
+  int *fl = malloc(sizeof(int) * n);
+  for (int i = 0; i < n; i++) fl[i] = (i % 2) << SPHDEM_DEM_MATERIAL_SHIFT;
+  sphdem_dem_granular gt[4];
+  memset(gt, 0, sizeof gt);
+  for (int k = 0; k < 4; k++) {
+    sphdem_dem_granular *c = &gt[k];
+    c->normal = k == 0 ? SPHDEM_GRAN_HERTZ_MATERIAL : k == 3 ? SPHDEM_GRAN_DMT : SPHDEM_GRAN_HERTZ;
+    c->damping = k == 0 ? SPHDEM_GRAN_DAMP_TSUJI : SPHDEM_GRAN_DAMP_VISCOELASTIC;
+    c->tangential = k == 3 ? SPHDEM_GRAN_TANG_MINDLIN : SPHDEM_GRAN_TANG_LINEAR_HISTORY;
+    c->rolling = SPHDEM_GRAN_ROLL_SDS;
+    c->twisting = k == 0 ? SPHDEM_GRAN_TWIST_MARSHALL : SPHDEM_GRAN_TWIST_SDS;
+    c->kn = k == 1 || k == 2 ? 2e6 : 1e7;
+    c->damp = k == 0 ? 0.5 : 1e2;
+    c->cohesion = 0.05;
+    c->kt = k == 3 ? 5e6 : 5e5;
+    c->damp_t = 0.5; c->mu = 0.4;
+    c->kr = 10; c->damp_r = 0.01; c->mu_r = 0.2;
+    c->ktw = 1e-3; c->damp_tw = 1e-6; c->mu_tw = 0.1;
+  }
+  for (int model = 1; model <= 4; model++)
     for (int algo = 0; algo < 2; algo++) {
       sphdem_dem_params p;
       sphdem_dem_params_default(&p);
-      p.model = model;
+      const int granular = model == 4; /* loop index 4: SPHDEM_DEM_GRANULAR */
+      p.model = granular ? SPHDEM_DEM_GRANULAR : model;
       p.algo = algo;
       if (model == SPHDEM_DEM_HERTZ) { p.kn = 2e6; p.kt = 2.0 / 7.0 * 2e6; p.gamman = 50; p.gammat = 25; }
-      else { p.E = 1e7; p.nu = 0.3; p.en = 0.7; } /* Hertz-Mindlin, LIGGGHTS Hertz */
-      p.mu = 0.5; p.mu_r = 0.02; p.skin = 0.01;
+      else if (!granular) { p.E = 1e7; p.nu = 0.3; p.en = 0.7; } /* Hertz-Mindlin, LIGGGHTS Hertz */
+      p.mu = 0.5; p.mu_r = granular ? 0.0 : 0.02; p.skin = 0.01;
       p.periodic[0] = p.periodic[2] = 1;
       for (int d = 0; d < 3; d++) { p.boxlo[d] = 0; p.boxhi[d] = L[d]; }
       char msg[256];
@@ -48,11 +70,16 @@ int main(void) {
       }
       sphdem_dem_set_walls(C, 2, walls);
       sphdem_dem_set_walls(G, 2, walls);
+      if (granular && (sphdem_dem_set_granular(C, 2, gt) || sphdem_dem_set_granular(G, 2, gt))) {
+        printf("set_granular: %s / %s\n", sphdem_dem_last_error(C), sphdem_dem_last_error(G));
+        return 1;
+      }
+      const int *flags = granular ? fl : NULL;
       double dt = 2e-5, worst = 0, vc[6], vg[6], vworst = 0;
       int rc = 0;
       for (int s = 0; s < 200 && !rc; s++) {
-        rc |= sphdem_dem_compute(C, n, tag, x, v, om, r, m, NULL, dt, s > 0, fc, tc, vc);
-        rc |= sphdem_dem_compute(G, n, tag, x, v, om, r, m, NULL, dt, s > 0, fg, tg, vg);
+        rc |= sphdem_dem_compute(C, n, tag, x, v, om, r, m, flags, dt, s > 0, fc, tc, vc);
+        rc |= sphdem_dem_compute(G, n, tag, x, v, om, r, m, flags, dt, s > 0, fg, tg, vg);
         double fs = 0, ts = 0;
         for (int k = 0; k < 3 * n; k++) { fs = fmax(fs, fabs(fc[k])); ts = fmax(ts, fabs(tc[k])); }
         for (int k = 0; k < 3 * n; k++) {
@@ -83,6 +110,6 @@ int main(void) {
       sphdem_dem_destroy(&C);
       sphdem_dem_destroy(&G);
     }
-  free(tag); free(x); free(v); free(om); free(r); free(m); free(fc); free(tc); free(fg); free(tg);
+  free(tag); free(x); free(v); free(om); free(r); free(m); free(fc); free(tc); free(fg); free(tg); free(fl);
   return test_summary("twin_dem");
 }
