@@ -3,18 +3,13 @@
 #define SPHDEM_INTERNAL_H
 
 #include "grains.h"
+#include "hd.h"
 #include "runtime.h"
 #include "sphdem.h"
 #include "sph_passes.h"
 #include "couple_state.h"
 #include "fluid_options.h"
 #include "mp_state.h"
-
-#ifdef __CUDACC__
-#define SPHDEM_HD __host__ __device__ static inline
-#else
-#define SPHDEM_HD static inline
-#endif
 
 
 /* Cap on the number of cells of the search grid; beyond it cells grow (still >= 2h + skin). */
