@@ -87,8 +87,8 @@ static void free_grains(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   size_t n = (size_t)c->couple.cap_g;
   if (!n) return;
-  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf, (void **)&D->couple.gfd,
-                  (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
+  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf,
+                  (void **)&D->couple.gfd, (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) sphdem_dfree(c, p24[k], 24 * n);
   sphdem_dfree(c, (void **)&D->couple.grad, 8 * n);
   sphdem_dfree(c, (void **)&D->couple.grain_shepard, 8 * n);
@@ -102,8 +102,8 @@ static int ensure_grains(struct sphdem_ctx_s *c, int64_t n) {
   free_grains(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf, (void **)&D->couple.gfd,
-                  (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
+  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf,
+                  (void **)&D->couple.gfd, (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(sphdem_dalloc(c, p24[k], 24 * m));
   TRYC(sphdem_dalloc(c, (void **)&D->couple.grad, 8 * m));
   TRYC(sphdem_dalloc(c, (void **)&D->couple.grain_shepard, 8 * m));
@@ -306,7 +306,10 @@ static int build_grain_grid(struct sphdem_ctx_s *c) {
   for (int iter = 0; iter < 64; iter++) {
     double total = 1.0; /* in double: three axes of up to 1e9 cells overflow int64 */
     for (int d = 0; d < 3; d++) {
-      if (d >= D->P.dim) { D->couple.gnc[d] = 1; D->couple.gglo[d] = 0.0; D->couple.gcs[d] = 1.0; D->couple.gcs_inv[d] = 1.0; continue; }
+      if (d >= D->P.dim) {
+        D->couple.gnc[d] = 1; D->couple.gglo[d] = 0.0; D->couple.gcs[d] = 1.0; D->couple.gcs_inv[d] = 1.0;
+        continue;
+      }
       double lo, len, cs = cmin * scale;
       if (D->P.periodic[d]) { lo = D->P.boxlo[d]; len = D->P.boxhi[d] - D->P.boxlo[d]; }
       else { lo = c->couple.gbb_lo[d]; len = c->couple.gbb_hi[d] - c->couple.gbb_lo[d]; }
@@ -349,7 +352,8 @@ static void set_layers(sphdem_dev *D) {
   for (int d = 0; d < 3; d++) {
     if (d >= D->P.dim) { D->couple.glay[d] = D->couple.flay[d] = 0; continue; }
     /* clamped in double before the cast: more layers than cells visit the same cells (walk_init) */
-    double gl = ceil(2.0 * D->couple.hc * D->couple.gcs_inv[d]), fl = ceil((2.0 * D->couple.hc + 0.5 * D->P.skin) * D->cs_inv[d]);
+    double gl = ceil(2.0 * D->couple.hc * D->couple.gcs_inv[d]);
+    double fl = ceil((2.0 * D->couple.hc + 0.5 * D->P.skin) * D->cs_inv[d]);
     D->couple.glay[d] = gl >= 1.0 ? (gl < (double)D->couple.gnc[d] ? (int)gl : D->couple.gnc[d]) : 1;
     D->couple.flay[d] = fl >= 1.0 ? (fl < (double)D->nc[d] ? (int)fl : D->nc[d]) : 1;
   }
@@ -494,7 +498,8 @@ int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
   if (!D->couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_stats_get: the coupling is off");
   /* the owned grains and fluid of this rank (upload order: owned first), summed over the ranks (collective) */
   const int many = rt_nranks(&c->rt) > 1;
-  double ng = (double)(c->couple.ngown < D->couple.ng ? c->couple.ngown : D->couple.ng), valid = c->couple.forces_valid ? 1.0 : 0.0;
+  double ng = (double)(c->couple.ngown < D->couple.ng ? c->couple.ngown : D->couple.ng);
+  double valid = c->couple.forces_valid ? 1.0 : 0.0;
   if (many) {
     TRYC(sphdem_rt_allreduce(&c->rt, &ng, 1, SPHDEM_RED_SUM));
     TRYC(sphdem_rt_allreduce(&c->rt, &valid, 1, SPHDEM_RED_MIN));

@@ -143,7 +143,8 @@ SPHDEM_HD void couple_porosity_finish(const sphdem_dev *D, int64_t a, double s) 
     cell_walk w;
     int64_t cc;
     walk_fluid_around(D, xa, &w);
-    while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xa, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sw);
+    while (walk_next(&w, &cc))
+      wall_volume_sum_cell(D, xa, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sw);
     double room = 1.0 - sw;
     s /= room > 0.1 ? room : 0.1;
   }
@@ -248,7 +249,8 @@ SPHDEM_HD double couple_grain_wall_sum(const sphdem_dev *D, const double *xj) {
   cell_walk w;
   int64_t cc;
   walk_fluid_around(D, xj, &w);
-  while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xj, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sigw);
+  while (walk_next(&w, &cc))
+    wall_volume_sum_cell(D, xj, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sigw);
   return sigw;
 }
 

@@ -44,7 +44,8 @@ void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c) {
   free(c->couple.cpl_fs); free(c->couple.cpl_gs); free(c->couple.cpl_f); free(c->couple.cpl_g);
   for (int t = 0; t < c->couple.cpl_nt; t++) free(c->couple.cpl_tb[t]);
   free(c->couple.cpl_tb); free(c->couple.cpl_tcap); free(c->couple.cpl_tn);
-  c->couple.cpl_fs = c->couple.cpl_gs = NULL; c->couple.cpl_f = c->couple.cpl_g = NULL; c->couple.cpl_tb = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
+  c->couple.cpl_fs = c->couple.cpl_gs = NULL; c->couple.cpl_f = c->couple.cpl_g = NULL;
+  c->couple.cpl_tb = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
   c->couple.cap_cplfs = c->couple.cap_cplgs = c->couple.cap_cplf = c->couple.cap_cplg = 0;
   c->couple.cpl_nt = 0; c->couple.cpl_valid = 0;
 }
@@ -69,7 +70,8 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
     for (int t = c->couple.cpl_nt; t < nt; t++) { c->couple.cpl_tb[t] = NULL; c->couple.cpl_tcap[t] = 0; }
     c->couple.cpl_nt = nt;
   }
-  if (grow64(&c->couple.cpl_fs, &c->couple.cap_cplfs, nf + 1) || grow64(&c->couple.cpl_gs, &c->couple.cap_cplgs, ng + 1))
+  if (grow64(&c->couple.cpl_fs, &c->couple.cap_cplfs, nf + 1) ||
+      grow64(&c->couple.cpl_gs, &c->couple.cap_cplgs, ng + 1))
     return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate the pair-list starts");
   int64_t *fs = c->couple.cpl_fs;
   int err = 0;
@@ -104,7 +106,9 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
   if (err) return SPHDEM_OK; /* porosity is done; the other passes walk the cells (cpl_valid stays 0) */
   fs[0] = 0;
   for (int64_t a = 0; a < nf; a++) fs[a + 1] += fs[a];
-  if (grow32(&c->couple.cpl_f, &c->couple.cap_cplf, fs[nf] + 1) || grow32(&c->couple.cpl_g, &c->couple.cap_cplg, fs[nf] + 1)) return SPHDEM_OK;
+  if (grow32(&c->couple.cpl_f, &c->couple.cap_cplf, fs[nf] + 1) ||
+      grow32(&c->couple.cpl_g, &c->couple.cap_cplg, fs[nf] + 1))
+    return SPHDEM_OK;
   int64_t off = 0;
   for (int t = 0; t < nt; t++) {
     if (c->couple.cpl_tn[t] > 0) memcpy(c->couple.cpl_f + off, c->couple.cpl_tb[t], 4 * (size_t)c->couple.cpl_tn[t]);
