@@ -19,7 +19,7 @@ static int c_run(struct sphdem_cfd_s *m, int kid, int64_t n) {
     SPHDEM_CFD_KERNELS(SPHDEM_CFD_LOOP_)
 #undef SPHDEM_CFD_LOOP_
   }
-  return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid loop %d", kid);
+  return rt_fail(&m->rt, SPHDEM_ERR_ARG, "internal: unknown gas-grid loop %d", kid);
 }
 
 /* Sums in a fixed order, whatever the thread count: partial sums of fixed chunks of CFD_RED_CHUNK elements,
@@ -41,12 +41,12 @@ static int c_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
     cfd_cpu_data *cd = (cfd_cpu_data *)m->backend_data;
     if (!cd) {
       cd = (cfd_cpu_data *)calloc(1, sizeof *cd);
-      if (!cd) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the reduction buffers");
+      if (!cd) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the reduction buffers");
       m->backend_data = cd;
     }
     if (cd->cap < nch) {
       double *q = (double *)realloc(cd->part, sizeof(double) * (size_t)nch);
-      if (!q) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %lld reduction partials", (long long)nch);
+      if (!q) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate %lld reduction partials", (long long)nch);
       cd->part = q;
       cd->cap = nch;
     }
@@ -80,7 +80,7 @@ static int c_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
     SPHDEM_CFD_REDUCTIONS(SPHDEM_CFD_RED_)
 #undef SPHDEM_CFD_RED_
   }
-  return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
+  return rt_fail(&m->rt, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
 }
 
 static void c_release(struct sphdem_cfd_s *m) {

@@ -57,7 +57,7 @@ static int g_run(struct sphdem_cfd_s *m, int kid, int64_t n) {
     SPHDEM_CFD_KERNELS(SPHDEM_CFD_LAUNCH_)
 #undef SPHDEM_CFD_LAUNCH_
   }
-  return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid loop %d", kid);
+  return rt_fail(&m->rt, SPHDEM_ERR_ARG, "internal: unknown gas-grid loop %d", kid);
 }
 
 static const int g_red_op[] = {
@@ -71,7 +71,7 @@ static int g_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
   int rc;
   if (!cd) {
     cd = (cfd_cuda_data *)calloc(1, sizeof *cd);
-    if (!cd) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the reduction buffers");
+    if (!cd) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the reduction buffers");
     m->backend_data = cd;
     if ((rc = rt_cuda_check(&m->rt, cudaMalloc((void **)&cd->dpart, sizeof(double) * CFD_RED_BLOCKS), "reduction buffer")) ||
         (rc = rt_cuda_check(&m->rt, cudaMallocHost((void **)&cd->hpart, sizeof(double) * CFD_RED_BLOCKS), "pinned buffer")))
@@ -92,7 +92,7 @@ static int g_reduce(struct sphdem_cfd_s *m, int rid, int64_t n, double *out) {
     SPHDEM_CFD_REDUCTIONS(SPHDEM_CFD_RLAUNCH_)
 #undef SPHDEM_CFD_RLAUNCH_
     default:
-      return sphdem_cfd_fail(m, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
+      return rt_fail(&m->rt, SPHDEM_ERR_ARG, "internal: unknown gas-grid reduction %d", rid);
   }
   if ((rc = rt_cuda_check(&m->rt, cudaGetLastError(), "reduction kernel"))) return rc;
   if ((rc = rt_cuda_check(&m->rt, cudaMemcpy(cd->hpart, cd->dpart, sizeof(double) * nb, cudaMemcpyDeviceToHost),

@@ -3,7 +3,8 @@
 #define SPHDEM_CFD_INTERNAL_H
 
 #include "grains.h"
-#include "sph_internal.h"
+#include "hd.h"
+#include "runtime.h"
 
 #define SPHDEM_CFD_MAX_CELLS (1LL << 26)
 

@@ -1,5 +1,5 @@
-/* runtime.c - the device runtime shared by every context: CPU memory (malloc/memcpy/memset), error text,
- * monotonic clock; the CUDA memory table is in runtime_cuda.cu. */
+/* runtime.c - the device runtime shared by every context: CPU memory (malloc/memcpy/memset), reductions over
+ * ranks, monotonic clock; the CUDA memory table is in runtime_cuda.cu, the error text in rt_error.c. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,19 +7,6 @@
 #include <time.h>
 
 #include "runtime.h"
-
-int sphdem_rt_vfail(sphdem_rt *rt, int code, const char *fmt, va_list ap) {
-  if (rt) vsnprintf(rt->err, sizeof rt->err, fmt, ap);
-  return code;
-}
-
-int sphdem_rt_fail(sphdem_rt *rt, int code, const char *fmt, ...) {
-  va_list ap;
-  va_start(ap, fmt);
-  code = sphdem_rt_vfail(rt, code, fmt, ap);
-  va_end(ap);
-  return code;
-}
 
 int sphdem_rt_allreduce(sphdem_rt *rt, double *buf, int n, int op) {
   if (!rt->comm.allreduce || n <= 0) return SPHDEM_OK;

@@ -85,95 +85,95 @@ static int couple_check(const sphdem_couple_params *cp, const sphdem_params *P, 
 
 static void free_grains(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  size_t n = (size_t)c->cap_g;
+  size_t n = (size_t)c->couple.cap_g;
   if (!n) return;
-  void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
-                  (void **)&D->gfpg, (void **)&D->gtq};
+  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf,
+                  (void **)&D->couple.gfd, (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) sphdem_dfree(c, p24[k], 24 * n);
-  sphdem_dfree(c, (void **)&D->grad, 8 * n);
-  sphdem_dfree(c, (void **)&D->grain_shepard, 8 * n);
-  sphdem_dfree(c, (void **)&D->gtag, 8 * n);
-  sphdem_dfree(c, (void **)&D->gcell, 4 * n);
-  c->cap_g = 0;
+  sphdem_dfree(c, (void **)&D->couple.grad, 8 * n);
+  sphdem_dfree(c, (void **)&D->couple.grain_shepard, 8 * n);
+  sphdem_dfree(c, (void **)&D->couple.gtag, 8 * n);
+  sphdem_dfree(c, (void **)&D->couple.gcell, 4 * n);
+  c->couple.cap_g = 0;
 }
 
 static int ensure_grains(struct sphdem_ctx_s *c, int64_t n) {
-  if (n <= c->cap_g && c->cap_g > 0) return SPHDEM_OK;
+  if (n <= c->couple.cap_g && c->couple.cap_g > 0) return SPHDEM_OK;
   free_grains(c);
   sphdem_dev *D = &c->D;
   size_t m = (size_t)(n > 0 ? n : 1);
-  void **p24[] = {(void **)&D->gx, (void **)&D->gv, (void **)&D->gom, (void **)&D->gf, (void **)&D->gfd,
-                  (void **)&D->gfpg, (void **)&D->gtq};
+  void **p24[] = {(void **)&D->couple.gx, (void **)&D->couple.gv, (void **)&D->couple.gom, (void **)&D->couple.gf,
+                  (void **)&D->couple.gfd, (void **)&D->couple.gfpg, (void **)&D->couple.gtq};
   for (size_t k = 0; k < sizeof p24 / sizeof p24[0]; k++) TRYC(sphdem_dalloc(c, p24[k], 24 * m));
-  TRYC(sphdem_dalloc(c, (void **)&D->grad, 8 * m));
-  TRYC(sphdem_dalloc(c, (void **)&D->grain_shepard, 8 * m));
-  TRYC(sphdem_dalloc(c, (void **)&D->gtag, 8 * m));
-  TRYC(sphdem_dalloc(c, (void **)&D->gcell, 4 * m));
-  c->cap_g = (int64_t)m;
+  TRYC(sphdem_dalloc(c, (void **)&D->couple.grad, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->couple.grain_shepard, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->couple.gtag, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&D->couple.gcell, 4 * m));
+  c->couple.cap_g = (int64_t)m;
   return sphdem_ensure_scratch(c, (int64_t)m);
 }
 
 static int ensure_grain_cells(struct sphdem_ctx_s *c, int64_t n) {
-  if (n <= c->cap_gcells) return SPHDEM_OK;
-  sphdem_dfree(c, (void **)&c->D.gcstart, 4 * (size_t)c->cap_gcells);
-  sphdem_dfree(c, (void **)&c->D.gcend, 4 * (size_t)c->cap_gcells);
-  c->cap_gcells = 0;
-  TRYC(sphdem_dalloc(c, (void **)&c->D.gcstart, 4 * (size_t)n));
-  TRYC(sphdem_dalloc(c, (void **)&c->D.gcend, 4 * (size_t)n));
-  c->cap_gcells = n;
+  if (n <= c->couple.cap_gcells) return SPHDEM_OK;
+  sphdem_dfree(c, (void **)&c->D.couple.gcstart, 4 * (size_t)c->couple.cap_gcells);
+  sphdem_dfree(c, (void **)&c->D.couple.gcend, 4 * (size_t)c->couple.cap_gcells);
+  c->couple.cap_gcells = 0;
+  TRYC(sphdem_dalloc(c, (void **)&c->D.couple.gcstart, 4 * (size_t)n));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.couple.gcend, 4 * (size_t)n));
+  c->couple.cap_gcells = n;
   return SPHDEM_OK;
 }
 
 static int ensure_couple_fluid(struct sphdem_ctx_s *c, int64_t n) {
-  if (n <= c->cap_cf && c->cap_cf > 0) return SPHDEM_OK;
-  sphdem_dfree(c, (void **)&c->D.eps, 8 * (size_t)c->cap_cf);
-  sphdem_dfree(c, (void **)&c->D.fr, 24 * (size_t)c->cap_cf);
-  c->cap_cf = 0;
+  if (n <= c->couple.cap_cf && c->couple.cap_cf > 0) return SPHDEM_OK;
+  sphdem_dfree(c, (void **)&c->D.couple.eps, 8 * (size_t)c->couple.cap_cf);
+  sphdem_dfree(c, (void **)&c->D.couple.fr, 24 * (size_t)c->couple.cap_cf);
+  c->couple.cap_cf = 0;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRYC(sphdem_dalloc(c, (void **)&c->D.eps, 8 * m));
-  TRYC(sphdem_dalloc(c, (void **)&c->D.fr, 24 * m));
-  c->cap_cf = (int64_t)m;
-  return rt_zero(&c->rt, c->D.fr, 24 * m); /* read by the wall pass before the first reaction pass */
+  TRYC(sphdem_dalloc(c, (void **)&c->D.couple.eps, 8 * m));
+  TRYC(sphdem_dalloc(c, (void **)&c->D.couple.fr, 24 * m));
+  c->couple.cap_cf = (int64_t)m;
+  return rt_zero(&c->rt, c->D.couple.fr, 24 * m); /* read by the wall pass before the first reaction pass */
 }
 
 /* The fluid set was rebuilt (set_fluid with new particles): the porosity array must cover it before any
  * pass reads it (reductions of the next sort read eps through eos_density); 1 until the next porosity pass. */
-static int couple_fluid_rebuilt(struct sphdem_ctx_s *c) {
+static int couple_rebuilt(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  if (!D->couple || !D->eps) return SPHDEM_OK;
+  if (set != SPHDEM_SET_FLUID || !D->couple.on || !D->couple.eps) return SPHDEM_OK;
   TRYC(ensure_couple_fluid(c, D->nf));
   if (D->nf == 0) return SPHDEM_OK;
   double *ones = (double *)malloc(8 * (size_t)D->nf);
   if (!ones) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate %lld doubles", (long long)D->nf);
   for (int64_t i = 0; i < D->nf; i++) ones[i] = 1.0;
-  int rc = rt_h2d(&c->rt, D->eps, ones, 8 * (size_t)D->nf);
+  int rc = rt_h2d(&c->rt, D->couple.eps, ones, 8 * (size_t)D->nf);
   free(ones);
-  if (!rc) rc = rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf); /* grain forces are kept (until compute_rates) */
+  if (!rc) rc = rt_zero(&c->rt, D->couple.fr, 24 * (size_t)D->nf); /* grain forces are kept (until compute_rates) */
   return rc;
 }
 
 static void couple_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   sphdem_cpu_couple_lists_free(c); /* CPU pair lists (host memory; nothing on the GPU backend) */
-  sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
-  c->cap_cw = 0;
+  sphdem_dfree(c, (void **)&D->couple.wall_porosity, 8 * (size_t)c->couple.cap_cw);
+  c->couple.cap_cw = 0;
   free_grains(c);
-  sphdem_dfree(c, (void **)&D->gcstart, 4 * (size_t)c->cap_gcells);
-  sphdem_dfree(c, (void **)&D->gcend, 4 * (size_t)c->cap_gcells);
-  c->cap_gcells = 0;
-  sphdem_dfree(c, (void **)&D->eps, 8 * (size_t)c->cap_cf);
-  sphdem_dfree(c, (void **)&D->fr, 24 * (size_t)c->cap_cf);
-  c->cap_cf = 0;
-  free(c->hgf);
-  c->hgf = NULL;
-  c->cap_hgf = 0;
-  sphdem_idx_free(&c->rt, &c->gidx_buf);
-  sphdem_grains_destroy(&c->gstore);
-  D->ng = 0;
-  D->couple = D->couple_eos = D->pressure_volume_form = 0;
-  c->nforces = 0;
-  c->forces_valid = 0;
-  c->grains_dirty = 0;
+  sphdem_dfree(c, (void **)&D->couple.gcstart, 4 * (size_t)c->couple.cap_gcells);
+  sphdem_dfree(c, (void **)&D->couple.gcend, 4 * (size_t)c->couple.cap_gcells);
+  c->couple.cap_gcells = 0;
+  sphdem_dfree(c, (void **)&D->couple.eps, 8 * (size_t)c->couple.cap_cf);
+  sphdem_dfree(c, (void **)&D->couple.fr, 24 * (size_t)c->couple.cap_cf);
+  c->couple.cap_cf = 0;
+  free(c->couple.hgf);
+  c->couple.hgf = NULL;
+  c->couple.cap_hgf = 0;
+  sphdem_idx_free(&c->rt, &c->couple.gidx_buf);
+  sphdem_grains_destroy(&c->couple.gstore);
+  D->couple.ng = 0;
+  D->couple.on = D->couple.eos = D->couple.pressure_volume_form = 0;
+  c->couple.nforces = 0;
+  c->couple.forces_valid = 0;
+  c->couple.grains_dirty = 0;
 }
 
 /* ---- API ------------------------------------------------------------------------------------------ */
@@ -184,38 +184,38 @@ int sphdem_couple_set(sphdem_ctx c, const sphdem_couple_params *cp) {
   char msg[512];
   if (couple_check(cp, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: %s", msg);
-  if (cp->enabled && c->D.mp)
+  if (cp->enabled && c->D.mp.on)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set: the SPH-DEM coupling cannot be combined with the multiphase "
                                           "fluid yet");
-  c->cp = *cp;
+  c->couple.cp = *cp;
   sphdem_dev *D = &c->D;
   if (!cp->enabled) { /* off and free */
     couple_release(c);
     return SPHDEM_OK;
   }
-  int was_on = D->couple;
-  D->couple = 1;
-  D->couple_eos = cp->superficial;
-  D->pressure_volume_form = cp->pressure_form;
-  D->immersion_s = cp->immersion;
-  D->eps_wall_share = cp->eps_walls;
-  D->drag = cp->drag;
-  D->torque = cp->torque;
-  D->cmu = cp->mu;
-  D->eps_floor = cp->eps_min;
-  D->hc = cp->hc > 0 ? cp->hc : D->P.h;
-  D->inv_hc = 1.0 / D->hc;
-  D->alphaC = wendland_alpha(D->P.dim, D->hc);
-  D->support2c = 4.0 * D->hc * D->hc;
-  if (!was_on) { D->ng = 0; c->grains_dirty = 1; }
-  else c->grains_dirty = 1; /* dmax or hc may have changed the grain grid */
+  int was_on = D->couple.on;
+  D->couple.on = 1;
+  D->couple.eos = cp->superficial;
+  D->couple.pressure_volume_form = cp->pressure_form;
+  D->couple.immersion_s = cp->immersion;
+  D->couple.eps_wall_share = cp->eps_walls;
+  D->couple.drag = cp->drag;
+  D->couple.torque = cp->torque;
+  D->couple.cmu = cp->mu;
+  D->couple.eps_floor = cp->eps_min;
+  D->couple.hc = cp->hc > 0 ? cp->hc : D->P.h;
+  D->couple.inv_hc = 1.0 / D->couple.hc;
+  D->couple.alphaC = wendland_alpha(D->P.dim, D->couple.hc);
+  D->couple.support2c = 4.0 * D->couple.hc * D->couple.hc;
+  if (!was_on) { D->couple.ng = 0; c->couple.grains_dirty = 1; }
+  else c->couple.grains_dirty = 1; /* dmax or hc may have changed the grain grid */
   return SPHDEM_OK;
 }
 
 int sphdem_couple_get(sphdem_ctx c, sphdem_couple_params *cp) {
   if (!c || !cp) return SPHDEM_ERR_ARG;
-  if (!c->D.couple) sphdem_couple_params_default(cp);
-  else *cp = c->cp;
+  if (!c->D.couple.on) sphdem_couple_params_default(cp);
+  else *cp = c->couple.cp;
   return SPHDEM_OK;
 }
 
@@ -236,39 +236,39 @@ int sphdem_set_grains_store(sphdem_ctx c, sphdem_grain_store g, int n, const int
         return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: grain %d has a non-finite position or velocity", i);
   }
   sphdem_dev *D = &c->D;
-  if (!D->couple) return SPHDEM_OK; /* ignored while the coupling is off */
+  if (!D->couple.on) return SPHDEM_OK; /* ignored while the coupling is off */
   TRYC(ensure_grains(c, n));
   if (n > 0) {
     int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
     if (!tag) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_grains: cannot allocate %d tags", n);
     for (int i = 0; i < n; i++) tag[i] = i + 1;
-    int rc = rt_h2d(&c->rt, D->gtag, tag, 8 * (size_t)n);
+    int rc = rt_h2d(&c->rt, D->couple.gtag, tag, 8 * (size_t)n);
     free(tag);
     TRYC(rc);
     const int32_t *id = NULL;
     TRYC(sphdem_grains_device(g, &c->rt));
-    TRYC(sphdem_idx_upload(&c->rt, &c->gidx_buf, idx, n, &id));
-    TRYC(sphdem_grains_copy(&c->rt, D->gx, g->dx, id, n, 3));
-    TRYC(sphdem_grains_copy(&c->rt, D->gv, g->dv, id, n, 3));
-    TRYC(sphdem_grains_copy(&c->rt, D->grad, g->drad, id, n, 1));
-    if (with_omega) TRYC(sphdem_grains_copy(&c->rt, D->gom, g->dom, id, n, 3));
-    else TRYC(rt_zero(&c->rt, D->gom, 24 * (size_t)n));
+    TRYC(sphdem_idx_upload(&c->rt, &c->couple.gidx_buf, idx, n, &id));
+    TRYC(sphdem_grains_copy(&c->rt, D->couple.gx, g->dx, id, n, 3));
+    TRYC(sphdem_grains_copy(&c->rt, D->couple.gv, g->dv, id, n, 3));
+    TRYC(sphdem_grains_copy(&c->rt, D->couple.grad, g->drad, id, n, 1));
+    if (with_omega) TRYC(sphdem_grains_copy(&c->rt, D->couple.gom, g->dom, id, n, 3));
+    else TRYC(rt_zero(&c->rt, D->couple.gom, 24 * (size_t)n));
   }
   /* bounding box and largest diameter for the grain grid (host loop over the host arrays) */
-  c->gdmax = 0.0;
-  for (int d = 0; d < 3; d++) { c->gbb_lo[d] = 0.0; c->gbb_hi[d] = 0.0; }
+  c->couple.gdmax = 0.0;
+  for (int d = 0; d < 3; d++) { c->couple.gbb_lo[d] = 0.0; c->couple.gbb_hi[d] = 0.0; }
   for (int i = 0; i < n; i++) {
     const int64_t s = sphdem_grains_at(idx, i);
     for (int d = 0; d < dim; d++) {
       double xd = x[3 * s + d];
-      if (i == 0 || xd < c->gbb_lo[d]) c->gbb_lo[d] = xd;
-      if (i == 0 || xd > c->gbb_hi[d]) c->gbb_hi[d] = xd;
+      if (i == 0 || xd < c->couple.gbb_lo[d]) c->couple.gbb_lo[d] = xd;
+      if (i == 0 || xd > c->couple.gbb_hi[d]) c->couple.gbb_hi[d] = xd;
     }
-    if (2.0 * radius[s] > c->gdmax) c->gdmax = 2.0 * radius[s];
+    if (2.0 * radius[s] > c->couple.gdmax) c->couple.gdmax = 2.0 * radius[s];
   }
-  D->ng = n;
-  c->ngown = n;
-  c->grains_dirty = 1;
+  D->couple.ng = n;
+  c->couple.ngown = n;
+  c->couple.grains_dirty = 1;
   return SPHDEM_OK;
 }
 
@@ -278,16 +278,16 @@ int sphdem_set_grains(sphdem_ctx c, int n, const double *x, const double *v, con
   if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: negative grain count %d", n);
   if (n > 0 && (!x || !v || !radius))
     return sphdem_fail(c, SPHDEM_ERR_ARG, "set_grains: x, v and radius are required");
-  TRYC(sphdem_grains_put_private(&c->gstore, &c->rt, c->backend, n, x, v, omega, radius, NULL));
-  return sphdem_set_grains_store(c, c->gstore, n, NULL, omega != NULL);
+  TRYC(sphdem_grains_put_private(&c->couple.gstore, &c->rt, c->backend, n, x, v, omega, radius, NULL));
+  return sphdem_set_grains_store(c, c->couple.gstore, n, NULL, omega != NULL);
 }
 
 int sphdem_couple_set_ghosts(sphdem_ctx c, int nghost) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (nghost < 0 || nghost > c->D.ng)
+  if (nghost < 0 || nghost > c->D.couple.ng)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set_ghosts: %d ghost grains for %lld grains", nghost,
-                       (long long)c->D.ng);
-  c->ngown = c->D.ng - nghost;
+                       (long long)c->D.couple.ng);
+  c->couple.ngown = c->D.couple.ng - nghost;
   return SPHDEM_OK;
 }
 
@@ -295,31 +295,34 @@ int sphdem_couple_set_ghosts(sphdem_ctx c, int nghost) {
 
 static int build_grain_grid(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  double dmax = c->cp.dmax > 0 ? c->cp.dmax : c->gdmax;
-  double cmin = fmax(dmax, 2.0 * D->hc / SPHDEM_COUPLE_MAX_LAYERS), scale = 1.0;
+  double dmax = c->couple.cp.dmax > 0 ? c->couple.cp.dmax : c->couple.gdmax;
+  double cmin = fmax(dmax, 2.0 * D->couple.hc / SPHDEM_COUPLE_MAX_LAYERS), scale = 1.0;
   /* CPU, dmax not given: cells of at least h_c. The search box (2 ceil(2 h_c/cs) + 1)^3 cs^3 is then
    * 125 h_c^3, about what d_max cells give, but with 125 cells to visit instead of up to 729 (the cell
    * visits dominated the coupling on the CPU: bench/RESULTS.md, drum). The device keeps the paper's d_max
    * cells (He 2018 2.4.1) until it is measured there. Same pairs either way: only the summation order
    * changes. */
-  if (c->cp.dmax <= 0 && c->backend == SPHDEM_DEVICE_CPU) cmin = fmax(cmin, D->hc);
+  if (c->couple.cp.dmax <= 0 && c->backend == SPHDEM_DEVICE_CPU) cmin = fmax(cmin, D->couple.hc);
   for (int iter = 0; iter < 64; iter++) {
     double total = 1.0; /* in double: three axes of up to 1e9 cells overflow int64 */
     for (int d = 0; d < 3; d++) {
-      if (d >= D->P.dim) { D->gnc[d] = 1; D->gglo[d] = 0.0; D->gcs[d] = 1.0; D->gcs_inv[d] = 1.0; continue; }
+      if (d >= D->P.dim) {
+        D->couple.gnc[d] = 1; D->couple.gglo[d] = 0.0; D->couple.gcs[d] = 1.0; D->couple.gcs_inv[d] = 1.0;
+        continue;
+      }
       double lo, len, cs = cmin * scale;
       if (D->P.periodic[d]) { lo = D->P.boxlo[d]; len = D->P.boxhi[d] - D->P.boxlo[d]; }
-      else { lo = c->gbb_lo[d]; len = c->gbb_hi[d] - c->gbb_lo[d]; }
+      else { lo = c->couple.gbb_lo[d]; len = c->couple.gbb_hi[d] - c->couple.gbb_lo[d]; }
       int n = (int)fmin(floor(len / cs), 1e9);
       if (n < 1) n = 1;
       if (D->P.periodic[d]) cs = len / n;
       else if (len > 0) cs = fmax(cs, len / n);
-      D->gnc[d] = n; D->gglo[d] = lo; D->gcs[d] = cs; D->gcs_inv[d] = 1.0 / cs;
+      D->couple.gnc[d] = n; D->couple.gglo[d] = lo; D->couple.gcs[d] = cs; D->couple.gcs_inv[d] = 1.0 / cs;
       total *= n;
     }
     if (total <= SPHDEM_MAX_CELLS) {
-      D->gncells = (int64_t)total;
-      return ensure_grain_cells(c, D->gncells);
+      D->couple.gncells = (int64_t)total;
+      return ensure_grain_cells(c, D->couple.gncells);
     }
     scale *= 1.26;
   }
@@ -329,29 +332,30 @@ static int build_grain_grid(struct sphdem_ctx_s *c) {
 static int sort_grains(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(build_grain_grid(c));
-  int64_t n = D->ng;
+  int64_t n = D->couple.ng;
   if (n > 0) {
     TRYC(sphdem_ensure_scratch(c, n));
     TRYC(c->ops->sort_perm(c, SPHDEM_SET_GRAIN));
-    void *arr[] = {D->gx, D->gv, D->gom, D->grad, D->gtag};
+    void *arr[] = {D->couple.gx, D->couple.gv, D->couple.gom, D->couple.grad, D->couple.gtag};
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRYC(c->ops->gather(c, arr[k], eb[k], n));
     TRYC(c->ops->cell_ranges(c, SPHDEM_SET_GRAIN));
   } else {
-    TRYC(rt_zero(&c->rt, D->gcstart, 4 * (size_t)D->gncells));
-    TRYC(rt_zero(&c->rt, D->gcend, 4 * (size_t)D->gncells));
+    TRYC(rt_zero(&c->rt, D->couple.gcstart, 4 * (size_t)D->couple.gncells));
+    TRYC(rt_zero(&c->rt, D->couple.gcend, 4 * (size_t)D->couple.gncells));
   }
-  c->grains_dirty = 0;
+  c->couple.grains_dirty = 0;
   return SPHDEM_OK;
 }
 
 static void set_layers(sphdem_dev *D) {
   for (int d = 0; d < 3; d++) {
-    if (d >= D->P.dim) { D->glay[d] = D->flay[d] = 0; continue; }
+    if (d >= D->P.dim) { D->couple.glay[d] = D->couple.flay[d] = 0; continue; }
     /* clamped in double before the cast: more layers than cells visit the same cells (walk_init) */
-    double gl = ceil(2.0 * D->hc * D->gcs_inv[d]), fl = ceil((2.0 * D->hc + 0.5 * D->P.skin) * D->cs_inv[d]);
-    D->glay[d] = gl >= 1.0 ? (gl < (double)D->gnc[d] ? (int)gl : D->gnc[d]) : 1;
-    D->flay[d] = fl >= 1.0 ? (fl < (double)D->nc[d] ? (int)fl : D->nc[d]) : 1;
+    double gl = ceil(2.0 * D->couple.hc * D->couple.gcs_inv[d]);
+    double fl = ceil((2.0 * D->couple.hc + 0.5 * D->P.skin) * D->cs_inv[d]);
+    D->couple.glay[d] = gl >= 1.0 ? (gl < (double)D->couple.gnc[d] ? (int)gl : D->couple.gnc[d]) : 1;
+    D->couple.flay[d] = fl >= 1.0 ? (fl < (double)D->nc[d] ? (int)fl : D->nc[d]) : 1;
   }
 }
 
@@ -359,16 +363,16 @@ static int couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYC(ensure_couple_fluid(c, D->nf));
   /* wall porosity (wall_porosity 1), written by the wall-state pass */
-  if (D->couple_eos && c->cp.wall_porosity && (D->nw > c->cap_cw || !D->wall_porosity)) {
-    sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
-    c->cap_cw = 0;
-    TRYC(sphdem_dalloc(c, (void **)&D->wall_porosity, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
-    c->cap_cw = D->nw > 0 ? D->nw : 1;
-  } else if ((!D->couple_eos || !c->cp.wall_porosity) && D->wall_porosity) {
-    sphdem_dfree(c, (void **)&D->wall_porosity, 8 * (size_t)c->cap_cw);
-    c->cap_cw = 0;
+  if (D->couple.eos && c->couple.cp.wall_porosity && (D->nw > c->couple.cap_cw || !D->couple.wall_porosity)) {
+    sphdem_dfree(c, (void **)&D->couple.wall_porosity, 8 * (size_t)c->couple.cap_cw);
+    c->couple.cap_cw = 0;
+    TRYC(sphdem_dalloc(c, (void **)&D->couple.wall_porosity, 8 * (size_t)(D->nw > 0 ? D->nw : 1)));
+    c->couple.cap_cw = D->nw > 0 ? D->nw : 1;
+  } else if ((!D->couple.eos || !c->couple.cp.wall_porosity) && D->couple.wall_porosity) {
+    sphdem_dfree(c, (void **)&D->couple.wall_porosity, 8 * (size_t)c->couple.cap_cw);
+    c->couple.cap_cw = 0;
   }
-  if (c->grains_dirty || D->gncells == 0) TRYC(sort_grains(c));
+  if (c->couple.grains_dirty || D->couple.gncells == 0) TRYC(sort_grains(c));
   set_layers(D);
   TRYC(c->ops->couple_porosity(c));
   TRYC(rt_sync(&c->rt));
@@ -377,54 +381,54 @@ static int couple_prepare(struct sphdem_ctx_s *c) {
 
 static int couple_finish(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  int64_t n = D->ng;
+  int64_t n = D->couple.ng;
   if (n > 0 && D->nf > 0) {
     TRYC(c->ops->couple_grains(c));
     TRYC(rt_sync(&c->rt));
     TRYC(c->ops->couple_reaction(c));
   } else { /* no grain, or no fluid on this rank (many ranks): no force either way */
-    if (D->nf > 0) TRYC(rt_zero(&c->rt, D->fr, 24 * (size_t)D->nf));
-    double *gz[4] = {D->gf, D->gfd, D->gfpg, D->gtq};
+    if (D->nf > 0) TRYC(rt_zero(&c->rt, D->couple.fr, 24 * (size_t)D->nf));
+    double *gz[4] = {D->couple.gf, D->couple.gfd, D->couple.gfpg, D->couple.gtq};
     for (int k = 0; k < 4 && n > 0; k++) TRYC(rt_zero(&c->rt, gz[k], 24 * (size_t)n));
   }
   TRYC(rt_sync(&c->rt));
   /* grain forces to host memory, in upload order */
-  if (12 * n > c->cap_hgf) {
-    free(c->hgf);
-    c->hgf = (double *)malloc(8 * (size_t)(12 * n));
-    c->cap_hgf = c->hgf ? 12 * n : 0;
-    if (!c->hgf) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host force buffers");
+  if (12 * n > c->couple.cap_hgf) {
+    free(c->couple.hgf);
+    c->couple.hgf = (double *)malloc(8 * (size_t)(12 * n));
+    c->couple.cap_hgf = c->couple.hgf ? 12 * n : 0;
+    if (!c->couple.hgf) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host force buffers");
   }
   if (n > 0) {
     int64_t *tag = (int64_t *)malloc(8 * (size_t)n);
     double *buf = (double *)malloc(24 * (size_t)n);
     int rc = tag && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
-    if (!rc) rc = rt_d2h(&c->rt, tag, D->gtag, 8 * (size_t)n);
-    const double *src[4] = {D->gf, D->gfd, D->gfpg, D->gtq};
+    if (!rc) rc = rt_d2h(&c->rt, tag, D->couple.gtag, 8 * (size_t)n);
+    const double *src[4] = {D->couple.gf, D->couple.gfd, D->couple.gfpg, D->couple.gtq};
     for (int k = 0; !rc && k < 4; k++) {
       rc = rt_d2h(&c->rt, buf, src[k], 24 * (size_t)n);
       for (int64_t s = 0; !rc && s < n; s++)
-        for (int d = 0; d < 3; d++) c->hgf[3 * (k * n + (tag[s] - 1)) + d] = buf[3 * s + d];
+        for (int d = 0; d < 3; d++) c->couple.hgf[3 * (k * n + (tag[s] - 1)) + d] = buf[3 * s + d];
     }
     free(tag);
     free(buf);
     TRYC(rc);
   }
-  c->nforces = n;
-  c->forces_valid = 1;
+  c->couple.nforces = n;
+  c->couple.forces_valid = 1;
   return SPHDEM_OK;
 }
 
 int sphdem_get_grain_forces(sphdem_ctx c, double *f, double *fdrag, double *fpg, double *torque) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (!c->D.couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_grain_forces: the coupling is off");
-  if (!c->forces_valid)
+  if (!c->D.couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_grain_forces: the coupling is off");
+  if (!c->couple.forces_valid)
     return sphdem_fail(c, SPHDEM_ERR_STATE, "get_grain_forces: no forces yet (call sphdem_compute_rates "
                                              "after sphdem_set_grains)");
-  int64_t n = c->nforces;
+  int64_t n = c->couple.nforces;
   double *dst[4] = {f, fdrag, fpg, torque};
   for (int k = 0; k < 4; k++)
-    if (dst[k] && n > 0) memcpy(dst[k], c->hgf + 3 * k * n, 24 * (size_t)n);
+    if (dst[k] && n > 0) memcpy(dst[k], c->couple.hgf + 3 * k * n, 24 * (size_t)n);
   return SPHDEM_OK;
 }
 
@@ -437,11 +441,11 @@ static int download_fluid_coupling(struct sphdem_ctx_s *c, double *eps, double *
   int rc = ui && buf ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate host staging");
   if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc && eps) {
-    rc = rt_d2h(&c->rt, buf, D->eps, 8 * (size_t)n);
+    rc = rt_d2h(&c->rt, buf, D->couple.eps, 8 * (size_t)n);
     for (int64_t s = 0; !rc && s < n; s++) eps[ui[s]] = buf[s];
   }
   if (!rc && fr) {
-    rc = rt_d2h(&c->rt, buf, D->fr, 24 * (size_t)n);
+    rc = rt_d2h(&c->rt, buf, D->couple.fr, 24 * (size_t)n);
     for (int64_t s = 0; !rc && s < n; s++)
       for (int d = 0; d < 3; d++) fr[3 * (int64_t)ui[s] + d] = buf[3 * s + d];
   }
@@ -452,10 +456,10 @@ static int download_fluid_coupling(struct sphdem_ctx_s *c, double *eps, double *
 
 int sphdem_get_porosity(sphdem_ctx c, double *eps) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (!c->D.couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_porosity: the coupling is off");
+  if (!c->D.couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "get_porosity: the coupling is off");
   if (c->D.nf == 0) return SPHDEM_OK;
   if (!eps) return sphdem_fail(c, SPHDEM_ERR_ARG, "get_porosity: eps is NULL");
-  if (c->cap_cf < c->D.nf || !c->forces_valid)
+  if (c->couple.cap_cf < c->D.nf || !c->couple.forces_valid)
     return sphdem_fail(c, SPHDEM_ERR_STATE, "get_porosity: no porosity yet (call sphdem_compute_rates)");
   return download_fluid_coupling(c, eps, NULL);
 }
@@ -463,7 +467,7 @@ int sphdem_get_porosity(sphdem_ctx c, double *eps) {
 int sphdem_couple_seed_porosity(sphdem_ctx c, int n, const double *eps) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (!D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_seed_porosity: the coupling is off");
+  if (!D->couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_seed_porosity: the coupling is off");
   if ((int64_t)n != D->nf)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_seed_porosity: n = %d, but %lld fluid particles are uploaded", n,
                        (long long)D->nf);
@@ -479,7 +483,7 @@ int sphdem_couple_seed_porosity(sphdem_ctx c, int n, const double *eps) {
   if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc) {
     for (int s = 0; s < n; s++) buf[s] = eps[ui[s]]; /* device slot s holds upload index ui[s] */
-    rc = rt_h2d(&c->rt, D->eps, buf, 8 * (size_t)n);
+    rc = rt_h2d(&c->rt, D->couple.eps, buf, 8 * (size_t)n);
   }
   free(ui);
   free(buf);
@@ -491,10 +495,11 @@ int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
   memset(s, 0, sizeof *s);
   s->eps_min = 1.0;
   sphdem_dev *D = &c->D;
-  if (!D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_stats_get: the coupling is off");
+  if (!D->couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "couple_stats_get: the coupling is off");
   /* the owned grains and fluid of this rank (upload order: owned first), summed over the ranks (collective) */
   const int many = rt_nranks(&c->rt) > 1;
-  double ng = (double)(c->ngown < D->ng ? c->ngown : D->ng), valid = c->forces_valid ? 1.0 : 0.0;
+  double ng = (double)(c->couple.ngown < D->couple.ng ? c->couple.ngown : D->couple.ng);
+  double valid = c->couple.forces_valid ? 1.0 : 0.0;
   if (many) {
     TRYC(sphdem_rt_allreduce(&c->rt, &ng, 1, SPHDEM_RED_SUM));
     TRYC(sphdem_rt_allreduce(&c->rt, &valid, 1, SPHDEM_RED_MIN));
@@ -502,11 +507,11 @@ int sphdem_couple_stats_get(sphdem_ctx c, sphdem_couple_stats *s) {
   s->ngrains = (int64_t)ng;
   if (!(valid > 0.5)) return SPHDEM_OK;
   long double fg[3] = {0, 0, 0}, ff[3] = {0, 0, 0};
-  const int64_t ngo = c->ngown < c->nforces ? c->ngown : c->nforces;
+  const int64_t ngo = c->couple.ngown < c->couple.nforces ? c->couple.ngown : c->couple.nforces;
   for (int64_t j = 0; j < ngo; j++)
-    for (int d = 0; d < 3; d++) fg[d] += c->hgf[3 * j + d];
+    for (int d = 0; d < 3; d++) fg[d] += c->couple.hgf[3 * j + d];
   int64_t n = D->nown;
-  if (n > 0 && c->cap_cf >= D->nf) {
+  if (n > 0 && c->couple.cap_cf >= D->nf) {
     double *e = (double *)malloc(8 * (size_t)D->nf), *fr = (double *)malloc(24 * (size_t)D->nf);
     int rc = e && fr ? download_fluid_coupling(c, e, fr)
                      : sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple_stats_get: cannot allocate host staging");
@@ -542,47 +547,47 @@ static int cmp_pair(const void *a, const void *b) {
 int64_t sphdem_debug_couple_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs) {
   if (!c) return -SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (!D->couple) return -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: the coupling is off");
-  if (c->need_sort || c->grains_dirty || !c->forces_valid)
+  if (!D->couple.on) return -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: the coupling is off");
+  if (c->need_sort || c->couple.grains_dirty || !c->couple.forces_valid)
     return -sphdem_fail(c, SPHDEM_ERR_STATE, "debug_couple_pairs: call sphdem_compute_rates first");
-  int64_t nf = D->nf, ng = D->ng;
+  int64_t nf = D->nf, ng = D->couple.ng;
   if (nf == 0 || ng == 0) return 0;
   sphdem_dev H = *D;
   H.x = (double *)malloc(24 * (size_t)nf);
-  H.gx = (double *)malloc(24 * (size_t)ng);
+  H.couple.gx = (double *)malloc(24 * (size_t)ng);
   H.cstart = (int32_t *)malloc(4 * (size_t)D->ncells);
   H.cend = (int32_t *)malloc(4 * (size_t)D->ncells);
-  H.gcstart = (int32_t *)malloc(4 * (size_t)D->gncells);
-  H.gcend = (int32_t *)malloc(4 * (size_t)D->gncells);
+  H.couple.gcstart = (int32_t *)malloc(4 * (size_t)D->couple.gncells);
+  H.couple.gcend = (int32_t *)malloc(4 * (size_t)D->couple.gncells);
   int32_t *ui = (int32_t *)malloc(4 * (size_t)nf);
   int64_t *gt = (int64_t *)malloc(8 * (size_t)ng);
   int64_t cap = 1024, np[2] = {0, 0};
   int64_t *lst[2] = {(int64_t *)malloc(16 * (size_t)cap), (int64_t *)malloc(16 * (size_t)cap)};
   int64_t caps[2] = {cap, cap};
-  int rc = H.x && H.gx && H.cstart && H.cend && H.gcstart && H.gcend && ui && gt && lst[0] && lst[1]
+  int rc = H.x && H.couple.gx && H.cstart && H.cend && H.couple.gcstart && H.couple.gcend && ui && gt && lst[0] && lst[1]
                ? SPHDEM_OK : SPHDEM_ERR_ALLOC;
   if (!rc) rc = rt_d2h(&c->rt, H.x, D->x, 24 * (size_t)nf);
-  if (!rc) rc = rt_d2h(&c->rt, H.gx, D->gx, 24 * (size_t)ng);
+  if (!rc) rc = rt_d2h(&c->rt, H.couple.gx, D->couple.gx, 24 * (size_t)ng);
   if (!rc) rc = rt_d2h(&c->rt, H.cstart, D->cstart, 4 * (size_t)D->ncells);
   if (!rc) rc = rt_d2h(&c->rt, H.cend, D->cend, 4 * (size_t)D->ncells);
-  if (!rc) rc = rt_d2h(&c->rt, H.gcstart, D->gcstart, 4 * (size_t)D->gncells);
-  if (!rc) rc = rt_d2h(&c->rt, H.gcend, D->gcend, 4 * (size_t)D->gncells);
+  if (!rc) rc = rt_d2h(&c->rt, H.couple.gcstart, D->couple.gcstart, 4 * (size_t)D->couple.gncells);
+  if (!rc) rc = rt_d2h(&c->rt, H.couple.gcend, D->couple.gcend, 4 * (size_t)D->couple.gncells);
   if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)nf);
-  if (!rc) rc = rt_d2h(&c->rt, gt, D->gtag, 8 * (size_t)ng);
+  if (!rc) rc = rt_d2h(&c->rt, gt, D->couple.gtag, 8 * (size_t)ng);
   for (int dir = 0; dir < 2 && !rc; dir++) {
     int64_t nsrc = dir == 0 ? nf : ng;
     for (int64_t i = 0; i < nsrc && !rc; i++) {
-      const double *xi = (dir == 0 ? H.x : H.gx) + 3 * i;
+      const double *xi = (dir == 0 ? H.x : H.couple.gx) + 3 * i;
       cell_walk w;
       int64_t cc;
       double r[3];
       if (dir == 0) walk_grains_around(&H, xi, &w);
       else walk_fluid_around(&H, xi, &w);
       while (!rc && walk_next(&w, &cc)) {
-        int32_t b0 = dir == 0 ? H.gcstart[cc] : H.cstart[cc], b1 = dir == 0 ? H.gcend[cc] : H.cend[cc];
+        int32_t b0 = dir == 0 ? H.couple.gcstart[cc] : H.cstart[cc], b1 = dir == 0 ? H.couple.gcend[cc] : H.cend[cc];
         for (int32_t k = b0; k < b1; k++) {
-          const double *xk = (dir == 0 ? H.gx : H.x) + 3 * k;
-          if (separation(&H, xi, xk, r) >= H.support2c) continue;
+          const double *xk = (dir == 0 ? H.couple.gx : H.x) + 3 * k;
+          if (separation(&H, xi, xk, r) >= H.couple.support2c) continue;
           if (np[dir] == caps[dir]) {
             int64_t *q = (int64_t *)realloc(lst[dir], 32 * (size_t)caps[dir]);
             if (!q) { rc = SPHDEM_ERR_ALLOC; break; }
@@ -613,14 +618,40 @@ int64_t sphdem_debug_couple_pairs(sphdem_ctx c, int64_t *pairs, int64_t maxpairs
       out = np[0];
     }
   }
-  free(H.x); free(H.gx); free(H.cstart); free(H.cend); free(H.gcstart); free(H.gcend);
+  free(H.x); free(H.couple.gx); free(H.cstart); free(H.cend); free(H.couple.gcstart); free(H.couple.gcend);
   free(ui); free(gt); free(lst[0]); free(lst[1]);
   return out;
 }
 
-static int couple_on(const struct sphdem_ctx_s *c) { return c->D.couple; }
+static int couple_on(const struct sphdem_ctx_s *c) { return c->D.couple.on; }
+
+/* The porosity follows its particles (read by get_porosity, probe and get_fluid's pressure), and the last
+ * reaction (read by the wall pass). */
+static int couple_sorted(struct sphdem_ctx_s *c, int set, int64_t n) {
+  sphdem_dev *D = &c->D;
+  if (set != SPHDEM_SET_FLUID || c->couple.cap_cf < n) return SPHDEM_OK;
+  if (D->couple.eps) TRYC(c->ops->gather(c, D->couple.eps, 8, n));
+  if (D->couple.fr) TRYC(c->ops->gather(c, D->couple.fr, 24, n));
+  return SPHDEM_OK;
+}
+
+/* get_fluid: superficial density, the EOS sees rho / eps (He 2018 eq 7); eps from the last compute_rates. */
+static int couple_host_pressure(struct sphdem_ctx_s *c, int64_t n, const double *rho, const int32_t *ui, double *p,
+                                int *done) {
+  const sphdem_dev *D = &c->D;
+  if (!D->couple.eos || !D->couple.eps || c->couple.cap_cf < n) return SPHDEM_OK;
+  double *e = (double *)malloc(8 * (size_t)n);
+  if (!e) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld doubles", (long long)n);
+  int rc = rt_d2h(&c->rt, e, D->couple.eps, 8 * (size_t)n);
+  if (rc) { free(e); return rc; }
+  for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, rho[s] / fmax(e[s], D->couple.eps_floor));
+  free(e);
+  *done = 1;
+  return SPHDEM_OK;
+}
 
 /* The coupling as a feature of the fluid context: grain sort and porosity before the EOS, grain forces and
  * the reaction on the fluid after the rates pass, both timed as SPHDEM_T_COUPLE. */
-const sphdem_feature sphdem_feature_couple = {
-    "couple", couple_on, couple_fluid_rebuilt, couple_prepare, NULL, couple_finish, couple_release, SPHDEM_T_COUPLE};
+const sphdem_feature sphdem_feature_couple = {"couple", couple_on, couple_rebuilt, couple_sorted, couple_prepare,
+                                              NULL, couple_finish, couple_host_pressure, couple_release,
+                                              SPHDEM_T_COUPLE};

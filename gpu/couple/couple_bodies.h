@@ -62,7 +62,7 @@ SPHDEM_HD int walk_next(cell_walk *w, int64_t *cell) {
 SPHDEM_HD void walk_grains_around(const sphdem_dev *D, const double *x, cell_walk *w) {
   int c[3] = {0, 0, 0};
   for (int d = 0; d < D->P.dim; d++) c[d] = grain_grid_coord(D, d, x[d]);
-  walk_init(w, D->gnc, D->P.periodic, D->P.dim, c, D->glay);
+  walk_init(w, D->couple.gnc, D->P.periodic, D->P.dim, c, D->couple.glay);
 }
 
 /* Grain -> fluid search: the grain is mapped into the SPH grid, ceil((2 hc + skin/2) / cell) layers
@@ -70,7 +70,7 @@ SPHDEM_HD void walk_grains_around(const sphdem_dev *D, const double *x, cell_wal
 SPHDEM_HD void walk_fluid_around(const sphdem_dev *D, const double *x, cell_walk *w) {
   int c[3] = {0, 0, 0};
   for (int d = 0; d < D->P.dim; d++) c[d] = grid_coord(D, d, x[d]);
-  walk_init(w, D->nc, D->P.periodic, D->P.dim, c, D->flay);
+  walk_init(w, D->nc, D->P.periodic, D->P.dim, c, D->couple.flay);
 }
 
 /* ---- closed forms ------------------------------------------------------------------------------- */
@@ -130,24 +130,25 @@ SPHDEM_HD double drag_coefficient(int law, double mu, double eps, double rhof, d
  * the normalisation and the store. The CPU backend also records the pairs (couple_cpu.c). */
 SPHDEM_HD int couple_porosity_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
   double r[3];
-  double r2 = separation(D, xa, D->gx + 3 * j, r);
-  if (r2 >= D->support2c) return 0;
-  *s += grain_volume(D->P.dim, D->grad[j]) * wendland_w(D->alphaC, sqrt(r2) * D->inv_hc);
+  double r2 = separation(D, xa, D->couple.gx + 3 * j, r);
+  if (r2 >= D->couple.support2c) return 0;
+  *s += grain_volume(D->P.dim, D->couple.grad[j]) * wendland_w(D->couple.alphaC, sqrt(r2) * D->couple.inv_hc);
   return 1;
 }
 
 SPHDEM_HD void couple_porosity_finish(const sphdem_dev *D, int64_t a, double s) {
   const double *xa = D->x + 3 * a;
-  if (D->eps_wall_share && D->nw > 0 && s > 0.0) {
+  if (D->couple.eps_wall_share && D->nw > 0 && s > 0.0) {
     double sw = 0.0;
     cell_walk w;
     int64_t cc;
     walk_fluid_around(D, xa, &w);
-    while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xa, cc, D->alphaC, D->inv_hc, D->support2c, &sw);
+    while (walk_next(&w, &cc))
+      wall_volume_sum_cell(D, xa, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sw);
     double room = 1.0 - sw;
     s /= room > 0.1 ? room : 0.1;
   }
-  D->eps[a] = 1.0 - s;
+  D->couple.eps[a] = 1.0 - s;
 }
 
 SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
@@ -157,7 +158,7 @@ SPHDEM_HD void couple_porosity_body(const sphdem_dev *D, int64_t a) {
   int64_t cc;
   walk_grains_around(D, xa, &w);
   while (walk_next(&w, &cc))
-    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) couple_porosity_add(D, xa, j, &s);
+    for (int32_t j = D->couple.gcstart[cc]; j < D->couple.gcend[cc]; j++) couple_porosity_add(D, xa, j, &s);
   couple_porosity_finish(D, a, s);
 }
 
@@ -179,19 +180,19 @@ typedef struct {
 SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b, couple_grain_acc *A) {
   double r[3];
   double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
-  if (r2 >= D->support2c) return;
-  double q = sqrt(r2) * D->inv_hc, W = wendland_w(D->alphaC, q);
+  if (r2 >= D->couple.support2c) return;
+  double q = sqrt(r2) * D->couple.inv_hc, W = wendland_w(D->couple.alphaC, q);
   double mb = D->mass[b], rhob = D->rhop[b], Vb = mb / rhob, wv = Vb * W, eb = fluid_eps(D, b);
   const double *vb = D->ve + 3 * b, *ab = D->a + 3 * b;
   A->sig += wv;
   A->se += wv * eb;
-  A->srf += wv * (D->couple_eos ? rhob / eb : rhob);
+  A->srf += wv * (D->couple.eos ? rhob / eb : rhob);
   for (int d = 0; d < D->P.dim; d++) {
     A->su[d] += wv * vb[d];
     A->sth[d] += mb * W * (ab[d] - D->P.gravity[d]);
   }
-  if (D->torque) {
-    double k = Vb * wendland_grad_factor(D->alphaC, D->inv_hc, q); /* V_b grad_j W_jb = k r */
+  if (D->couple.torque) {
+    double k = Vb * wendland_grad_factor(D->couple.alphaC, D->couple.inv_hc, q); /* V_b grad_j W_jb = k r */
     A->scr[0] += k * (r[1] * vb[2] - r[2] * vb[1]);
     A->scr[1] += k * (r[2] * vb[0] - r[0] * vb[2]);
     A->scr[2] += k * (r[0] * vb[1] - r[1] * vb[0]);
@@ -201,44 +202,44 @@ SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b
 
 /* Grain j's forces from its sums (A->sigw: the wall volume sum, used with immersion only). */
 SPHDEM_HD void couple_grain_finish(const sphdem_dev *D, int64_t j, const couple_grain_acc *A) {
-  const double *vj = D->gv + 3 * j;
+  const double *vj = D->couple.gv + 3 * j;
   int dim = D->P.dim;
   double sig = A->sig;
   double fpg[3] = {0, 0, 0}, fd[3] = {0, 0, 0}, tq[3] = {0, 0, 0}, imm = 1.0;
-  if (D->immersion_s > 0.0) {
+  if (D->couple.immersion_s > 0.0) {
     /* keyword immersion: the share of the grain's kernel support outside the walls that holds fluid */
     double room = 1.0 - A->sigw;
-    imm = room > 1e-12 ? sig / (room * D->immersion_s) : 1.0;
+    imm = room > 1e-12 ? sig / (room * D->couple.immersion_s) : 1.0;
     if (imm > 1.0) imm = 1.0;
   }
   if (sig > 0.0) {
     double inv = 1.0 / sig, u[3] = {0, 0, 0}, rel[3] = {0, 0, 0}, w2 = 0.0;
-    double rj = D->grad[j], V = grain_volume(dim, rj);
+    double rj = D->couple.grad[j], V = grain_volume(dim, rj);
     for (int d = 0; d < dim; d++) {
       u[d] = A->su[d] * inv;
       rel[d] = u[d] - vj[d];
       w2 += rel[d] * rel[d];
       fpg[d] = imm * V * A->sth[d] * inv;                                /* eqs 27-29 */
     }
-    double K = drag_coefficient(D->drag, D->cmu, A->se * inv, A->srf * inv, 2.0 * rj, sqrt(w2));
+    double K = drag_coefficient(D->couple.drag, D->couple.cmu, A->se * inv, A->srf * inv, 2.0 * rj, sqrt(w2));
     for (int d = 0; d < dim; d++) fd[d] = imm * K * V * rel[d];          /* eq 30 */
-    if (D->torque) {
+    if (D->couple.torque) {
       /* curl u = sum_b V_b grad_j W x (u_b - u_j) = scr - sgr x u */
       const double *scr = A->scr, *sgr = A->sgr;
       double cu[3] = {scr[0] - (sgr[1] * u[2] - sgr[2] * u[1]), scr[1] - (sgr[2] * u[0] - sgr[0] * u[2]),
                       scr[2] - (sgr[0] * u[1] - sgr[1] * u[0])};
-      double kt = imm * (dim == 3 ? 6.0 : 4.0) * D->cmu * V;
-      const double *om = D->gom + 3 * j;
+      double kt = imm * (dim == 3 ? 6.0 : 4.0) * D->couple.cmu * V;
+      const double *om = D->couple.gom + 3 * j;
       if (dim == 3) for (int d = 0; d < 3; d++) tq[d] = kt * (0.5 * cu[d] - om[d]);
       else tq[2] = kt * (0.5 * cu[2] - om[2]);
     }
   }
-  D->grain_shepard[j] = sig;
+  D->couple.grain_shepard[j] = sig;
   for (int d = 0; d < 3; d++) {
-    D->gfpg[3 * j + d] = fpg[d];
-    D->gfd[3 * j + d] = fd[d];
-    D->gf[3 * j + d] = fpg[d] + fd[d];                                   /* eq 27 */
-    D->gtq[3 * j + d] = tq[d];
+    D->couple.gfpg[3 * j + d] = fpg[d];
+    D->couple.gfd[3 * j + d] = fd[d];
+    D->couple.gf[3 * j + d] = fpg[d] + fd[d];                                   /* eq 27 */
+    D->couple.gtq[3 * j + d] = tq[d];
   }
 }
 
@@ -248,14 +249,15 @@ SPHDEM_HD double couple_grain_wall_sum(const sphdem_dev *D, const double *xj) {
   cell_walk w;
   int64_t cc;
   walk_fluid_around(D, xj, &w);
-  while (walk_next(&w, &cc)) wall_volume_sum_cell(D, xj, cc, D->alphaC, D->inv_hc, D->support2c, &sigw);
+  while (walk_next(&w, &cc))
+    wall_volume_sum_cell(D, xj, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sigw);
   return sigw;
 }
 
 SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
-  const double *xj = D->gx + 3 * j;
+  const double *xj = D->couple.gx + 3 * j;
   couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-  if (D->immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+  if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
   cell_walk w;
   int64_t cc;
   walk_fluid_around(D, xj, &w);
@@ -269,17 +271,17 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
  * (The paper's prefactor m_a/rho_a with S_a an acceleration is read as this force, divided by m_a.) */
 SPHDEM_HD void couple_reaction_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
   double r[3];
-  double r2 = separation(D, xa, D->gx + 3 * j, r);
-  if (r2 >= D->support2c || !(D->grain_shepard[j] > 0.0)) return;
-  double k = wendland_w(D->alphaC, sqrt(r2) * D->inv_hc) / D->grain_shepard[j];
-  for (int d = 0; d < D->P.dim; d++) s[d] += k * D->gf[3 * j + d];
+  double r2 = separation(D, xa, D->couple.gx + 3 * j, r);
+  if (r2 >= D->couple.support2c || !(D->couple.grain_shepard[j] > 0.0)) return;
+  double k = wendland_w(D->couple.alphaC, sqrt(r2) * D->couple.inv_hc) / D->couple.grain_shepard[j];
+  for (int d = 0; d < D->P.dim; d++) s[d] += k * D->couple.gf[3 * j + d];
 }
 
 SPHDEM_HD void couple_reaction_finish(const sphdem_dev *D, int64_t a, const double *s) {
   double Va = D->mass[a] / D->rhop[a];
   for (int d = 0; d < 3; d++) {
     double f = -Va * s[d];
-    D->fr[3 * a + d] = f;
+    D->couple.fr[3 * a + d] = f;
     D->a[3 * a + d] += f / D->mass[a];
   }
 }
@@ -291,7 +293,7 @@ SPHDEM_HD void couple_reaction_body(const sphdem_dev *D, int64_t a) {
   int64_t cc;
   walk_grains_around(D, xa, &w);
   while (walk_next(&w, &cc))
-    for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++) couple_reaction_add(D, xa, j, s);
+    for (int32_t j = D->couple.gcstart[cc]; j < D->couple.gcend[cc]; j++) couple_reaction_add(D, xa, j, s);
   couple_reaction_finish(D, a, s);
 }
 

@@ -41,37 +41,39 @@ static int grow32(int32_t **p, int64_t *cap, int64_t n) {
 SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CPU_LOOP)
 
 void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c) {
-  free(c->cpl_fs); free(c->cpl_gs); free(c->cpl_f); free(c->cpl_g);
-  for (int t = 0; t < c->cpl_nt; t++) free(c->cpl_tb[t]);
-  free(c->cpl_tb); free(c->cpl_tcap); free(c->cpl_tn);
-  c->cpl_fs = c->cpl_gs = NULL; c->cpl_f = c->cpl_g = NULL; c->cpl_tb = NULL; c->cpl_tcap = c->cpl_tn = NULL;
-  c->cap_cplfs = c->cap_cplgs = c->cap_cplf = c->cap_cplg = 0;
-  c->cpl_nt = 0; c->cpl_valid = 0;
+  free(c->couple.cpl_fs); free(c->couple.cpl_gs); free(c->couple.cpl_f); free(c->couple.cpl_g);
+  for (int t = 0; t < c->couple.cpl_nt; t++) free(c->couple.cpl_tb[t]);
+  free(c->couple.cpl_tb); free(c->couple.cpl_tcap); free(c->couple.cpl_tn);
+  c->couple.cpl_fs = c->couple.cpl_gs = NULL; c->couple.cpl_f = c->couple.cpl_g = NULL;
+  c->couple.cpl_tb = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
+  c->couple.cap_cplfs = c->couple.cap_cplgs = c->couple.cap_cplf = c->couple.cap_cplg = 0;
+  c->couple.cpl_nt = 0; c->couple.cpl_valid = 0;
 }
 
 int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  int64_t nf = D->nf, ng = D->ng;
+  int64_t nf = D->nf, ng = D->couple.ng;
   int nt = 1;
 #ifdef _OPENMP
   nt = omp_get_max_threads();
 #endif
-  c->cpl_valid = 0;
+  c->couple.cpl_valid = 0;
   if (!c->cpu_sym) return sphdem_cpu_loop_couple_porosity(c);
-  if (nt > c->cpl_nt) {
-    int32_t **tb = (int32_t **)realloc(c->cpl_tb, sizeof(int32_t *) * (size_t)nt);
-    if (tb) c->cpl_tb = tb;
-    int64_t *tc = tb ? (int64_t *)realloc(c->cpl_tcap, 8 * (size_t)nt) : NULL;
-    if (tc) c->cpl_tcap = tc;
-    int64_t *tn = tc ? (int64_t *)realloc(c->cpl_tn, 8 * (size_t)nt) : NULL;
-    if (tn) c->cpl_tn = tn;
+  if (nt > c->couple.cpl_nt) {
+    int32_t **tb = (int32_t **)realloc(c->couple.cpl_tb, sizeof(int32_t *) * (size_t)nt);
+    if (tb) c->couple.cpl_tb = tb;
+    int64_t *tc = tb ? (int64_t *)realloc(c->couple.cpl_tcap, 8 * (size_t)nt) : NULL;
+    if (tc) c->couple.cpl_tcap = tc;
+    int64_t *tn = tc ? (int64_t *)realloc(c->couple.cpl_tn, 8 * (size_t)nt) : NULL;
+    if (tn) c->couple.cpl_tn = tn;
     if (!tn) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate the pair-list buffers");
-    for (int t = c->cpl_nt; t < nt; t++) { c->cpl_tb[t] = NULL; c->cpl_tcap[t] = 0; }
-    c->cpl_nt = nt;
+    for (int t = c->couple.cpl_nt; t < nt; t++) { c->couple.cpl_tb[t] = NULL; c->couple.cpl_tcap[t] = 0; }
+    c->couple.cpl_nt = nt;
   }
-  if (grow64(&c->cpl_fs, &c->cap_cplfs, nf + 1) || grow64(&c->cpl_gs, &c->cap_cplgs, ng + 1))
+  if (grow64(&c->couple.cpl_fs, &c->couple.cap_cplfs, nf + 1) ||
+      grow64(&c->couple.cpl_gs, &c->couple.cap_cplgs, ng + 1))
     return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate the pair-list starts");
-  int64_t *fs = c->cpl_fs;
+  int64_t *fs = c->couple.cpl_fs;
   int err = 0;
 #pragma omp parallel num_threads(nt) reduction(| : err)
   {
@@ -90,49 +92,51 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
       int64_t cc;
       walk_grains_around(D, xa, &w);
       while (walk_next(&w, &cc))
-        for (int32_t j = D->gcstart[cc]; j < D->gcend[cc]; j++)
+        for (int32_t j = D->couple.gcstart[cc]; j < D->couple.gcend[cc]; j++)
           if (couple_porosity_add(D, xa, j, &s)) {
-            if (!err && grow32(&c->cpl_tb[t], &c->cpl_tcap[t], n + 1)) err = 1;
-            if (!err) c->cpl_tb[t][n] = j;
+            if (!err && grow32(&c->couple.cpl_tb[t], &c->couple.cpl_tcap[t], n + 1)) err = 1;
+            if (!err) c->couple.cpl_tb[t][n] = j;
             n++;
           }
       couple_porosity_finish(D, a, s);
       fs[a + 1] = n - n0;
     }
-    c->cpl_tn[t] = n;
+    c->couple.cpl_tn[t] = n;
   }
   if (err) return SPHDEM_OK; /* porosity is done; the other passes walk the cells (cpl_valid stays 0) */
   fs[0] = 0;
   for (int64_t a = 0; a < nf; a++) fs[a + 1] += fs[a];
-  if (grow32(&c->cpl_f, &c->cap_cplf, fs[nf] + 1) || grow32(&c->cpl_g, &c->cap_cplg, fs[nf] + 1)) return SPHDEM_OK;
+  if (grow32(&c->couple.cpl_f, &c->couple.cap_cplf, fs[nf] + 1) ||
+      grow32(&c->couple.cpl_g, &c->couple.cap_cplg, fs[nf] + 1))
+    return SPHDEM_OK;
   int64_t off = 0;
   for (int t = 0; t < nt; t++) {
-    if (c->cpl_tn[t] > 0) memcpy(c->cpl_f + off, c->cpl_tb[t], 4 * (size_t)c->cpl_tn[t]);
-    off += c->cpl_tn[t];
+    if (c->couple.cpl_tn[t] > 0) memcpy(c->couple.cpl_f + off, c->couple.cpl_tb[t], 4 * (size_t)c->couple.cpl_tn[t]);
+    off += c->couple.cpl_tn[t];
   }
   /* transpose: each grain's fluid particles in ascending fluid index */
-  int64_t *gs = c->cpl_gs;
+  int64_t *gs = c->couple.cpl_gs;
   memset(gs, 0, 8 * (size_t)(ng + 1));
-  for (int64_t k = 0; k < fs[nf]; k++) gs[c->cpl_f[k] + 1]++;
+  for (int64_t k = 0; k < fs[nf]; k++) gs[c->couple.cpl_f[k] + 1]++;
   for (int64_t j = 0; j < ng; j++) gs[j + 1] += gs[j];
   for (int64_t a = 0; a < nf; a++)
-    for (int64_t k = fs[a]; k < fs[a + 1]; k++) c->cpl_g[gs[c->cpl_f[k]]++] = (int32_t)a;
+    for (int64_t k = fs[a]; k < fs[a + 1]; k++) c->couple.cpl_g[gs[c->couple.cpl_f[k]]++] = (int32_t)a;
   for (int64_t j = ng; j > 0; j--) gs[j] = gs[j - 1]; /* the fill advanced each start to its end */
   gs[0] = 0;
-  c->cpl_valid = 1;
+  c->couple.cpl_valid = 1;
   return SPHDEM_OK;
 }
 
 int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!c->cpl_valid) return sphdem_cpu_loop_couple_grains(c);
-  const int64_t *gs = c->cpl_gs;
-  const int32_t *gl = c->cpl_g;
+  if (!c->couple.cpl_valid) return sphdem_cpu_loop_couple_grains(c);
+  const int64_t *gs = c->couple.cpl_gs;
+  const int32_t *gl = c->couple.cpl_g;
 #pragma omp parallel for schedule(dynamic, 16)
-  for (int64_t j = 0; j < D->ng; j++) {
-    const double *xj = D->gx + 3 * j;
+  for (int64_t j = 0; j < D->couple.ng; j++) {
+    const double *xj = D->couple.gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-    if (D->immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+    if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
     for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
     couple_grain_finish(D, j, &A);
   }
@@ -141,9 +145,9 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
 
 int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (!c->cpl_valid) return sphdem_cpu_loop_couple_reaction(c);
-  const int64_t *fs = c->cpl_fs;
-  const int32_t *fl = c->cpl_f;
+  if (!c->couple.cpl_valid) return sphdem_cpu_loop_couple_reaction(c);
+  const int64_t *fs = c->couple.cpl_fs;
+  const int32_t *fl = c->couple.cpl_f;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t a = 0; a < D->nf; a++) {
     const double *xa = D->x + 3 * a;
@@ -151,6 +155,6 @@ int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c) {
     for (int64_t k = fs[a]; k < fs[a + 1]; k++) couple_reaction_add(D, xa, fl[k], s);
     couple_reaction_finish(D, a, s);
   }
-  c->cpl_valid = 0; /* one step's pairs */
+  c->couple.cpl_valid = 0; /* one step's pairs */
   return SPHDEM_OK;
 }

@@ -73,7 +73,7 @@ static int c_fill(struct sphdem_dem_s *m) {
     qsort(perm, (size_t)np, sizeof(int32_t), cmp_key);
   }
   uint64_t *k2 = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)(np ? np : 1));
-  if (!k2) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair sort buffer");
+  if (!k2) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair sort buffer");
   for (int64_t p = 0; p < np; p++) k2[p] = D->key[perm[p]];
   memcpy(D->key, k2, sizeof(uint64_t) * (size_t)np);
   free(k2);
@@ -147,7 +147,7 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
   if (np > m->cap_pfb) {
     int64_t cap = np + np / 4 + 64;
     double *b = (double *)realloc(m->cpu_pfb, sizeof(double) * 6 * (size_t)cap);
-    if (!b) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
+    if (!b) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
     m->cpu_pfb = b;
     m->cap_pfb = cap;
   }

@@ -2,7 +2,8 @@
 #ifndef SPHDEM_DEM_INTERNAL_H
 #define SPHDEM_DEM_INTERNAL_H
 
-#include "sph_internal.h"
+#include "hd.h"
+#include "runtime.h"
 #include "dem_passes.h"
 
 #define SPHDEM_DEM_NHIST 5      /* per pair: tangential displacement xyz, touch flag, largest overlap

@@ -721,6 +721,20 @@ size_t sphdem_cfd_device_bytes(sphdem_cfd c);
 double sphdem_cfd_drag_coef(int drag, double eps, double slip, double d, double rho_g, double mu_g);
 
 /* ---- set-up of a fluid at rest (sph/sph_setup.c): context-free, for the engine shims ----------------- */
+/* The free surface for a hydrostatic start from the n particles x (3n): the highest one against gravity, along
+ * the axis of the largest gravity component (as sphdem_initial_density takes it), plus dx/2; over every rank
+ * with comm (collective; NULL: this rank alone). axis (0-2) and up (+1: the surface is the highest particle,
+ * -1: the lowest, gravity along +axis) may be NULL. SPHDEM_ERR_ARG for bad arguments. */
+int sphdem_free_surface(const sphdem_params *p, int n, const double *x, const sphdem_comm *comm, double *zsurf,
+                        int *axis, int *up);
+/* The factor rho / rho0 (rho0 of the particle's phase when m is enabled) by which a lattice particle's mass
+ * m0 = rho0 V is scaled when it starts at density rho, so that its SPH volume m / rho stays V. */
+double sphdem_volume_mass_factor(const sphdem_params *p, const sphdem_mp_params *m, int phase, double rho);
+/* Superficial SPH-DEM coupling (He 2018 eq 6: the density variable is eps rho_f): fresh particles which[j]
+ * (j < nout) among grains start at rho = e rho and, when mass is given, m = e m, e = max(eps, eps_min) the
+ * porosity of the first rate evaluation, so that their volume m / rho stays the lattice volume. */
+int sphdem_superficial_start(double eps_min, int nout, const int *which, const double *eps, double *rho,
+                             double *mass);
 /* Initial density of fluid particles that have no state yet. n particles (x 3n; phase n, the phase index
  * of each, used when m is given and m->enabled) are the whole fluid; rho[j] is written for particle
  * which[j], j < nout. Single phase (m NULL or not enabled): rho0, or with hydrostatic the Tait-inverted

@@ -15,7 +15,7 @@ SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
   R->xa = D->x + 3 * a; R->va = D->ve + 3 * a;
   R->rhoa = D->rhop[a]; R->pra = D->pr2[a]; R->drho = 0.0; R->epsa = fluid_eps(D, a);
   for (int d = 0; d < 3; d++) { R->acc[d] = d < D->P.dim ? D->P.gravity[d] : 0.0; R->u[d] = 0.0; }
-  if (D->mp) dplus_init(D, a, R);
+  if (D->mp.on) dplus_init(D, a, R);
 }
 
 /* Fluid neighbour b of a, gathered into a's rates: the record of the pair times its weight (the partner's
@@ -23,7 +23,7 @@ SPHDEM_HD void rates_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
 SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
   fluid_pair_rec P;
   double w;
-  if (D->mp) {
+  if (D->mp.on) {
     if (!dplus_pair_terms(D, R, b, &P)) return;
     w = 1.0;
   } else {
@@ -35,7 +35,7 @@ SPHDEM_HD void rates_fluid_pair(const sphdem_dev *D, rates_acc *R, int32_t b) {
 }
 
 SPHDEM_HD void rates_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
-  if (D->mp) dplus_wall_pair(D, R, w);
+  if (D->mp.on) dplus_wall_pair(D, R, w);
   else plain_wall_pair(D, R, w);
 }
 
@@ -55,7 +55,7 @@ SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
   D->drho[a] = R->drho;
   for (int d = 0; d < 3; d++) {
     D->a[3 * a + d] = R->acc[d];
-    D->u[3 * a + d] = D->mp ? R->u[d] + R->dua[d] : R->u[d];
+    D->u[3 * a + d] = D->mp.on ? R->u[d] + R->dua[d] : R->u[d];
   }
 }
 

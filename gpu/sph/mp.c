@@ -89,10 +89,10 @@ double sphdem_mp_pressure(const sphdem_mp_params *m, const sphdem_params *p, int
   sphdem_dev D;
   memset(&D, 0, sizeof D);
   D.P = *p;
-  D.M = *m;
+  D.mp.M = *m;
   D.gamma_is_7 = p->gamma == 7.0;
-  D.ck[k] = m->phase[k].c0 > 0 ? m->phase[k].c0 : p->c0;
-  D.Bk[k] = D.ck[k] * D.ck[k] * m->phase[k].rho0 / p->gamma;
+  D.mp.ck[k] = m->phase[k].c0 > 0 ? m->phase[k].c0 : p->c0;
+  D.mp.Bk[k] = D.mp.ck[k] * D.mp.ck[k] * m->phase[k].rho0 / p->gamma;
   return mp_pressure_k(&D, k, rho);
 }
 
@@ -108,48 +108,48 @@ double sphdem_mp_density(const sphdem_mp_params *m, const sphdem_params *p, int 
 
 static void mp_release(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
-  size_t n = (size_t)c->cap_mp;
-  sphdem_dfree(c, (void **)&D->ph, 4 * n);
-  sphdem_dfree(c, (void **)&D->mu_p, 8 * n);
-  sphdem_dfree(c, (void **)&D->gdot, 8 * n);
-  sphdem_dfree(c, (void **)&D->Lm, 48 * n);
-  sphdem_dfree(c, (void **)&D->gdr, 24 * n);
-  sphdem_dfree(c, (void **)&D->lam, 8 * n);
-  sphdem_dfree(c, (void **)&D->dus, 24 * n);
-  c->cap_mp = 0;
-  c->mp_ready = 0;
-  D->mp = 0;
+  size_t n = (size_t)c->mp.cap;
+  sphdem_dfree(c, (void **)&D->mp.ph, 4 * n);
+  sphdem_dfree(c, (void **)&D->mp.mu_p, 8 * n);
+  sphdem_dfree(c, (void **)&D->mp.gdot, 8 * n);
+  sphdem_dfree(c, (void **)&D->mp.Lm, 48 * n);
+  sphdem_dfree(c, (void **)&D->mp.gdr, 24 * n);
+  sphdem_dfree(c, (void **)&D->mp.lam, 8 * n);
+  sphdem_dfree(c, (void **)&D->mp.dus, 24 * n);
+  c->mp.cap = 0;
+  c->mp.ready = 0;
+  D->mp.on = 0;
 }
 
 /* Arrays for n fluid particles; phases and fields zeroed when (re)allocated. */
 static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
   sphdem_dev *D = &c->D;
-  if (n <= c->cap_mp && c->cap_mp > 0) return SPHDEM_OK;
-  int mp = D->mp;
+  if (n <= c->mp.cap && c->mp.cap > 0) return SPHDEM_OK;
+  int mp = D->mp.on;
   mp_release(c);
-  D->mp = mp;
+  D->mp.on = mp;
   size_t m = (size_t)(n > 0 ? n : 1);
-  TRYM(sphdem_dalloc(c, (void **)&D->ph, 4 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mu_p, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->gdot, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->Lm, 48 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->gdr, 24 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->lam, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->dus, 24 * m));
-  c->cap_mp = (int64_t)m;
-  TRYM(rt_zero(&c->rt, D->ph, 4 * m));
-  TRYM(rt_zero(&c->rt, D->mu_p, 8 * m));
-  TRYM(rt_zero(&c->rt, D->dus, 24 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.ph, 4 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.mu_p, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.gdot, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.Lm, 48 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.gdr, 24 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.lam, 8 * m));
+  TRYM(sphdem_dalloc(c, (void **)&D->mp.dus, 24 * m));
+  c->mp.cap = (int64_t)m;
+  TRYM(rt_zero(&c->rt, D->mp.ph, 4 * m));
+  TRYM(rt_zero(&c->rt, D->mp.mu_p, 8 * m));
+  TRYM(rt_zero(&c->rt, D->mp.dus, 24 * m));
   return SPHDEM_OK;
 }
 
-static int mp_fluid_rebuilt(struct sphdem_ctx_s *c) {
+static int mp_rebuilt(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
-  if (!D->mp) return SPHDEM_OK;
+  if (set != SPHDEM_SET_FLUID || !D->mp.on) return SPHDEM_OK;
   TRYM(ensure_mp(c, D->nf));
-  c->mp_ready = 0;
+  c->mp.ready = 0;
   /* a rebuilt fluid starts in phase 0 until sphdem_set_fluid_phase */
-  if (D->nf > 0) TRYM(rt_zero(&c->rt, D->ph, 4 * (size_t)D->nf));
+  if (D->nf > 0) TRYM(rt_zero(&c->rt, D->mp.ph, 4 * (size_t)D->nf));
   return SPHDEM_OK;
 }
 
@@ -174,53 +174,53 @@ int sphdem_mp_set(sphdem_ctx c, const sphdem_mp_params *m_in) {
   if (sphdem_mp_params_check(m, &c->D.P, msg, sizeof msg) != SPHDEM_OK)
     return sphdem_fail(c, SPHDEM_ERR_ARG, "mp_set: %s", msg);
   sphdem_dev *D = &c->D;
-  if (!m->enabled) { if (D->mp) c->nl_dirty = 1; mp_release(c); D->M = *m; return SPHDEM_OK; }
-  if (D->couple)
+  if (!m->enabled) { if (D->mp.on) c->nl_dirty = 1; mp_release(c); D->mp.M = *m; return SPHDEM_OK; }
+  if (D->couple.on)
     return sphdem_fail(c, SPHDEM_ERR_ARG, m->single ? SPHDEM_MP_COUPLE_WHY :
                        "mp_set: the multiphase fluid cannot be combined with the SPH-DEM coupling yet");
-  int was_on = D->mp;
-  D->M = *m;
-  D->mp = 1;
+  int was_on = D->mp.on;
+  D->mp.M = *m;
+  D->mp.on = 1;
   c->nl_dirty = 1; /* the CPU's fluid lists: full lists for the delta-plus gather, half lists otherwise */
   sphdem_rederive(c);
   if (!was_on) {
     TRYM(ensure_mp(c, D->nf));
-    if (D->nf > 0) TRYM(rt_zero(&c->rt, D->ph, 4 * (size_t)D->nf));
-    c->mp_ready = 0;
+    if (D->nf > 0) TRYM(rt_zero(&c->rt, D->mp.ph, 4 * (size_t)D->nf));
+    c->mp.ready = 0;
   }
   return SPHDEM_OK;
 }
 
 int sphdem_mp_get(sphdem_ctx c, sphdem_mp_params *m) {
   if (!c || !m) return SPHDEM_ERR_ARG;
-  if (!c->D.mp) { sphdem_mp_params_default(m); return SPHDEM_OK; }
-  *m = c->D.M;
+  if (!c->D.mp.on) { sphdem_mp_params_default(m); return SPHDEM_OK; }
+  *m = c->D.mp.M;
   return SPHDEM_OK;
 }
 
 int sphdem_set_fluid_phase(sphdem_ctx c, int n, const int *phase) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (!D->mp) return sphdem_fail(c, SPHDEM_ERR_STATE, "set_fluid_phase: the multiphase fluid is off (sphdem_mp_set)");
+  if (!D->mp.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "set_fluid_phase: the multiphase fluid is off (sphdem_mp_set)");
   if (n != D->nf) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: %d phases for %lld fluid particles", n,
                                      (long long)D->nf);
   if (n == 0) return SPHDEM_OK;
   if (!phase) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: phase array missing");
   for (int i = 0; i < n; i++)
-    if (phase[i] < 0 || phase[i] >= D->M.nphase)
+    if (phase[i] < 0 || phase[i] >= D->mp.M.nphase)
       return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid_phase: particle %d has phase %d; phases are 0..%d", i,
-                         phase[i], D->M.nphase - 1);
+                         phase[i], D->mp.M.nphase - 1);
   TRYM(ensure_mp(c, n));
   int32_t *ui = (int32_t *)malloc(4 * (size_t)n), *hp = (int32_t *)malloc(4 * (size_t)n);
   int rc = ui && hp ? SPHDEM_OK : sphdem_fail(c, SPHDEM_ERR_ALLOC, "set_fluid_phase: cannot allocate %d entries", n);
   if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
   if (!rc) {
     for (int s = 0; s < n; s++) hp[s] = phase[ui[s]];
-    rc = rt_h2d(&c->rt, D->ph, hp, 4 * (size_t)n);
+    rc = rt_h2d(&c->rt, D->mp.ph, hp, 4 * (size_t)n);
   }
   free(ui);
   free(hp);
-  c->mp_ready = 0;
+  c->mp.ready = 0;
   return rc;
 }
 
@@ -229,29 +229,29 @@ int sphdem_set_fluid_phase(sphdem_ctx c, int n, const int *phase) {
 static int mp_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   TRYM(ensure_mp(c, D->nf));
-  if (D->M.shifting) {
+  if (D->mp.M.shifting) {
     sphdem_red r;
     if (D->nf > 0) TRYM(c->ops->reduce(c, SPHDEM_SET_FLUID, &r));
     else red_init(&r);
     TRYM(sphdem_rt_allreduce(&c->rt, r.v2ph, SPHDEM_MAX_PHASES, SPHDEM_RED_MAX)); /* over the ranks' owned */
-    for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->umax_ph[k] = sqrt(r.v2ph[k]);
+    for (int k = 0; k < SPHDEM_MAX_PHASES; k++) D->mp.umax_ph[k] = sqrt(r.v2ph[k]);
   }
   if (D->nf == 0) return SPHDEM_OK; /* many ranks: no fluid here */
   TRYM(c->ops->mp_grad(c));
   TRYM(rt_sync(&c->rt));
-  if (D->M.shifting) {
+  if (D->mp.M.shifting) {
     TRYM(c->ops->mp_shift(c));
     TRYM(rt_sync(&c->rt));
   }
-  c->mp_ready = 1;
+  c->mp.ready = 1;
   return SPHDEM_OK;
 }
 
 int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda, double *shift) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (!D->mp) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: the multiphase fluid is off");
-  if (!c->mp_ready) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: no rates computed since the last upload");
+  if (!D->mp.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: the multiphase fluid is off");
+  if (!c->mp.ready) return sphdem_fail(c, SPHDEM_ERR_STATE, "mp_get_fields: no rates computed since the last upload");
   int64_t n = D->nf;
   if (n == 0) return SPHDEM_OK;
   int32_t *ui = (int32_t *)malloc(4 * (size_t)n);
@@ -260,8 +260,8 @@ int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda,
                                              (long long)n);
   if (!rc) rc = rt_sync(&c->rt);
   if (!rc) rc = rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n);
-  struct { double *dst; const double *src; int nc; } f[] = {{mu, D->mu_p, 1}, {gdot, D->gdot, 1},
-                                                            {lambda, D->lam, 1}, {shift, D->dus, 3}};
+  struct { double *dst; const double *src; int nc; } f[] = {{mu, D->mp.mu_p, 1}, {gdot, D->mp.gdot, 1},
+                                                            {lambda, D->mp.lam, 1}, {shift, D->mp.dus, 3}};
   for (int k = 0; k < 4 && !rc; k++) {
     if (!f[k].dst) continue;
     rc = rt_d2h(&c->rt, h, f[k].src, 8 * (size_t)f[k].nc * (size_t)n);
@@ -273,9 +273,30 @@ int sphdem_mp_get_fields(sphdem_ctx c, double *mu, double *gdot, double *lambda,
   return rc;
 }
 
-static int mp_on(const struct sphdem_ctx_s *c) { return c->D.mp; }
+static int mp_on(const struct sphdem_ctx_s *c) { return c->D.mp.on; }
+
+/* The phase follows its particle (the other fields are recomputed by every rate pass). */
+static int mp_sorted(struct sphdem_ctx_s *c, int set, int64_t n) {
+  if (set != SPHDEM_SET_FLUID || !c->D.mp.ph || c->mp.cap < n) return SPHDEM_OK;
+  return c->ops->gather(c, c->D.mp.ph, 4, n);
+}
+
+/* get_fluid: the EOS of each particle's phase. */
+static int mp_host_pressure(struct sphdem_ctx_s *c, int64_t n, const double *rho, const int32_t *ui, double *p,
+                            int *done) {
+  const sphdem_dev *D = &c->D;
+  if (!D->mp.on || !D->mp.ph || c->mp.cap < n) return SPHDEM_OK;
+  int32_t *ph = (int32_t *)malloc(4 * (size_t)n);
+  if (!ph) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld phases", (long long)n);
+  int rc = rt_d2h(&c->rt, ph, D->mp.ph, 4 * (size_t)n);
+  if (rc) { free(ph); return rc; }
+  for (int64_t s = 0; s < n; s++) p[ui[s]] = mp_pressure_k(D, ph[s], rho[s]);
+  free(ph);
+  *done = 1;
+  return SPHDEM_OK;
+}
 
 /* The delta-plus / multiphase fluid as a feature of the fluid context: renormalisation, viscosity and shifting
  * passes after the pressure and wall passes, before the rates pass (timed with the rates). */
-const sphdem_feature sphdem_feature_mp = {
-    "delta-plus", mp_on, mp_fluid_rebuilt, NULL, mp_prepare, NULL, mp_release, SPHDEM_T_RATES};
+const sphdem_feature sphdem_feature_mp = {"delta-plus", mp_on, mp_rebuilt, mp_sorted, NULL, mp_prepare, NULL,
+                                          mp_host_pressure, mp_release, SPHDEM_T_RATES};

@@ -80,7 +80,7 @@ SPHDEM_HD double hb_viscosity(const sphdem_phase *f, double gd) {
 }
 
 
-SPHDEM_HD double wall_volume(const sphdem_dev *D, int64_t w) { return D->wmass[w] * D->wvol_inv_rho0; }
+SPHDEM_HD double wall_volume(const sphdem_dev *D, int64_t w) { return D->wmass[w] * D->mp.wvol_inv_rho0; }
 
 /* ---- fixed ghost walls with MLS interpolation (§3.4, eqs 29-31) -------------------------------------- */
 
@@ -116,7 +116,7 @@ SPHDEM_HD int mls_solve_e1(double *M, int n, double *a) {
  * the hydrostatic offset (eq 29), no-slip velocity (eq 31 as 2 v_wall - u_I), ghost viscosity of the
  * phase with the larger M11 share (multiphase). */
 SPHDEM_HD void mls_wall_state_body(const sphdem_dev *D, int64_t w) {
-  const double *xi = D->wxi + 3 * w, *xw = D->wx + 3 * w;
+  const double *xi = D->ghost.wxi + 3 * w, *xw = D->wx + 3 * w;
   int dim = D->P.dim, nb = dim + 1;
   double M[16], m11[SPHDEM_MAX_PHASES], r[3], b[4], a[4] = {1, 0, 0, 0};
   for (int k = 0; k < 16; k++) M[k] = 0.0;
@@ -131,14 +131,14 @@ SPHDEM_HD void mls_wall_state_body(const sphdem_dev *D, int64_t w) {
       b[0] = 1.0;
       for (int d = 0; d < dim; d++) b[1 + d] = r[d];
       for (int i = 0; i < nb; i++) for (int j = 0; j < nb; j++) M[4 * i + j] += b[i] * b[j] * WV;
-      if (D->mp) m11[D->ph[f]] += WV;
+      if (D->mp.on) m11[D->mp.ph[f]] += WV;
     }
   /* W_MLS(x_f) = (M^-1 e1) . b_f W; where the kernel support at x_I is truncated (free surface: Shepard
    * sum M11 below 0.7) the linear fit extrapolates wildly, so the Shepard interpolation is used there */
   int mls = M[0] >= 0.7 && mls_solve_e1(M, nb, a);
   double s = 0.0, sp = 0.0, su[3] = {0, 0, 0}, sg = 0.0, sgw = 0.0;
   int kph = 0;
-  if (D->mp) for (int k = 1; k < D->M.nphase; k++) if (m11[k] > m11[kph]) kph = k;
+  if (D->mp.on) for (int k = 1; k < D->mp.M.nphase; k++) if (m11[k] > m11[kph]) kph = k;
   for (int k = 0; k < nn; k++)
     for (int32_t f = D->cstart[cells[k]]; f < D->cend[cells[k]]; f++) {
       double r2 = separation(D, D->x + 3 * f, xi, r);
@@ -149,18 +149,18 @@ SPHDEM_HD void mls_wall_state_body(const sphdem_dev *D, int64_t w) {
       s += wm;
       sp += D->p[f] * wm;
       for (int d = 0; d < 3; d++) su[d] += D->ve[3 * f + d] * wm;
-      if (D->mp && D->ph[f] == kph) { sg += D->gdot[f] * WV; sgw += WV; }
+      if (D->mp.on && D->mp.ph[f] == kph) { sg += D->mp.gdot[f] * WV; sgw += WV; }
     }
   if (!mls && s > 0.0) { sp /= s; for (int d = 0; d < 3; d++) su[d] /= s; } /* Shepard fallback */
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
-  double rhof = D->mp ? D->M.phase[kph].rho0 : D->P.rho0, gx = 0.0;
+  double rhof = D->mp.on ? D->mp.M.phase[kph].rho0 : D->P.rho0, gx = 0.0;
   for (int d = 0; d < dim; d++) gx += (D->P.gravity[d] - aw[d]) * (xw[d] - xi[d]);
   double pw = s != 0.0 ? sp + rhof * gx : 0.0;
   if (D->P.wall_clamp && pw < 0.0) pw = 0.0;
   D->wp[w] = pw;
   D->wrho[w] = tait_density(D, pw);
   for (int d = 0; d < 3; d++) D->wvx[3 * w + d] = s != 0.0 ? 2.0 * vw[d] - su[d] : vw[d];
-  if (D->wmu) D->wmu[w] = D->mp ? hb_viscosity(&D->M.phase[kph], sgw > 0.0 ? sg / sgw : 0.0) : 0.0;
+  if (D->ghost.wmu) D->ghost.wmu[w] = D->mp.on ? hb_viscosity(&D->mp.M.phase[kph], sgw > 0.0 ? sg / sgw : 0.0) : 0.0;
 }
 
 /* ---- pass 1: renormalisation, gradients, viscosity ------------------------------------------------ */
@@ -182,7 +182,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
   double Bm[6] = {0, 0, 0, 0, 0, 0}, Bc[6] = {0, 0, 0, 0, 0, 0}, gr[3] = {0, 0, 0}, G[9], r[3], dv[3];
   for (int k = 0; k < 9; k++) G[k] = 0.0;
   double pa = D->p[a];
-  int pha = D->ph[a];
+  int pha = D->mp.ph[a];
   int32_t cells[27];
   int nn = neighbor_cells(D, D->cell[a], cells);
   for (int k = 0; k < nn; k++) {
@@ -191,7 +191,7 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
       if (r2 >= D->support2 || r2 == 0.0) continue;
       double F = wendland_grad_factor(D->alphaD, D->inv_h, sqrt(r2) * D->inv_h);
       for (int d = 0; d < 3; d++) dv[d] = D->ve[3 * b + d] - va[d];
-      mp_grad_add(Bm, Bc, D->ph[b] == pha, gr, G, r, F, D->mass[b] / D->rhop[b], D->p[b] - pa, dv);
+      mp_grad_add(Bm, Bc, D->mp.ph[b] == pha, gr, G, r, F, D->mass[b] / D->rhop[b], D->p[b] - pa, dv);
     }
     if (D->nw == 0) continue;
     for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) {
@@ -220,45 +220,45 @@ SPHDEM_HD void mp_grad_body(const sphdem_dev *D, int64_t a) {
   for (int d = 0; d < dim; d++)
     for (int e = 0; e < dim; e++) { double Dde = Gr[3 * d + e] + Gr[3 * e + d]; s2 += Dde * Dde; }
   double gd = sqrt(0.5 * s2); /* |D| = sqrt(D_ij D_ij / 2): the shear rate of a simple shear */
-  double mu = hb_viscosity(&D->M.phase[pha], gd);
-  if (D->M.cs_les > 0.0) {
-    double l = D->M.cs_les * 2.0 * D->h; /* l_LES = 2h, the Wendland support radius */
+  double mu = hb_viscosity(&D->mp.M.phase[pha], gd);
+  if (D->mp.M.cs_les > 0.0) {
+    double l = D->mp.M.cs_les * 2.0 * D->h; /* l_LES = 2h, the Wendland support radius */
     mu += D->rhop[a] * l * l * gd;    /* eq 25 */
   }
-  for (int k = 0; k < 6; k++) D->Lm[6 * a + k] = L[k];
-  for (int d = 0; d < 3; d++) D->gdr[3 * a + d] = d < dim ? g[d] : 0.0; /* <grad P>^L */
-  D->gdot[a] = gd;
-  D->mu_p[a] = mu;
-  D->lam[a] = D->M.shifting ? sym_min_eig(Bc, dim) : 0.0;
+  for (int k = 0; k < 6; k++) D->mp.Lm[6 * a + k] = L[k];
+  for (int d = 0; d < 3; d++) D->mp.gdr[3 * a + d] = d < dim ? g[d] : 0.0; /* <grad P>^L */
+  D->mp.gdot[a] = gd;
+  D->mp.mu_p[a] = mu;
+  D->mp.lam[a] = D->mp.M.shifting ? sym_min_eig(Bc, dim) : 0.0;
 }
 
 /* ---- pass 2: shifting velocity (eqs 27-29) -------------------------------------------------------- */
 
 SPHDEM_HD double shift_weight(const sphdem_dev *D, double W) {
   double f = W * D->w_dx_inv, fn;
-  if (D->M.shift_n == 4.0) { fn = f * f; fn *= fn; } else fn = pow(f, D->M.shift_n);
-  return 1.0 + D->M.shift_R * fn;
+  if (D->mp.M.shift_n == 4.0) { fn = f * f; fn *= fn; } else fn = pow(f, D->mp.M.shift_n);
+  return 1.0 + D->mp.M.shift_R * fn;
 }
 
 SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
-  double *du = D->dus + 3 * a;
+  double *du = D->mp.dus + 3 * a;
   du[0] = du[1] = du[2] = 0.0;
-  int pha = D->ph[a];
-  double lam = D->lam[a], U = D->umax_ph[pha];
-  if (lam < D->M.lam_surface || !(U > 0.0)) return; /* S_I: interface or free surface, no shift */
+  int pha = D->mp.ph[a];
+  double lam = D->mp.lam[a], U = D->mp.umax_ph[pha];
+  if (lam < D->mp.M.lam_surface || !(U > 0.0)) return; /* S_I: interface or free surface, no shift */
   const double *xa = D->x + 3 * a;
   double S[3] = {0, 0, 0}, gl[3] = {0, 0, 0}, r[3];
   int32_t cells[27];
   int nn = neighbor_cells(D, D->cell[a], cells);
   for (int k = 0; k < nn; k++) {
     for (int32_t b = D->cstart[cells[k]]; b < D->cend[cells[k]]; b++) {
-      if (D->ph[b] != pha) continue; /* chi: same phase only */
+      if (D->mp.ph[b] != pha) continue; /* chi: same phase only */
       double r2 = separation(D, xa, D->x + 3 * b, r);
       if (r2 >= D->support2 || r2 == 0.0) continue;
       double q = sqrt(r2) * D->inv_h;
       double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
       double V = D->mass[b] / D->rhop[b], ws = shift_weight(D, W);
-      for (int d = 0; d < 3; d++) { S[d] += ws * F * V * r[d]; gl[d] += (D->lam[b] - lam) * F * V * r[d]; }
+      for (int d = 0; d < 3; d++) { S[d] += ws * F * V * r[d]; gl[d] += (D->mp.lam[b] - lam) * F * V * r[d]; }
     }
     if (D->nw == 0) continue;
     for (int32_t w = D->wcstart[cells[k]]; w < D->wcend[cells[k]]; w++) {
@@ -275,10 +275,10 @@ SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
   for (int d = 0; d < 3; d++) { s[d] = d < D->P.dim ? -U * 2.0 * D->h * S[d] : 0.0; m2 += s[d] * s[d]; }
   double m = sqrt(m2);
   if (m > 0.5 * U) for (int d = 0; d < 3; d++) s[d] *= 0.5 * U / m; /* eq 28 */
-  if (lam <= D->M.lam_near) {
+  if (lam <= D->mp.M.lam_near) {
     /* S_N: outward normal n = -L grad lambda / |.| (eq 30); no shift component towards the interface */
     double g[3], n2 = 0.0, sn = 0.0;
-    sym_mul(D->Lm + 6 * a, gl, g);
+    sym_mul(D->mp.Lm + 6 * a, gl, g);
     for (int d = 0; d < D->P.dim; d++) n2 += g[d] * g[d];
     if (n2 > 0.0) {
       double inv = -1.0 / sqrt(n2);
@@ -300,18 +300,18 @@ SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
  * particle's sound speed): P is continuous across an interface, so is delta rho measured in a's units;
  * delta_d h c_a D_a. */
 SPHDEM_HD void dplus_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
-  R->pha = D->ph[a];
+  R->pha = D->mp.ph[a];
   R->ma = D->mass[a];
   R->Va = R->ma / R->rhoa;
   R->pa = D->p[a];
-  R->mua = D->mu_p[a];
-  for (int d = 0; d < 3; d++) R->dua[d] = D->M.shifting ? D->dus[3 * a + d] : 0.0;
-  double ca = D->ck[R->pha];
+  R->mua = D->mp.mu_p[a];
+  for (int d = 0; d < 3; d++) R->dua[d] = D->mp.M.shifting ? D->mp.dus[3 * a + d] : 0.0;
+  double ca = D->mp.ck[R->pha];
   R->ic2 = 1.0 / (ca * ca);
-  R->kdiff = D->M.delta * D->h * ca;
+  R->kdiff = D->mp.M.delta * D->h * ca;
   R->paV = R->pa * R->Va * R->Va / R->ma;
   R->Va2 = R->Va * R->Va;
-  R->ga = D->gdr + 3 * a;
+  R->ga = D->mp.gdr + 3 * a;
 }
 
 /* Fluid pair (a, b), delta-plus: continuity with shifting (eq 15) and diffusion (eqs 16-18), pressure
@@ -319,16 +319,16 @@ SPHDEM_HD void dplus_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
  * 0 if out of reach. */
 SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t b, fluid_pair_rec *P) {
   const double *xa = R->xa, *va = R->va, *dua = R->dua;
-  const int shift = D->M.shifting, diff = D->M.diffusion;
+  const int shift = D->mp.M.shifting, diff = D->mp.M.diffusion;
   double r[3], vab[3];
   double r2 = separation(D, xa, D->x + 3 * b, r);
   if (r2 >= D->support2 || r2 == 0.0) return 0;
   double q = sqrt(r2) * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
   double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-  double rhoa = R->rhoa, rhob = D->rhop[b], mb = D->mass[b], Vb = mb / rhob, pb = D->p[b], mub = D->mu_p[b];
-  int same = D->ph[b] == R->pha;
+  double rhoa = R->rhoa, rhob = D->rhop[b], mb = D->mass[b], Vb = mb / rhob, pb = D->p[b], mub = D->mp.mu_p[b];
+  int same = D->mp.ph[b] == R->pha;
   double dub[3] = {0, 0, 0}, s1 = 0.0;
-  if (shift) for (int d = 0; d < 3; d++) dub[d] = D->dus[3 * b + d];
+  if (shift) for (int d = 0; d < 3; d++) dub[d] = D->mp.dus[3 * b + d];
   for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; s1 += (vab[d] + dua[d] - dub[d]) * r[d]; }
   double cont = rhoa * Vb * F * s1;                                      /* eq 15, first term */
   if (shift && same) {
@@ -339,7 +339,7 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
   if (diff) {
     double psi = 2.0 * (pb - R->pa);                                      /* eq 17, times c_a^2 */
     if (diff == SPHDEM_DIFF_RENORM) {
-      const double *ga = R->ga, *gb = D->gdr + 3 * b;
+      const double *ga = R->ga, *gb = D->mp.gdr + 3 * b;
       for (int d = 0; d < 3; d++) psi += (ga[d] + gb[d]) * r[d];         /* -(<>_i + <>_j).(x_j - x_i) */
     }
     psi *= R->ic2;
@@ -378,7 +378,7 @@ SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   R->drho += R->rhoa * Vw * F * s1;
   double ma = R->ma, mua = R->mua;
   double kp = -(R->paV + D->wp[w] * Vw * Vw / ma) * F;
-  double muw = D->wmls ? D->wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
+  double muw = D->ghost.on ? D->ghost.wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
   double kv = mub * (R->Va2 + Vw * Vw) * F * r2 * ie / ma;
   for (int d = 0; d < 3; d++) R->acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
   wall_repulsion(D, rr, r2, r, R->acc);

@@ -10,7 +10,6 @@
 #include "sph_bodies.h"
 #include "sph_internal.h"
 
-SPHDEM_RT_FAIL_FN(sphdem_fail, struct sphdem_ctx_s)
 
 const char *sphdem_strerror(int code) {
   switch (code) {
@@ -98,7 +97,6 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   return SPHDEM_OK;
 }
 
-double sphdem_tait_B(const sphdem_params *p) { return p->c0 * p->c0 * p->rho0 / p->gamma; }
 double sphdem_stokes_time(double rho_p, double d, double mu) { return rho_p * d * d / (18.0 * mu); }
 
 double sphdem_hydrostatic_rho(const sphdem_params *p, double depth) {
@@ -108,30 +106,7 @@ double sphdem_hydrostatic_rho(const sphdem_params *p, double depth) {
   return p->rho0 * pow(1.0 + p->rho0 * g * depth / B, 1.0 / p->gamma);
 }
 
-static void derive(sphdem_dev *D) {
-  const sphdem_params *p = &D->P;
-  D->B = sphdem_tait_B(p);
-  D->h = p->h;
-  D->inv_h = 1.0 / p->h;
-  D->support2 = 4.0 * p->h * p->h;
-  D->eta2 = 0.01 * p->h * p->h;
-  D->alphaD = wendland_alpha(p->dim, p->h);
-  const double w_dx = wendland_w(D->alphaD, p->dx / p->h);
-  D->w_dx_inv = w_dx > 0.0 ? 1.0 / w_dx : 0.0; /* 0 (dx >= 2h) only without the tensile correction (checked) */
-  D->gamma_is_7 = p->gamma == 7.0;
-  D->tensile_n_is_4 = p->tensile_n == 4.0;
-  for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
-  /* multiphase: Tait constant per phase, wall volume m_w / rho0 */
-  D->cmax = p->c0;
-  for (int k = 0; k < SPHDEM_MAX_PHASES; k++) {
-    D->ck[k] = D->M.phase[k].c0 > 0 ? D->M.phase[k].c0 : p->c0;
-    D->Bk[k] = D->ck[k] * D->ck[k] * D->M.phase[k].rho0 / p->gamma;
-    if (D->mp && k < D->M.nphase) D->cmax = fmax(D->cmax, D->ck[k]);
-  }
-  D->wvol_inv_rho0 = 1.0 / p->rho0;
-}
 
-void sphdem_rederive(struct sphdem_ctx_s *c) { derive(&c->D); }
 
 int sphdem_set_params(sphdem_ctx c, const sphdem_params *p) {
   char msg[512];
@@ -143,7 +118,7 @@ int sphdem_set_params(sphdem_ctx c, const sphdem_params *p) {
                     memcmp(p->boxhi, c->D.P.boxhi, sizeof p->boxhi) ||
                     memcmp(p->periodic, c->D.P.periodic, sizeof p->periodic) || p->skin != c->D.P.skin;
   c->D.P = *p;
-  derive(&c->D);
+  sphdem_rederive(c);
   if (box_changed) c->need_sort = 1;
   return SPHDEM_OK;
 }
@@ -156,8 +131,6 @@ int sphdem_get_params(sphdem_ctx c, sphdem_params *p) {
 
 /* ---- memory ------------------------------------------------------------------------------------ */
 
-int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { return rt_alloc(&c->rt, ptr, bytes); }
-void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes) { rt_free(&c->rt, ptr, bytes ? bytes : 8); }
 
 #define DFREE(cx, p_, nb_) rt_free(&(cx)->rt, (void **)&(p_), (nb_))
 
@@ -181,12 +154,6 @@ static void free_walls(sphdem_ctx c) {
   c->cap_w = 0;
 }
 
-static void free_scratch(sphdem_ctx c) {
-  size_t n = (size_t)c->cap_scratch;
-  if (!n) return;
-  DFREE(c, c->perm, 4 * n); DFREE(c, c->scratch_d, 24 * n); DFREE(c, c->scratch_i, 8 * n);
-  c->cap_scratch = 0;
-}
 
 static void free_cells(sphdem_ctx c) {
   size_t n = (size_t)c->cap_cells;
@@ -198,18 +165,7 @@ static void free_cells(sphdem_ctx c) {
 
 #define TRY(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
 
-static int ensure_scratch(sphdem_ctx c, int64_t n) {
-  if (n <= c->cap_scratch) return SPHDEM_OK;
-  free_scratch(c);
-  size_t m = (size_t)n;
-  TRY(sphdem_dalloc(c, (void **)&c->perm, 4 * m));
-  TRY(sphdem_dalloc(c, (void **)&c->scratch_d, 24 * m));
-  TRY(sphdem_dalloc(c, (void **)&c->scratch_i, 8 * m));
-  c->cap_scratch = n;
-  return SPHDEM_OK;
-}
 
-int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n) { return ensure_scratch(c, n); }
 
 static int ensure_fluid(sphdem_ctx c, int64_t n) {
   if (n <= c->cap_f && c->cap_f > 0) return SPHDEM_OK;
@@ -225,7 +181,7 @@ static int ensure_fluid(sphdem_ctx c, int64_t n) {
   TRY(sphdem_dalloc(c, (void **)&D->pr2, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->uidx, 4 * m)); TRY(sphdem_dalloc(c, (void **)&D->cell, 4 * m));
   c->cap_f = (int64_t)m;
-  return ensure_scratch(c, (int64_t)m);
+  return sphdem_ensure_scratch(c, (int64_t)m);
 }
 
 static int ensure_walls(sphdem_ctx c, int64_t n) {
@@ -239,7 +195,7 @@ static int ensure_walls(sphdem_ctx c, int64_t n) {
   TRY(sphdem_dalloc(c, (void **)&D->wvx, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wtag, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->wcell, 4 * m));
   c->cap_w = (int64_t)m;
-  return ensure_scratch(c, (int64_t)m);
+  return sphdem_ensure_scratch(c, (int64_t)m);
 }
 
 static int ensure_cells(sphdem_ctx c, int64_t n) {
@@ -289,7 +245,7 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
     return SPHDEM_ERR_ALLOC;
   }
   c->D.P = *p;
-  derive(&c->D);
+  sphdem_rederive(c);
   c->ops = &sphdem_cpu_ops;
   c->backend = SPHDEM_DEVICE_CPU;
   sphdem_rt_init(&c->rt, SPHDEM_DEVICE_CPU);
@@ -328,35 +284,15 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
   return SPHDEM_OK;
 }
 
-static void free_rk(sphdem_ctx c);
-
-/* Kernel-sum array of the keyword isolated: allocated while it is on (computed fresh each evaluation, so it
- * is not carried through sorts). */
-static int ensure_ksum(sphdem_ctx c) {
-  sphdem_dev *D = &c->D;
-  const int on = D->P.isolated > 0.0;
-  if (D->ksum && (!on || c->cap_ks < D->nf)) { /* off, or too small */
-    DFREE(c, D->ksum, 8 * (size_t)c->cap_ks);
-    c->cap_ks = 0;
-  }
-  if (!on || D->ksum) return SPHDEM_OK;
-  size_t m = (size_t)(D->nf > 0 ? D->nf : 1);
-  TRY(sphdem_dalloc(c, (void **)&D->ksum, 8 * m));
-  c->cap_ks = (int64_t)m;
-  return SPHDEM_OK;
-}
 
 int sphdem_destroy(sphdem_ctx *pc) {
   if (!pc || !*pc) return SPHDEM_OK;
   sphdem_ctx c = *pc;
-  for (const sphdem_feature *const *f = sphdem_features; *f; f++) (*f)->release(c);
-  free_rk(c);
-  DFREE(c, c->D.ksum, 8 * (size_t)c->cap_ks);
-  DFREE(c, c->D.wxi, 24 * (size_t)c->cap_wm);
-  DFREE(c, c->D.wmu, 8 * (size_t)c->cap_wm);
+  for (const sphdem_feature *const *f = sphdem_features; *f; f++)
+    if ((*f)->release) (*f)->release(c);
   free_fluid(c);
   free_walls(c);
-  free_scratch(c);
+  sphdem_free_scratch(c);
   free_cells(c);
 #ifdef SPHDEM_WITH_CUDA
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
@@ -370,20 +306,14 @@ int sphdem_destroy(sphdem_ctx *pc) {
 
 /* ---- grid and sorting ------------------------------------------------------------------------------ */
 
-static int timed_reduce(sphdem_ctx c, int set, sphdem_red *r) {
-  double t0 = rt_now();
-  int rc = c->ops->reduce(c, set, r);
-  c->timers[SPHDEM_T_REDUCE] += rt_now() - t0;
-  return rc;
-}
 
 /* Search grid over the periodic box / the particles' bounding box, cells >= 2h + skin. */
 static int build_grid(sphdem_ctx c) {
   sphdem_dev *D = &c->D;
   sphdem_red rf, rw;
-  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &rf));
+  TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &rf));
   if (D->nw > 0) {
-    TRY(timed_reduce(c, SPHDEM_SET_WALL, &rw));
+    TRY(sphdem_timed_reduce(c, SPHDEM_SET_WALL, &rw));
     for (int d = 0; d < 3; d++) { rf.lo[d] = fmin(rf.lo[d], rw.lo[d]); rf.hi[d] = fmax(rf.hi[d], rw.hi[d]); }
   }
   double cmin = 2.0 * D->P.h + D->P.skin;
@@ -434,28 +364,17 @@ static int sort_set(sphdem_ctx c, int set) {
   if (n == 0) return SPHDEM_OK;
   TRY(c->ops->sort_perm(c, set));
   if (set == SPHDEM_SET_FLUID) {
-    D->ks_ok = 0; /* the kernel sums are in the old order until the next evaluation */
     void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx};
     int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
     for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
     TRY(rt_d2d(&c->rt, D->x0, D->x, 24 * (size_t)n));
-    /* coupling: the porosity follows its particles (read by get_porosity, probe and get_fluid's pressure) */
-    if (D->eps && c->cap_cf >= n) TRY(c->ops->gather(c, D->eps, 8, n));
-    if (D->fr && c->cap_cf >= n) TRY(c->ops->gather(c, D->fr, 24, n)); /* last reaction, read by the wall pass */
-    /* multiphase: the phase follows its particle (the other fields are recomputed by every rate pass) */
-    if (D->ph && c->cap_mp >= n) TRY(c->ops->gather(c, D->ph, 4, n));
-    /* Runge-Kutta: a resort between stages carries the state at t_n and the stage sums */
-    if (D->rk_x0 && c->cap_rk >= n) {
-      void *rk[] = {D->rk_x0, D->rk_v0, D->rk_dx, D->rk_dv, D->rk_rho0, D->rk_drho};
-      int rb[] = {24, 24, 24, 24, 8, 8};
-      for (int k = 0; k < 6; k++) TRY(c->ops->gather(c, rk[k], rb[k], n));
-    }
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
-    if (D->wmls) TRY(c->ops->gather(c, D->wxi, 24, n)); /* ghost walls: the mirror point follows its particle */
   }
+  for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* the features' arrays follow their particles */
+    if ((*f)->sorted) TRY((*f)->sorted(c, set, n));
   c->wl_dirty = 1;
   if (set == SPHDEM_SET_FLUID) c->nl_dirty = 1;
   return c->ops->cell_ranges(c, set);
@@ -550,7 +469,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
   if (n < 0) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: negative particle count");
   if (n > 0 && (!x || !v || !rho || !mass))
     return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: x, v, rho and mass are required");
-  c->D.ks_ok = 0;
+  c->D.iso.ok = 0;
   for (int64_t i = 0; i < n; i++) {
     if (!(mass[i] > 0) || !(rho[i] > 0))
       return sphdem_fail(c, SPHDEM_ERR_ARG, "set_fluid: particle %lld (tag %lld) has mass %g and density %g; "
@@ -572,7 +491,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
       c->host_tags_valid = 1;
     }
     for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* arrays sized to the new set */
-      if ((*f)->on(c) && (*f)->fluid_rebuilt) TRY((*f)->fluid_rebuilt(c));
+      if ((*f)->rebuilt) TRY((*f)->rebuilt(c, SPHDEM_SET_FLUID));
   } else {
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }
@@ -591,7 +510,7 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
   } else {
     /* data replaced in place: keep the order, but resort if positions moved beyond skin/2 */
     sphdem_red r;
-    TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+    TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
     if (r.disp2max > 0.25 * D->P.skin * D->P.skin) c->need_sort = 1;
   }
   return SPHDEM_OK;
@@ -626,7 +545,8 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   }
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   c->need_wall_sort = 1;
-  D->wmls = 0; /* Adami walls until sphdem_set_wall_mirror */
+  for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* ghost walls: Adami walls until set_wall_mirror */
+    if ((*f)->rebuilt) TRY((*f)->rebuilt(c, SPHDEM_SET_WALL));
   return SPHDEM_OK;
 }
 
@@ -686,38 +606,11 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
     }
     TRY(up(c, f[k].dev, h, 8 * (size_t)f[k].ncomp * (size_t)n));
   }
-  D->ks_ok = 0;
+  D->iso.ok = 0;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   sphdem_red r;
-  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
   if (!(r.disp2max <= 0.25 * D->P.skin * D->P.skin)) c->need_sort = 1;
-  return SPHDEM_OK;
-}
-
-int sphdem_set_wall_mirror(sphdem_ctx c, int n, const double *xi) {
-  if (!c) return SPHDEM_ERR_ARG;
-  sphdem_dev *D = &c->D;
-  if (!xi) { D->wmls = 0; return SPHDEM_OK; }
-  if (n != D->nw) return sphdem_fail(c, SPHDEM_ERR_ARG, "set_wall_mirror: %d points for %lld wall particles", n,
-                                     (long long)D->nw);
-  if (n == 0) return SPHDEM_OK;
-  if (n > c->cap_wm) {
-    DFREE(c, D->wxi, 24 * (size_t)c->cap_wm);
-    DFREE(c, D->wmu, 8 * (size_t)c->cap_wm);
-    c->cap_wm = 0;
-    TRY(sphdem_dalloc(c, (void **)&D->wxi, 24 * (size_t)n));
-    TRY(sphdem_dalloc(c, (void **)&D->wmu, 8 * (size_t)n));
-    c->cap_wm = n;
-  }
-  /* device order: wall tags are the caller index + 1 */
-  TRY(ensure_host(c, n));
-  TRY(down(c, c->htag, D->wtag, 8 * (size_t)n));
-  c->host_tags_valid = 0;
-  for (int64_t s = 0; s < n; s++)
-    for (int d = 0; d < 3; d++) c->hbuf[3 * s + d] = xi[3 * (c->htag[s] - 1) + d];
-  TRY(up(c, D->wxi, c->hbuf, 24 * (size_t)n));
-  TRY(rt_zero(&c->rt, D->wmu, 8 * (size_t)n));
-  D->wmls = 1;
   return SPHDEM_OK;
 }
 
@@ -742,24 +635,11 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   }
   if (p) {
     TRY(down(c, h, D->rho, 8 * (size_t)n));
-    if (D->couple_eos && D->eps && c->cap_cf >= n) {
-      /* superficial density: the EOS sees rho / eps (He 2018 eq 7); eps from the last compute_rates */
-      double *e = (double *)malloc(8 * (size_t)n);
-      if (!e) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld doubles", (long long)n);
-      int rc = down(c, e, D->eps, 8 * (size_t)n);
-      if (rc) { free(e); return rc; }
-      for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s] / fmax(e[s], D->eps_floor));
-      free(e);
-    } else if (D->mp && D->ph && c->cap_mp >= n) {
-      int32_t *ph = (int32_t *)malloc(4 * (size_t)n);
-      if (!ph) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "get_fluid: cannot allocate %lld phases", (long long)n);
-      int rc = down(c, ph, D->ph, 4 * (size_t)n);
-      if (rc) { free(ph); return rc; }
-      for (int64_t s = 0; s < n; s++) p[ui[s]] = mp_pressure_k(D, ph[s], h[s]);
-      free(ph);
-    } else {
+    int done = 0; /* a feature's EOS (coupling: superficial density; delta-plus: per phase), else Tait */
+    for (const sphdem_feature *const *f = sphdem_features; *f && !done; f++)
+      if ((*f)->host_pressure) TRY((*f)->host_pressure(c, n, h, ui, p, &done));
+    if (!done)
       for (int64_t s = 0; s < n; s++) p[ui[s]] = tait_pressure(D, h[s]);
-    }
   }
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   return SPHDEM_OK;
@@ -767,43 +647,14 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
 
 /* ---- stepping ---------------------------------------------------------------------------------------- */
 
-int sphdem_kick(sphdem_ctx c, double dth) {
-  if (!c) return SPHDEM_ERR_ARG;
-  if (c->D.nf == 0) return SPHDEM_OK;
-  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "kick before the rates were computed (call sphdem_compute_rates first)");
-  double t0 = rt_now();
-  TRY(c->ops->kick(c, dth));
-  TRY(rt_sync(&c->rt));
-  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
-  /* first half kick of a step: the next rates predict rho and v by dth; second one closes the step */
-  c->half_kicked = !c->half_kicked;
-  c->D.pred_dth = c->half_kicked ? dth : 0.0;
-  return SPHDEM_OK;
-}
-
-int sphdem_drift(sphdem_ctx c, double dt) {
-  if (!c) return SPHDEM_ERR_ARG;
-  if (c->D.nf == 0) return SPHDEM_OK;
-  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "drift before the rates were computed (call sphdem_compute_rates first)");
-  double t0 = rt_now();
-  TRY(c->ops->drift(c, dt));
-  TRY(rt_sync(&c->rt));
-  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
-  /* displacement since the last sort decides the next resort (He 2018 §2.4.2) */
-  sphdem_red r;
-  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
-  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
-  return SPHDEM_OK;
-}
-
 /* The hooks of the active features at one point of a rate evaluation (sph_internal.h, sphdem_feature); the time
  * of a hook with its own timer goes there and into *tx. */
-enum { HOOK_BEFORE_PRESSURE, HOOK_BEFORE_RATES, HOOK_AFTER_RATES };
+enum { HOOK_PREPARE, HOOK_PREPARE_RATES, HOOK_FINISH };
 static int feature_hooks(struct sphdem_ctx_s *c, int which, double *tx) {
   for (const sphdem_feature *const *f = sphdem_features; *f; f++) {
-    int (*h)(struct sphdem_ctx_s *) = which == HOOK_BEFORE_PRESSURE ? (*f)->before_pressure
-                                      : which == HOOK_BEFORE_RATES  ? (*f)->before_rates
-                                                                    : (*f)->after_rates;
+    int (*h)(struct sphdem_ctx_s *) = which == HOOK_PREPARE         ? (*f)->prepare
+                                      : which == HOOK_PREPARE_RATES ? (*f)->prepare_rates
+                                                                    : (*f)->finish;
     if (!h || !(*f)->on(c)) continue;
     double t = rt_now();
     TRY(h(c));
@@ -822,8 +673,8 @@ int sphdem_compute_rates(sphdem_ctx c) {
   if (D->nf == 0) { /* nothing to evaluate; the features still take part in the reductions over the ranks
                      * (delta-plus: the shifting speed) and close their evaluation (coupling: zero grain forces) */
     double tx = 0.0;
-    TRY(feature_hooks(c, HOOK_BEFORE_RATES, &tx));
-    TRY(feature_hooks(c, HOOK_AFTER_RATES, &tx));
+    TRY(feature_hooks(c, HOOK_PREPARE_RATES, &tx));
+    TRY(feature_hooks(c, HOOK_FINISH, &tx));
     c->have_rates = 1;
     return SPHDEM_OK;
   }
@@ -837,74 +688,21 @@ int sphdem_compute_rates(sphdem_ctx c) {
   }
   if (!c->half_kicked) c->D.pred_dth = 0.0;
   double t0 = rt_now(), tx = 0.0; /* tx: time the features booked on their own timers */
-  TRY(feature_hooks(c, HOOK_BEFORE_PRESSURE, &tx)); /* coupling: grain sort and porosity before the EOS */
-  TRY(ensure_ksum(c));
-  D->ks_ok = D->ksum != NULL;
-  TRY(c->ops->ksum(c)); /* no elements unless keyword isolated is on */
+  /* coupling: grain sort and porosity before the EOS; keyword isolated: the kernel sums */
+  TRY(feature_hooks(c, HOOK_PREPARE, &tx));
   TRY(c->ops->pressure(c));
   TRY(rt_sync(&c->rt));
   double t1 = rt_now();
   if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
   double t2 = rt_now();
-  TRY(feature_hooks(c, HOOK_BEFORE_RATES, &tx)); /* delta-plus: renormalisation, viscosity, shifting */
+  TRY(feature_hooks(c, HOOK_PREPARE_RATES, &tx)); /* delta-plus: renormalisation, viscosity, shifting */
   TRY(c->ops->rates(c));
   TRY(rt_sync(&c->rt));
-  TRY(feature_hooks(c, HOOK_AFTER_RATES, &tx)); /* coupling: grain forces, reaction on the fluid */
+  TRY(feature_hooks(c, HOOK_FINISH, &tx)); /* coupling: grain forces, reaction on the fluid */
   double t3 = rt_now();
   c->timers[SPHDEM_T_WALL] += t2 - t1;
   c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2) - tx;
   c->have_rates = 1;
-  return SPHDEM_OK;
-}
-
-static void free_rk(sphdem_ctx c) {
-  sphdem_dev *D = &c->D;
-  size_t n = (size_t)c->cap_rk;
-  DFREE(c, D->rk_x0, 24 * n); DFREE(c, D->rk_v0, 24 * n); DFREE(c, D->rk_rho0, 8 * n);
-  DFREE(c, D->rk_dx, 24 * n); DFREE(c, D->rk_dv, 24 * n); DFREE(c, D->rk_drho, 8 * n);
-  c->cap_rk = 0;
-}
-
-static int ensure_rk(sphdem_ctx c, int64_t n) {
-  if (n <= c->cap_rk && c->cap_rk > 0) return SPHDEM_OK;
-  free_rk(c);
-  sphdem_dev *D = &c->D;
-  size_t m = (size_t)(n > 0 ? n : 1);
-  TRY(sphdem_dalloc(c, (void **)&D->rk_x0, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_v0, 24 * m));
-  TRY(sphdem_dalloc(c, (void **)&D->rk_rho0, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_dx, 24 * m));
-  TRY(sphdem_dalloc(c, (void **)&D->rk_dv, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->rk_drho, 8 * m));
-  c->cap_rk = (int64_t)m;
-  return SPHDEM_OK;
-}
-
-/* After a stage moved the particles: resort before the next rate evaluation when needed. */
-static int rk_moved(sphdem_ctx c) {
-  sphdem_red r;
-  TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
-  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
-  return SPHDEM_OK;
-}
-
-int sphdem_step_rk4(sphdem_ctx c, double dt) {
-  if (!c) return SPHDEM_ERR_ARG;
-  sphdem_dev *D = &c->D;
-  if (D->couple) return sphdem_fail(c, SPHDEM_ERR_STATE, "step_rk4: the Runge-Kutta integrator cannot be used with "
-                                                         "the SPH-DEM coupling (use velocity Verlet)");
-  if (!(dt > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "step_rk4: dt must be > 0 (got %g)", dt);
-  if (D->nf == 0) return SPHDEM_OK;
-  TRY(ensure_rk(c, D->nf));
-  c->half_kicked = 0;
-  /* stage weights dt/6, dt/3, dt/3, dt/6; the next stage's state at t + dt/2, t + dt/2, t + dt */
-  const double wk[4] = {dt / 6.0, dt / 3.0, dt / 3.0, dt / 6.0}, cst[3] = {0.5 * dt, 0.5 * dt, dt};
-  for (int s = 0; s < 4; s++) {
-    TRY(sphdem_compute_rates(c));
-    double t0 = rt_now();
-    if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
-    TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
-    TRY(rt_sync(&c->rt));
-    c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
-    TRY(rk_moved(c));
-  }
   return SPHDEM_OK;
 }
 
@@ -933,7 +731,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   sphdem_dev *D = &c->D;
   memset(s, 0, sizeof *s);
   sphdem_red r;
-  if (D->nf > 0) TRY(timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (D->nf > 0) TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
   else red_init(&r);
   /* many ranks: the owned particles of every rank (collective) */
   double gmax[4] = {r.v2max, r.a2max, r.rhoerr, r.numax};
@@ -956,7 +754,7 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
   s->dt_cfl = P->cfl * P->h / (D->cmax + s->vmax); /* the largest sound speed (multiphase: of any phase) */
   s->dt_visc = P->visc == SPHDEM_VISC_MORRIS ? 0.125 * P->h * P->h * P->rho0 / P->mu : DBL_MAX;
   /* multiphase: Shi & Huang eq 34 with the largest mu_i / rho_i of the last rate evaluation */
-  if (D->mp) s->dt_visc = r.numax > 0 ? D->M.alpha_visc * P->h * P->h / r.numax : DBL_MAX;
+  if (D->mp.on) s->dt_visc = r.numax > 0 ? D->mp.M.alpha_visc * P->h * P->h / r.numax : DBL_MAX;
   s->dt_force = s->amax > 0 ? 0.25 * sqrt(P->h / s->amax) : DBL_MAX;
   s->dt_stable = fmin(s->dt_cfl, fmin(s->dt_visc, s->dt_force));
   /* after a blow-up the stable step of the wrecked state is no guide: say so instead of "stable 0 s" */
@@ -984,10 +782,10 @@ int sphdem_stats_get(sphdem_ctx c, double dt, sphdem_stats *s) {
                        r.rhoerr, P->rho_err_max, P->c0, P->c0 * sqrt(r.rhoerr / P->rho_err_max), s->vmax,
                        s->vmax / P->c0, s->dt_stable);
   if (dt > 0 && dt > s->dt_stable) {
-    const char *lim = s->dt_stable == s->dt_cfl ? (D->mp ? "the CFL condition cfl*h/(c0 + vmax) with the largest phase sound speed" : "the CFL condition cfl*h/(c0 + vmax)")
+    const char *lim = s->dt_stable == s->dt_cfl ? (D->mp.on ? "the CFL condition cfl*h/(c0 + vmax) with the largest phase sound speed" : "the CFL condition cfl*h/(c0 + vmax)")
                       : s->dt_stable == s->dt_visc ? "the viscous condition 0.125 h^2 rho0/mu"
                                                    : "the force condition 0.25 sqrt(h/amax)";
-    if (D->mp && s->dt_stable == s->dt_visc) lim = "the viscous condition alpha_visc h^2 min(rho_i/mu_i) (eq 34)";
+    if (D->mp.on && s->dt_stable == s->dt_visc) lim = "the viscous condition alpha_visc h^2 min(rho_i/mu_i) (eq 34)";
     return sphdem_fail(c, SPHDEM_ERR_UNSTABLE,
                        "time step %.*g s exceeds the stable SPH time step %.*g s, limited by %s (CFL %g s, "
                        "viscous %g s, force %g s; vmax %g m/s, amax %g m/s^2). Set the timestep to %g or less.",

@@ -51,35 +51,35 @@ SPHDEM_HD double tait_density(const sphdem_dev *D, double p) {
 
 /* Porosity used in the fluid equations: eq 26 floored at eps_min (1 while the coupling is off). */
 SPHDEM_HD double fluid_eps(const sphdem_dev *D, int64_t i) {
-  return D->eps ? fmax(D->eps[i], D->eps_floor) : 1.0;
+  return D->couple.eps ? fmax(D->couple.eps[i], D->couple.eps_floor) : 1.0;
 }
 
 /* Density that enters the EOS: rho itself, or the intrinsic density rho_bar / eps when rho is the
  * superficial density of the coupled fluid (He 2018 eq 7: P = B ((rho_bar / (eps rho0))^gamma - 1)). */
 SPHDEM_HD double eos_density(const sphdem_dev *D, int64_t i, double rho) {
-  return D->couple_eos ? rho / fluid_eps(D, i) : rho;
+  return D->couple.eos ? rho / fluid_eps(D, i) : rho;
 }
 
 /* Multiphase equation of state of phase k (Shi & Huang 2022 eq 4, or Tait with the phase's rho0),
  * plus the background pressure P0. */
 SPHDEM_HD double mp_pressure_k(const sphdem_dev *D, int k, double rho) {
-  double r0 = D->M.phase[k].rho0;
-  if (D->M.eos == SPHDEM_EOS_LINEAR) return D->ck[k] * D->ck[k] * (rho - r0) + D->M.p0;
+  double r0 = D->mp.M.phase[k].rho0;
+  if (D->mp.M.eos == SPHDEM_EOS_LINEAR) return D->mp.ck[k] * D->mp.ck[k] * (rho - r0) + D->mp.M.p0;
   double r = rho / r0, rg;
   if (D->gamma_is_7) { double r3 = r * r * r; rg = r3 * r3 * r; }
   else rg = pow(r, D->P.gamma);
-  return D->Bk[k] * (rg - 1.0) + D->M.p0;
+  return D->mp.Bk[k] * (rg - 1.0) + D->mp.M.p0;
 }
 
 /* Pressure of fluid particle i at density rho: the phase's EOS (multiphase) or Tait (eq 7). */
 SPHDEM_HD double fluid_pressure(const sphdem_dev *D, int64_t i, double rho) {
-  if (D->mp) return mp_pressure_k(D, D->ph[i], rho);
+  if (D->mp.on) return mp_pressure_k(D, D->mp.ph[i], rho);
   return tait_pressure(D, eos_density(D, i, rho));
 }
 
 /* Reference density of fluid particle i. */
 SPHDEM_HD double fluid_rho0(const sphdem_dev *D, int64_t i) {
-  return D->mp ? D->M.phase[D->ph[i]].rho0 : D->P.rho0;
+  return D->mp.on ? D->mp.M.phase[D->mp.ph[i]].rho0 : D->P.rho0;
 }
 
 /* ---- search grid ------------------------------------------------------------------------ */
@@ -103,13 +103,13 @@ SPHDEM_HD int grid_coord(const sphdem_dev *D, int d, double x) {
 
 /* Coordinate on the grain (DEM, level 1) grid of the coupling. */
 SPHDEM_HD int grain_grid_coord(const sphdem_dev *D, int d, double x) {
-  return axis_coord(x, D->gglo[d], D->gcs_inv[d], D->gnc[d], D->P.periodic[d]);
+  return axis_coord(x, D->couple.gglo[d], D->couple.gcs_inv[d], D->couple.gnc[d], D->P.periodic[d]);
 }
 
 SPHDEM_HD int32_t grain_cell_of(const sphdem_dev *D, const double *x) {
   int cx = grain_grid_coord(D, 0, x[0]), cy = grain_grid_coord(D, 1, x[1]);
   int cz = D->P.dim == 3 ? grain_grid_coord(D, 2, x[2]) : 0;
-  return (int32_t)(((int64_t)cz * D->gnc[1] + cy) * D->gnc[0] + cx);
+  return (int32_t)(((int64_t)cz * D->couple.gnc[1] + cy) * D->couple.gnc[0] + cx);
 }
 
 SPHDEM_HD int32_t cell_of(const sphdem_dev *D, const double *x) {
@@ -141,25 +141,25 @@ SPHDEM_HD int neighbor_cells(const sphdem_dev *D, int32_t c, int32_t *out) {
 
 /* Particle sets (fluid, wall, grain) as the sorts see them. */
 SPHDEM_HD int64_t set_count(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->nf : set == SPHDEM_SET_WALL ? D->nw : D->ng;
+  return set == SPHDEM_SET_FLUID ? D->nf : set == SPHDEM_SET_WALL ? D->nw : D->couple.ng;
 }
 SPHDEM_HD const double *set_x(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->x : set == SPHDEM_SET_WALL ? D->wx : D->gx;
+  return set == SPHDEM_SET_FLUID ? D->x : set == SPHDEM_SET_WALL ? D->wx : D->couple.gx;
 }
 SPHDEM_HD const int64_t *set_tag(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->tag : set == SPHDEM_SET_WALL ? D->wtag : D->gtag;
+  return set == SPHDEM_SET_FLUID ? D->tag : set == SPHDEM_SET_WALL ? D->wtag : D->couple.gtag;
 }
 SPHDEM_HD int32_t *set_cell(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->cell : set == SPHDEM_SET_WALL ? D->wcell : D->gcell;
+  return set == SPHDEM_SET_FLUID ? D->cell : set == SPHDEM_SET_WALL ? D->wcell : D->couple.gcell;
 }
 SPHDEM_HD int32_t *set_cstart(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->cstart : set == SPHDEM_SET_WALL ? D->wcstart : D->gcstart;
+  return set == SPHDEM_SET_FLUID ? D->cstart : set == SPHDEM_SET_WALL ? D->wcstart : D->couple.gcstart;
 }
 SPHDEM_HD int32_t *set_cend(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_FLUID ? D->cend : set == SPHDEM_SET_WALL ? D->wcend : D->gcend;
+  return set == SPHDEM_SET_FLUID ? D->cend : set == SPHDEM_SET_WALL ? D->wcend : D->couple.gcend;
 }
 SPHDEM_HD int64_t set_ncells(const sphdem_dev *D, int set) {
-  return set == SPHDEM_SET_GRAIN ? D->gncells : D->ncells;
+  return set == SPHDEM_SET_GRAIN ? D->couple.gncells : D->ncells;
 }
 SPHDEM_HD int32_t set_cell_of(const sphdem_dev *D, int set, const double *x) {
   return set == SPHDEM_SET_GRAIN ? grain_cell_of(D, x) : cell_of(D, x);
@@ -187,8 +187,8 @@ SPHDEM_HD double separation(const sphdem_dev *D, const double *xa, const double 
  * reference (superficial density: eps rho0), so it never pulls on its few neighbours. A floor only: compression
  * and its release are left alone. Applied where the density changes: predict, kick. */
 SPHDEM_HD double isolated_floor(const sphdem_dev *D, int64_t i, double rho) {
-  if (!D->ks_ok || !(D->ksum[i] < D->P.isolated)) return rho;
-  double rmin = fluid_rho0(D, i) * (D->couple_eos ? fluid_eps(D, i) : 1.0);
+  if (!D->iso.ok || !(D->iso.ksum[i] < D->P.isolated)) return rho;
+  double rmin = fluid_rho0(D, i) * (D->couple.eos ? fluid_eps(D, i) : 1.0);
   return rho < rmin ? rmin : rho;
 }
 
@@ -227,7 +227,7 @@ SPHDEM_HD void ksum_body(const sphdem_dev *D, int64_t i) {
       if (r2 < D->support2) s += D->mass[b] / D->rho[b] * wendland_w(D->alphaD, sqrt(r2) * D->inv_h);
     }
   for (int k = 0; k < nn; k++) wall_volume_sum_cell(D, xi, cells[k], D->alphaD, D->inv_h, D->support2, &s);
-  D->ksum[i] = s;
+  D->iso.ksum[i] = s;
 }
 
 /* Adami generalized wall condition at wall particle w (eqs 13-15): sums over the fluid particles f within
@@ -246,14 +246,14 @@ SPHDEM_HD void wall_state_add(const sphdem_dev *D, const double *xw, int32_t f, 
   /* coupled: the intrinsic density carries the hydrostatic gradient (eos_density is rho when uncoupled) */
   double rf = eos_density(D, f, D->rho[f]);
   for (int d = 0; d < 3; d++) { A->srr[d] += rf * r[d] * W; A->sv[d] += D->v[3 * f + d] * W; }
-  if (D->wall_porosity) A->se += fluid_eps(D, f) * W;
+  if (D->couple.wall_porosity) A->se += fluid_eps(D, f) * W;
 }
 
 SPHDEM_HD void wall_state_finish(const sphdem_dev *D, int64_t w, const wall_state_acc *A) {
   double sw = A->sw;
   /* coupled, superficial density: the wall particle carries the porosity of the fluid beside it (extrapolated
    * like eqs 13-14), so that fluid-wall pairs see the same mixture as fluid-fluid pairs */
-  if (D->wall_porosity) D->wall_porosity[w] = sw > 0.0 ? A->se / sw : 1.0;
+  if (D->couple.wall_porosity) D->couple.wall_porosity[w] = sw > 0.0 ? A->se / sw : 1.0;
   const double *vw = D->wv + 3 * w, *aw = D->wa + 3 * w;
   double pw = 0.0;
   if (sw > 0.0) {
@@ -313,8 +313,8 @@ SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double 
  * and continuity rho_a sum_b V_b v_ab.grad W (V = m / rho), is the mass form's pair with P_a/rho_a^2 scaled by
  * *ka = rho_a/rho_b, P_b/rho_b^2 by *kb = rho_b/rho_a and a's continuity term by ka. Both 1 in the mass form (eq 9). */
 SPHDEM_HD void pair_form_factors(const sphdem_dev *D, double rhoa, double rhob, double *ka, double *kb) {
-  *ka = D->pressure_volume_form ? rhoa / rhob : 1.0;
-  *kb = D->pressure_volume_form ? rhob / rhoa : 1.0;
+  *ka = D->couple.pressure_volume_form ? rhoa / rhob : 1.0;
+  *kb = D->couple.pressure_volume_form ? rhob / rhoa : 1.0;
 }
 
 /* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
@@ -343,7 +343,7 @@ typedef struct {
   const double *xa, *va;
   double rhoa, pra, drho, acc[3], u[3];
   double epsa;          /* porosity of a (1 without coupling) */
-  /* delta-plus fluid only (D->mp; dplus_init in mp_bodies.h): shift velocity, volume, pressure, viscosity,
+  /* delta-plus fluid only (D->mp.on; dplus_init in mp_bodies.h): shift velocity, volume, pressure, viscosity,
    * diffusion constants and <grad P>^L of a, its phase */
   double dua[3], ma, Va, Va2, pa, paV, mua, ic2, kdiff;
   const double *ga;
@@ -371,7 +371,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; P->A[d] = 0.0; }
   P->cont = vdotr * F;                                                 /* eq 6 */
   P->dda = P->ddb = 0.0;
-  if (D->P.delta > 0.0 && D->couple_eos) {
+  if (D->P.delta > 0.0 && D->couple.eos) {
     /* coupled, superficial density rho = eps rho_f: diffuse the intrinsic density rho_f (the EOS variable),
      * not the porosity structure of rho; each side's rate scaled back by its eps (He 2018 eq 7 context) */
     double epsb = fluid_eps(D, b), dd = density_diffusion(D, rhoa / epsa, rhob / epsb, F, r, r2, ie);
@@ -384,7 +384,7 @@ SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const doub
   /* pressure_form volume: the extra continuity part rides on dda/ddb, so one record still serves both sides */
   double ka, kb;
   pair_form_factors(D, rhoa, rhob, &ka, &kb);
-  if (D->pressure_volume_form) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
+  if (D->couple.pressure_volume_form) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
   pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
   double k2 = xsph_weight(D, rhoa, rhob, W); /* eq 12 */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
@@ -409,7 +409,7 @@ SPHDEM_HD void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
   /* wall particles keep their volume V_w = m_w / rho0 (Adami 2012); their density follows eq 15 */
   double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0, rw = D->wrho[w];
-  if (D->wall_porosity) { mb *= D->wall_porosity[w]; rw *= D->wall_porosity[w]; } /* coupled: superficial wall density eps_w rho_w */
+  if (D->couple.wall_porosity) { mb *= D->couple.wall_porosity[w]; rw *= D->couple.wall_porosity[w]; } /* coupled: superficial wall density eps_w rho_w */
   for (int d = 0; d < 3; d++) {
     vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
@@ -486,27 +486,27 @@ SPHDEM_HD void drift_body(const sphdem_dev *D, int64_t i, double dt) {
 SPHDEM_HD void rk_stage_body(const sphdem_dev *D, int64_t i, int mode, double wk, double cst) {
   if (mode == 0) {
     for (int d = 0; d < 3; d++) {
-      D->rk_x0[3 * i + d] = D->x[3 * i + d]; D->rk_v0[3 * i + d] = D->v[3 * i + d];
-      D->rk_dx[3 * i + d] = D->rk_dv[3 * i + d] = 0.0;
+      D->rk.x0[3 * i + d] = D->x[3 * i + d]; D->rk.v0[3 * i + d] = D->v[3 * i + d];
+      D->rk.dx[3 * i + d] = D->rk.dv[3 * i + d] = 0.0;
     }
-    D->rk_rho0[i] = D->rho[i];
-    D->rk_drho[i] = 0.0;
+    D->rk.rho0[i] = D->rho[i];
+    D->rk.drho[i] = 0.0;
     return;
   }
   for (int d = 0; d < D->P.dim; d++) {
     double kx = D->v[3 * i + d] + D->u[3 * i + d], kv = D->a[3 * i + d];
-    D->rk_dx[3 * i + d] += wk * kx;
-    D->rk_dv[3 * i + d] += wk * kv;
-    double x = D->rk_x0[3 * i + d] + (mode == 2 ? D->rk_dx[3 * i + d] : cst * kx);
+    D->rk.dx[3 * i + d] += wk * kx;
+    D->rk.dv[3 * i + d] += wk * kv;
+    double x = D->rk.x0[3 * i + d] + (mode == 2 ? D->rk.dx[3 * i + d] : cst * kx);
     if (D->P.periodic[d]) {
       double lo = D->P.boxlo[d], L = D->L[d];
       if (x < lo) x += L; else if (x >= lo + L) x -= L;
     }
     D->x[3 * i + d] = x;
-    D->v[3 * i + d] = D->rk_v0[3 * i + d] + (mode == 2 ? D->rk_dv[3 * i + d] : cst * kv);
+    D->v[3 * i + d] = D->rk.v0[3 * i + d] + (mode == 2 ? D->rk.dv[3 * i + d] : cst * kv);
   }
-  D->rk_drho[i] += wk * D->drho[i];
-  D->rho[i] = D->rk_rho0[i] + (mode == 2 ? D->rk_drho[i] : cst * D->drho[i]);
+  D->rk.drho[i] += wk * D->drho[i];
+  D->rho[i] = D->rk.rho0[i] + (mode == 2 ? D->rk.drho[i] : cst * D->drho[i]);
 }
 
 /* ---- reductions ---------------------------------------------------------------------------- */
@@ -554,10 +554,10 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
   r->v2max = fmax(r->v2max, v2);
   r->a2max = fmax(r->a2max, a2);
   r->rhoerr = fmax(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / fluid_rho0(D, i) - 1.0)); /* intrinsic when coupled */
-  if (D->mp) {
-    int k = D->ph[i];
+  if (D->mp.on) {
+    int k = D->mp.ph[i];
     r->v2ph[k] = fmax(r->v2ph[k], v2);
-    if (D->mu_p) r->numax = fmax(r->numax, D->mu_p[i] / D->rho[i]);
+    if (D->mp.mu_p) r->numax = fmax(r->numax, D->mp.mu_p[i] / D->rho[i]);
   }
   r->disp2max = fmax(r->disp2max, s2);
   r->ke += 0.5 * D->mass[i] * v2;

@@ -89,7 +89,7 @@ static int grow(struct sphdem_ctx_s *c, void **p, int64_t *cap, int64_t n, size_
 static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   sphdem_dev *D = &c->D;
   int64_t n = D->nf, *st;
-  int half = set == 0 && c->cpu_sym && !D->mp; /* the delta-plus fluid gathers from full lists */
+  int half = set == 0 && c->cpu_sym && !D->mp.on; /* the delta-plus fluid gathers from full lists */
   if (set == 0) {
     TRY_CPU(grow(c, (void **)&D->nl_start, &c->nls_cap, n + 1, sizeof(int64_t)));
     TRY_CPU(grow(c, (void **)&D->wl_start, &c->wls_cap, n + 1, sizeof(int64_t)));
@@ -134,7 +134,7 @@ static int cpu_ensure_lists(struct sphdem_ctx_s *c) {
  * mode (SPHDEM_CPU_GATHER, the twin self-test's second side) walk the cells. */
 int sphdem_cpu_wall_state(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
-  if (D->wmls || D->mp || !c->cpu_sym) return sphdem_cpu_loop_wall_state(c);
+  if (D->ghost.on || D->mp.on || !c->cpu_sym) return sphdem_cpu_loop_wall_state(c);
   TRY_CPU(cpu_ensure_lists(c));
 #pragma omp parallel for schedule(static)
   for (int64_t w = 0; w < D->nw; w++) {
@@ -208,7 +208,7 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
  * run the generated loop (rates_body over the full lists). */
 int sphdem_cpu_rates(struct sphdem_ctx_s *c) {
   TRY_CPU(cpu_ensure_lists(c));
-  if (c->cpu_sym && !c->D.mp) return cpu_rates_sym(c);
+  if (c->cpu_sym && !c->D.mp.on) return cpu_rates_sym(c);
   return sphdem_cpu_loop_rates(c);
 }
 

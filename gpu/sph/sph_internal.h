@@ -3,15 +3,14 @@
 #define SPHDEM_INTERNAL_H
 
 #include "grains.h"
+#include "hd.h"
 #include "runtime.h"
 #include "sphdem.h"
 #include "sph_passes.h"
+#include "couple_state.h"
+#include "fluid_options.h"
+#include "mp_state.h"
 
-#ifdef __CUDACC__
-#define SPHDEM_HD __host__ __device__ static inline
-#else
-#define SPHDEM_HD static inline
-#endif
 
 /* Cap on the number of cells of the search grid; beyond it cells grow (still >= 2h + skin). */
 #define SPHDEM_MAX_CELLS (1 << 26)
@@ -50,55 +49,13 @@ typedef struct {
   int32_t *nl, *wl;
   int64_t *wfl_start;  /* wall -> fluid: the fluid-wall list transposed (CPU wall-state pass) */
   int32_t *wfl;
-  /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h); couple == 0 and NULL arrays while it is off */
-  int couple;          /* coupling passes run in compute_rates */
-  int couple_eos;      /* eps enters the EOS (superficial density, eqs 6-7) */
-  int pressure_volume_form;            /* coupled, pressure_form volume: volume form of the pressure and continuity pair terms */
-  double immersion_s;         /* keyword immersion S of the coupling (0 = off) */
-  int eps_wall_share;      /* eq 26 normalised by the kernel share inside the walls (keyword eps_walls) */
-  int drag, torque;    /* sphdem_drag, rotational drag on/off */
-  double cmu;          /* fluid viscosity in the drag laws */
-  double eps_floor;    /* eps_min */
-  double hc, inv_hc, alphaC, support2c; /* coupling kernel (support 2 hc) */
-  double *eps;         /* porosity at fluid particles (eq 26, before the floor), device order */
-  double *fr;          /* reaction force m_a S_a on fluid particles (eq 33), 3 per particle */
-  double *wall_porosity;        /* porosity at wall particles (superficial density only; extrapolated from the fluid) */
-  /* grains, in grain-grid (cell-sorted) order; gtag = upload index + 1 */
-  int64_t ng;
-  double *gx, *gv, *grad, *gom;
-  double *grain_shepard;        /* Shepard sum sum_b V_b W_jb at each grain (eqs 28, 33) */
-  double *gf, *gfd, *gfpg, *gtq; /* total fluid force, drag part, pressure-gradient/viscous part, torque */
-  int64_t *gtag;
-  int32_t *gcell, *gcstart, *gcend;
-  /* grain ("DEM", level 1) grid: cells >= d_max; SPH (level 2) grid is the one above */
-  double gglo[3], gcs[3], gcs_inv[3];
-  int gnc[3];
-  int64_t gncells;
-  int glay[3];         /* grain-grid layers searched around a fluid particle: ceil(2 hc / cell) */
-  int flay[3];         /* SPH-grid layers searched around a grain: ceil((2 hc + skin/2) / cell) */
-  /* multiphase delta-plus SPH (Shi & Huang 2022, mp_bodies.h); mp == 0 and NULL arrays while it is off */
-  int mp;
-  sphdem_mp_params M;
-  double Bk[SPHDEM_MAX_PHASES]; /* Tait constant of each phase */
-  double ck[SPHDEM_MAX_PHASES]; /* sound speed of each phase */
-  double cmax;                  /* largest sound speed (the CFL limit) */
-  double umax_ph[SPHDEM_MAX_PHASES]; /* max |v| per phase (eq 27), reduced before the shifting pass */
-  double wvol_inv_rho0;         /* wall volume V_w = m_w * this (1 / rho0) */
-  int32_t *ph;         /* phase of each fluid particle (gathered by sorts) */
-  double *mu_p;        /* viscosity mu_i at the force time (eqs 22-25) */
-  double *gdot;        /* shear rate |D_i| (eq 26) */
-  double *Lm;          /* renormalisation matrix L_i (eq 19), 6 per particle: xx yy zz xy xz yz */
-  double *gdr;         /* renormalised pressure gradient <grad P>^L (eq 19 on P = c_i^2 delta rho), 3 */
-  double *lam;         /* min eigenvalue lambda_i of the same-phase B_i (§3.3) */
-  double *dus;         /* shifting velocity du_i (eqs 27-29), 3 */
-  /* fixed ghost walls with MLS interpolation (Shi & Huang §3.4; sphdem_set_wall_mirror): wmls == 0 while off */
-  int wmls;
-  double *wxi;         /* interpolation (mirror) point of each wall particle, 3 */
-  double *wmu;         /* ghost viscosity (multiphase), from the phase with the larger M11 share */
-  /* fourth-order Runge-Kutta (sphdem_step_rk4): state at t_n and the weighted sums of the stage rates */
-  double *rk_x0, *rk_v0, *rk_rho0, *rk_dx, *rk_dv, *rk_drho;
-  double *ksum;        /* fluid kernel sum of each fluid particle (keyword isolated; NULL when off) */
-  int ks_ok;           /* ksum is in the current particle order (set by the evaluation, cleared by sorts/uploads) */
+  /* the features' device state (couple_state.h, mp_state.h, fluid_options.h): off and NULL arrays while unused */
+  sphdem_couple_dev couple; /* SPH-DEM coupling (He 2018 §2.3, couple_bodies.h) */
+  sphdem_mp_dev mp;         /* delta-plus / multiphase fluid (Shi & Huang 2022, mp_bodies.h) */
+  sphdem_ghost_dev ghost;   /* fixed ghost walls with MLS interpolation */
+  sphdem_rk_dev rk;         /* fourth-order Runge-Kutta */
+  sphdem_iso_dev iso;       /* kernel sums (keyword isolated) */
+  double cmax;              /* largest sound speed (the CFL limit; multiphase: of any phase) */
 } sphdem_dev;
 
 /* Reduction record: stats of fluid (or bounding box of walls). */
@@ -165,31 +122,10 @@ struct sphdem_ctx_s {
   int64_t *hmap;                /* tag -> caller index scratch */
   int64_t hmap_len;
   void *backend_data;
-  /* SPH-DEM coupling (couple.c) */
-  sphdem_couple_params cp;      /* as set (hc 0 = fluid h) */
-  int64_t cap_g, cap_gcells, cap_cf, cap_cw; /* capacities: grains, grain cells, fluid and wall coupling arrays */
-  int grains_dirty;             /* uploaded but not yet sorted */
-  double gbb_lo[3], gbb_hi[3], gdmax; /* bounding box and largest diameter of the uploaded grains */
-  int64_t nforces;              /* grains seen by the last compute_rates */
-  int64_t ngown;                /* owned grains of the last set_grains (the rest are ghost copies) */
-  double *hgf;                  /* their forces in upload order: f, fdrag, fpg, torque (4 x 3n) */
-  int64_t cap_hgf;
-  int forces_valid;
-  struct sphdem_grains_s *gstore; /* private store of sphdem_set_grains (a shim hands its own store) */
-  sphdem_idx_buf gidx_buf;      /* device copy of the index list of sphdem_set_grains_store */
-  /* CPU: the fluid-grain pairs of the current coupling step (couple_cpu.c): per fluid particle its grains
-   * (cpl_f, CSR cpl_fs), per grain its fluid particles (cpl_g, CSR cpl_gs), per-thread buffers */
-  int64_t *cpl_fs, *cpl_gs, cap_cplfs, cap_cplgs, cap_cplf, cap_cplg;
-  int32_t *cpl_f, *cpl_g;
-  int32_t **cpl_tb;
-  int64_t *cpl_tcap, *cpl_tn;
-  int cpl_nt, cpl_valid, cpl_err;
-  /* multiphase (mp.c) */
-  int64_t cap_mp;               /* capacity of the multiphase arrays */
-  int mp_ready;                 /* the viscosity/shift fields of the last compute_rates exist */
-  int64_t cap_rk;               /* capacity of the Runge-Kutta arrays */
-  int64_t cap_ks;               /* capacity of the kernel-sum array (keyword isolated) */
-  int64_t cap_wm;               /* capacity of the ghost-wall arrays */
+  /* the features' host state */
+  sphdem_couple_host couple;    /* couple.c, couple_cpu.c */
+  sphdem_mp_host mp;            /* mp.c */
+  sphdem_option_host ghost, rk, iso; /* ghost.c, rk4.c, isolated.c */
 };
 
 #ifdef __cplusplus
@@ -197,30 +133,45 @@ extern "C" {
 #endif
 /* Set the context error message (printf-style); returns code. */
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
-/* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph.c). */
+/* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph_ctx.c). */
 int sphdem_ensure_scratch(struct sphdem_ctx_s *c, int64_t n);
-/* Device memory counted in c->rt.bytes (sph.c); dfree takes the bytes allocated and clears *ptr. */
+/* Device memory counted in c->rt.bytes (sph_ctx.c); dfree takes the bytes allocated and clears *ptr. */
 int sphdem_dalloc(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
 void sphdem_dfree(struct sphdem_ctx_s *c, void **ptr, size_t bytes);
-/* Derived constants again after a parameter change (sph.c). */
+/* Derived constants of the parameters (sph_ctx.c). */
 void sphdem_rederive(struct sphdem_ctx_s *c);
-/* A feature of the fluid context (the SPH-DEM coupling, the delta-plus / multiphase fluid): the core calls
- * its hooks at fixed points and knows nothing else of it. Each hook may be NULL and runs only while `on`
- * says the feature is active; the table of features is gpu/sph/features.c. Order of a rate evaluation:
- * before_pressure (timed into `timer`), pressure and wall passes, before_rates (timed with the rates),
- * rates pass, after_rates (timed into `timer`). */
+/* The backend's reduction of a set (SPHDEM_SET_*), timed into SPHDEM_T_REDUCE; the sort scratch freed (sph_ctx.c). */
+int sphdem_timed_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *r);
+void sphdem_free_scratch(struct sphdem_ctx_s *c);
+
+/* A feature of the fluid context (the SPH-DEM coupling, the delta-plus / multiphase fluid, ghost walls,
+ * Runge-Kutta, kernel sums): its device state is a member of sphdem_dev, its host state a member of the
+ * context, and the core reaches it only through these hooks, in the order of the table (gpu/sph/features.c).
+ * Any hook may be NULL. prepare, prepare_rates and finish run only while `on` says the feature is active; the
+ * others always (each checks its own state). A rate evaluation runs: prepare (timed into `timer`), the pressure
+ * and wall passes, prepare_rates (timed with the rates), the rates pass, finish (timed into `timer`). */
 typedef struct {
   const char *name;
   int (*on)(const struct sphdem_ctx_s *c);
-  int (*fluid_rebuilt)(struct sphdem_ctx_s *c);   /* set_fluid made a new fluid set: arrays sized to D.nf */
-  int (*before_pressure)(struct sphdem_ctx_s *c);
-  int (*before_rates)(struct sphdem_ctx_s *c);
-  int (*after_rates)(struct sphdem_ctx_s *c);
-  void (*release)(struct sphdem_ctx_s *c);        /* free its memory (also when on() is false) */
-  int timer;                                      /* SPHDEM_T_* of before_pressure and after_rates */
+  /* set_fluid made a new fluid set (arrays to be sized to D.nf), or set_walls a new wall set */
+  int (*rebuilt)(struct sphdem_ctx_s *c, int set);
+  /* a sort permuted the n entries of a set (c->perm, ops->gather): its arrays that carry state follow */
+  int (*sorted)(struct sphdem_ctx_s *c, int set, int64_t n);
+  int (*prepare)(struct sphdem_ctx_s *c);          /* before the pressure pass */
+  int (*prepare_rates)(struct sphdem_ctx_s *c);    /* after the pressure and wall passes, before the rates pass */
+  int (*finish)(struct sphdem_ctx_s *c);           /* after the rates pass */
+  /* get_fluid: the pressure of the n densities rho (device order, host copy) into p[ui[s]] when the feature
+   * owns the EOS (*done = 1); the first feature that does wins, else the fluid's Tait EOS */
+  int (*host_pressure)(struct sphdem_ctx_s *c, int64_t n, const double *rho, const int32_t *ui, double *p,
+                       int *done);
+  void (*release)(struct sphdem_ctx_s *c);         /* free its memory */
+  int timer;                                       /* SPHDEM_T_* of prepare and finish */
 } sphdem_feature;
-extern const sphdem_feature sphdem_feature_couple, sphdem_feature_mp;
+extern const sphdem_feature sphdem_feature_couple, sphdem_feature_mp, sphdem_feature_ghost, sphdem_feature_rk,
+    sphdem_feature_iso;
 extern const sphdem_feature *const sphdem_features[]; /* NULL-terminated, in call order */
+/* Runge-Kutta arrays for n fluid particles (fluid_options.c), for the integrator (sph_step.c). */
+int sphdem_rk_ensure(struct sphdem_ctx_s *c, int64_t n);
 /* CPU passes: the generated loops (sph_cpu.c, couple_cpu.c) and the CPU's own versions (cpu "own") */
 SPHDEM_FLUID_PASSES(SPHDEM_PASS_DECL_CPU)
 SPHDEM_COUPLE_PASSES(SPHDEM_PASS_DECL_CPU)

@@ -16,10 +16,10 @@
 
 /* Fluid (sph.c, mp.c call them in the order of a step, doc/architecture.md) */
 #define SPHDEM_FLUID_PASSES(X)                                                                                \
-  X(ksum, D->ksum ? D->nf : 0, static, loop, (), (), ksum_body(D, i)) /* kernel sums (keyword isolated) */    \
+  X(ksum, D->iso.ksum ? D->nf : 0, static, loop, (), (), ksum_body(D, i)) /* kernel sums (keyword isolated) */    \
   X(pressure, D->nf, static, loop, (), (), predict_body(D, i))        /* state at the force time, EOS */      \
   X(wall_state, D->nw, static, own, (), (),                           /* Adami eqs 13-15, or MLS ghosts */    \
-    D->wmls ? mls_wall_state_body(D, i) : wall_state_body(D, i))                                              \
+    D->ghost.on ? mls_wall_state_body(D, i) : wall_state_body(D, i))                                              \
   X(mp_grad, D->nf, dyn64, loop, (), (), mp_grad_body(D, i))     /* delta-plus: L_i, gradients, viscosity */  \
   X(mp_shift, D->nf, dyn64, loop, (), (), mp_shift_body(D, i))   /* delta-plus: shifting velocity */          \
   X(rates, D->nf, dyn64, own, (), (), rates_body(D, i))          /* the one fluid rate pass (fluid_rates.h) */ \
@@ -33,7 +33,7 @@
 /* SPH-DEM coupling (couple.c; He 2018 §2.3-2.4, couple_bodies.h) */
 #define SPHDEM_COUPLE_PASSES(X)                                                                               \
   X(couple_porosity, D->nf, dyn64, own, (), (), couple_porosity_body(D, i)) /* eq 26 at fluid particles */   \
-  X(couple_grains, D->ng, dyn16, own, (), (), couple_grain_body(D, i))      /* eqs 27-32 on grains */        \
+  X(couple_grains, D->couple.ng, dyn16, own, (), (), couple_grain_body(D, i))      /* eqs 27-32 on grains */        \
   X(couple_reaction, D->nf, dyn64, own, (), (), couple_reaction_body(D, i)) /* eq 33 on the fluid */
 
 #define SPHDEM_UNPAREN_(...) __VA_ARGS__

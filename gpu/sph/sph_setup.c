@@ -1,6 +1,7 @@
-/* sph_setup.c - the initial state of a fluid at rest, for the engine shims: the density of each fresh
- * particle (rho0, hydrostatic, or the layered multiphase pressure through its phase's EOS) and the
- * mirror points of the fixed ghost walls. Context-free: plain arrays in, error codes out. */
+/* sph_setup.c - the initial state of a fluid at rest, for the engine shims: the free surface of the
+ * hydrostatic start, the density of each fresh particle (rho0, hydrostatic, or the layered multiphase
+ * pressure through its phase's EOS) and the mass that keeps its volume, the superficial start among grains,
+ * and the mirror points of the fixed ghost walls. Context-free: plain arrays in, error codes out. */
 #include <math.h>
 #include <stdlib.h>
 
@@ -58,6 +59,41 @@ static int layered_pressure(const sphdem_params *p, const sphdem_mp_params *m, d
   }
   free(srho), free(cnt);
   *nb_out = nb, *z_out = z, *p_out = pr;
+  return SPHDEM_OK;
+}
+
+int sphdem_free_surface(const sphdem_params *p, int n, const double *x, const sphdem_comm *comm, double *zsurf,
+                        int *axis, int *up) {
+  if (!p || n < 0 || (n > 0 && !x) || !zsurf) return SPHDEM_ERR_ARG;
+  double down_sign;
+  const int ax = gravity_axis(p, &down_sign); /* the surface is where down_sign * x is largest */
+  double top = -INFINITY;
+  for (int i = 0; i < n; i++) {
+    const double v = down_sign * x[3 * i + ax];
+    if (top < v) top = v;
+  }
+  if (comm && comm->allreduce && comm->nranks > 1 && comm->allreduce(comm->user, &top, 1, SPHDEM_RED_MAX) != 0)
+    return SPHDEM_ERR_STATE;
+  *zsurf = down_sign * (top + 0.5 * p->dx);
+  if (axis) *axis = ax;
+  if (up) *up = down_sign > 0 ? 1 : -1;
+  return SPHDEM_OK;
+}
+
+double sphdem_volume_mass_factor(const sphdem_params *p, const sphdem_mp_params *m, int phase, double rho) {
+  const double rho0 = m && m->enabled ? m->phase[phase].rho0 : p->rho0;
+  return rho / rho0;
+}
+
+int sphdem_superficial_start(double eps_min, int nout, const int *which, const double *eps, double *rho,
+                             double *mass) {
+  if (nout < 0 || (nout > 0 && (!which || !eps || !rho))) return SPHDEM_ERR_ARG;
+  for (int j = 0; j < nout; j++) {
+    const int k = which[j];
+    const double e = eps[k] < eps_min ? eps_min : eps[k]; /* eps_min floor (NaN passes as in the fluid's sums) */
+    rho[k] *= e;
+    if (mass) mass[k] *= e;
+  }
   return SPHDEM_OK;
 }
 

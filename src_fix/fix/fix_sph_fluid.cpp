@@ -743,18 +743,17 @@ void FixSPHFluid::setup(int) {
   fluid_step_ = false;
 }
 
-/* hydrostatic auto: the free surface is the highest fluid particle along the gravity axis (against gravity: the
- * axis of the largest component, as the hydrostatic start takes it) plus half a particle spacing, over all ranks.
- * Resolved once, at the first set-up; printed. Collective. */
+/* hydrostatic auto: the free surface from the fluid atoms over all ranks (sphdem_free_surface: the highest fluid
+ * particle against gravity plus half a particle spacing). Resolved once, at the first set-up; printed. Collective. */
 void FixSPHFluid::resolve_hydrostatic_auto() {
-  int axis = 0;
-  for (int d = 1; d < 3; d++)
-    if (std::fabs(prm_.gravity[d]) > std::fabs(prm_.gravity[axis])) axis = d;
-  const double up = prm_.gravity[axis] < 0 ? 1.0 : -1.0; /* the surface is where up * x is largest */
-  double top = -INFINITY;
-  for (size_t k = 0; k < nfown_; k++) top = std::max(top, up * atom->x[fidx_[k]][axis]);
-  sphdem_mpi::max(world, &top, 1);
-  zsurf_ = up * (top + 0.5 * prm_.dx);
+  std::vector<double> x(3 * nfown_);
+  for (size_t k = 0; k < nfown_; k++)
+    for (int d = 0; d < 3; d++) x[3 * k + d] = atom->x[fidx_[k]][d];
+  sphdem_comm all = sphdem_mpi::comm(&world); /* every rank, also where the fix runs without ghosts */
+  int axis = 0, up = 1;
+  const int rc = sphdem_free_surface(&prm_, (int)nfown_, x.data(), &all, &zsurf_, &axis, &up);
+  if (rc != SPHDEM_OK)
+    sphdem_compat::error_all(error, FLERR, std::string("Fix sph/fluid: free_surface: ") + sphdem_strerror(rc));
   hydro_auto_ = false;
   if (comm->me == 0) {
     char line[256];
@@ -956,10 +955,10 @@ bool FixSPHFluid::upload_fluid() {
   for (size_t j = 0; j < fresh_.size(); j++) {
     const int k = fresh_[j], i = fidx_[k];
     frho_[k] = rho[j];
-    const double rho0 = mp_.enabled ? mp_.phase[type_phase_[atom->type[i]]].rho0 : prm_.rho0;
     /* keep each particle's SPH volume m/rho equal to its lattice volume m0/rho0 (once per fix) */
     if (hydrostatic_ && !mass_scaled_ && atom->rmass) {
-      atom->rmass[i] *= frho_[k] / rho0;
+      atom->rmass[i] *= sphdem_volume_mass_factor(&prm_, mp_.enabled ? &mp_ : nullptr, mp_.enabled ? fphase_[k] : 0,
+                                                  frho_[k]);
       fmass_[k] = atom->rmass[i];
       scaled_any = true;
     }
@@ -1109,14 +1108,14 @@ void FixSPHFluid::start_superficial() {
   const size_t n = fidx_.size();
   feps_.resize(n);
   check(sphdem_get_porosity(ctx_, feps_.data()), "get_porosity");
-  for (int k : fresh_) {
-    const double eps = std::max(feps_[k], floor);
-    frho_[k] *= eps;
-    if (atom->rmass) {
-      atom->rmass[fidx_[k]] *= eps;
-      fmass_[k] = atom->rmass[fidx_[k]];
-    }
-  }
+  if (atom->rmass)
+    for (int k : fresh_) fmass_[k] = atom->rmass[fidx_[k]];
+  const int rc = sphdem_superficial_start(floor, (int)fresh_.size(), fresh_.data(), feps_.data(), frho_.data(),
+                                          atom->rmass ? fmass_.data() : nullptr);
+  if (rc != SPHDEM_OK) /* the arrays are this fix's own: a bug, on this rank */
+    sphdem_compat::error_one(error, FLERR, std::string("Fix sph/fluid: superficial_start: ") + sphdem_strerror(rc));
+  if (atom->rmass)
+    for (int k : fresh_) atom->rmass[fidx_[k]] = fmass_[k];
   if (!atom->rmass && comm->me == 0)
     sphdem_compat::warning(error, FLERR,
                            "Fix sph/fluid: per-type masses: the fluid density starts at eps rho, the masses are "

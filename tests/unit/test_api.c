@@ -194,6 +194,25 @@ static void setup_closed_forms(void) {
   wx[3] = 0.2;
   rc = sphdem_mirror_points(3, wx, lo, hi, xi, &inside);
   TEST_ASSERT(rc == SPHDEM_ERR_ARG && inside == 1, "a wall particle inside the box is named (rc %d, inside %d)", rc, inside);
+  /* free surface: the highest particle (y 0.095) + dx/2 with gravity -y; the lowest - dx/2 with gravity +y */
+  int axis = -1, up = 0;
+  double zf = 0;
+  rc = sphdem_free_surface(&p, n, x, NULL, &zf, &axis, &up);
+  TEST_ASSERT(rc == SPHDEM_OK && axis == 1 && up == 1 && fabs(zf - 0.1) < 1e-15,
+              "free surface above the highest particle (rc %d, axis %d, up %d, z %.17g)", rc, axis, up, zf);
+  p.gravity[1] = 9.81;
+  rc = sphdem_free_surface(&p, n, x, NULL, &zf, &axis, &up);
+  TEST_ASSERT(rc == SPHDEM_OK && axis == 1 && up == -1 && fabs(zf - 0.0) < 1e-15,
+              "gravity +y: free surface below the lowest particle (rc %d, up %d, z %.3g)", rc, up, zf);
+  p.gravity[1] = -9.81;
+  /* volume-keeping mass factor rho / rho0 of the phase; superficial start rho, m times max(eps, eps_min) */
+  TEST_ASSERT(sphdem_volume_mass_factor(&p, NULL, 0, 1010.0) == 1010.0 / 1000.0 &&
+              sphdem_volume_mass_factor(&p, &m, 0, 2020.0) == 2020.0 / 2000.0, "mass factor rho / rho0 of the phase");
+  double eps[3] = {0.5, 0.1, 0.9}, r3[3] = {1000, 1000, 1000}, m3[3] = {1, 1, 1};
+  int fr[2] = {0, 1};
+  rc = sphdem_superficial_start(0.2, 2, fr, eps, r3, m3);
+  TEST_ASSERT(rc == SPHDEM_OK && r3[0] == 500 && r3[1] == 200 && r3[2] == 1000 && m3[0] == 0.5 && m3[1] == 0.2 &&
+              m3[2] == 1, "superficial start: rho and m of the fresh particles times max(eps, eps_min) (rc %d)", rc);
 }
 
 int main(void) {

@@ -1,0 +1,65 @@
+/* sph_step.c - the integrators of the fluid context: the velocity-Verlet kick and drift, and the
+ * fourth-order Runge-Kutta step (Shi & Huang 2022), which evaluates the rates four times. */
+#include "sph_internal.h"
+
+#define TRY(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
+
+int sphdem_kick(sphdem_ctx c, double dth) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (c->D.nf == 0) return SPHDEM_OK;
+  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "kick before the rates were computed (call sphdem_compute_rates first)");
+  double t0 = rt_now();
+  TRY(c->ops->kick(c, dth));
+  TRY(rt_sync(&c->rt));
+  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
+  /* first half kick of a step: the next rates predict rho and v by dth; second one closes the step */
+  c->half_kicked = !c->half_kicked;
+  c->D.pred_dth = c->half_kicked ? dth : 0.0;
+  return SPHDEM_OK;
+}
+
+int sphdem_drift(sphdem_ctx c, double dt) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (c->D.nf == 0) return SPHDEM_OK;
+  if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "drift before the rates were computed (call sphdem_compute_rates first)");
+  double t0 = rt_now();
+  TRY(c->ops->drift(c, dt));
+  TRY(rt_sync(&c->rt));
+  c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
+  /* displacement since the last sort decides the next resort (He 2018 §2.4.2) */
+  sphdem_red r;
+  TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
+  return SPHDEM_OK;
+}
+
+/* After a stage moved the particles: resort before the next rate evaluation when needed. */
+static int rk_moved(sphdem_ctx c) {
+  sphdem_red r;
+  TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
+  if (!(r.disp2max <= 0.25 * c->D.P.skin * c->D.P.skin)) c->need_sort = 1;
+  return SPHDEM_OK;
+}
+
+int sphdem_step_rk4(sphdem_ctx c, double dt) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (D->couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "step_rk4: the Runge-Kutta integrator cannot be used with "
+                                                         "the SPH-DEM coupling (use velocity Verlet)");
+  if (!(dt > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "step_rk4: dt must be > 0 (got %g)", dt);
+  if (D->nf == 0) return SPHDEM_OK;
+  TRY(sphdem_rk_ensure(c, D->nf));
+  c->half_kicked = 0;
+  /* stage weights dt/6, dt/3, dt/3, dt/6; the next stage's state at t + dt/2, t + dt/2, t + dt */
+  const double wk[4] = {dt / 6.0, dt / 3.0, dt / 3.0, dt / 6.0}, cst[3] = {0.5 * dt, 0.5 * dt, dt};
+  for (int s = 0; s < 4; s++) {
+    TRY(sphdem_compute_rates(c));
+    double t0 = rt_now();
+    if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
+    TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
+    TRY(rt_sync(&c->rt));
+    c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
+    TRY(rk_moved(c));
+  }
+  return SPHDEM_OK;
+}
