@@ -272,6 +272,98 @@ def test_plugin(host, plugin, lmp):
     return fails + (0 if same else 1)
 
 
+# two 10 mm grains 0.1 mm apart along x (the DEM pair tests): a head-on collision and an oblique one with spin
+TWO_GRAINS = {
+    "headon": """create_atoms 1 single -0.00505 0 0 units box
+create_atoms 1 single 0.00505 0 0 units box
+velocity all set 0 0 0
+set atom 1 vx 1.0
+set atom 2 vx -1.0
+""",
+    "oblique": """create_atoms 1 single -0.00505 0.004 0.001 units box
+create_atoms 1 single 0.00505 0 0 units box
+velocity all set 0 0 0
+set atom 1 vx 1.5
+set atom 1 vy -0.3
+set atom 1 omega 0 0 200
+set atom 2 omega -100 0 0
+""",
+}
+
+
+# LAMMPS: a pour into an empty periodic box (after examples/granular/in.pour), 1000 grains falling onto a
+# wall/gran floor; NEWTON a "newton ..." line or "", PAIR_STYLE / PAIR_COEFF the words after pair_style and
+# pair_coeff; braces of further fields doubled ({{steps}} stays a field)
+POUR_LJ = """units           lj
+atom_style      sphere
+boundary        p p fm
+{newton}comm_modify     vel yes
+region          reg block -10 10 -10 10 -0.5 16 units box
+create_box      1 reg
+neighbor        0.2 bin
+neigh_modify    delay 0
+pair_style      {pair_style}
+pair_coeff      {pair_coeff}
+timestep        0.001
+fix             1 all nve/sphere
+fix             2 all gravity 1.0 spherical 0.0 -180.0
+fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
+region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
+fix             ins all pour 1000 1 300719 vol 0.13 50 region slab
+thermo_style    custom step atoms ke
+thermo_modify   lost ignore norm no format float %.12g
+thermo          1000
+run             {steps}
+write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+
+class Checks:
+    """a test's PASS/FAIL lines and their count: check(cond, what, out) prints the line (with the last `tail` lines
+    of out on a failure) and returns cond; .fails counts the failures"""
+
+    def __init__(self, tail=6):
+        self.fails, self.tail = 0, tail
+
+    def __call__(self, cond, what, out=""):
+        print("%s %s" % ("PASS" if cond else "FAIL", what))
+        if not cond:
+            self.fails += 1
+            if out:
+                print("     " + "\n     ".join(out.splitlines()[-self.tail:]))
+        return cond
+
+
+def lig_materials(young="5e6", poisson="0.45", restitution="0.7", friction="0.5"):
+    """the four LIGGGHTS material tables of a one-type granular scene (fix m1 .. m4 property/global)"""
+    return ("fix m1 all property/global youngsModulus peratomtype %s\n"
+            "fix m2 all property/global poissonsRatio peratomtype %s\n"
+            "fix m3 all property/global coefficientRestitution peratomtypepair 1 %s\n"
+            "fix m4 all property/global coefficientFriction peratomtypepair 1 %s\n") % (young, poisson, restitution,
+                                                                                     friction)
+
+
+def dem_dump(path):
+    """rows [id x y z vx vy vz omegax omegay omegaz] of a dump custom of those columns (the DEM engine tests)"""
+    lines = [l.strip() for l in open(path).read().splitlines()]
+    i = lines.index("ITEM: ATOMS id x y z vx vy vz omegax omegay omegaz")
+    return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
+
+
+def thermo_words(out):
+    """the rows (as words) of the first thermo table in out, up to its 'Loop time' line"""
+    rows, on = [], False
+    for l in out.splitlines():
+        if l.split()[:1] == ["Step"]:
+            on = True
+            continue
+        if on:
+            if l.startswith("Loop time"):
+                break
+            rows.append(l.split())
+    return rows
+
+
 def thermo_rows(log_text):
     """Numeric rows of the thermo table that follows the last 'Step' header."""
     rows, on = [], False

@@ -347,11 +347,7 @@ region box block -0.05 0.05 -0.05 0.05 -0.05 0.05 units box
 create_box 1 box
 neighbor 0.001 bin
 neigh_modify delay 0
-fix m1 all property/global youngsModulus peratomtype 5e6
-fix m2 all property/global poissonsRatio peratomtype 0.45
-fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
-fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
-fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
+""" + E.lig_materials() + """fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
 fix m6 all property/global characteristicVelocity scalar 0.8
 pair_style gran/gpu ARGS
 pair_coeff * *
@@ -451,15 +447,7 @@ def test_failure_dump(exe, engine):
     a time step just above the stable one is printed with the digits that tell them apart."""
     import re
     import subprocess
-    fails = 0
-
-    def ok(cond, what, out=""):
-        nonlocal fails
-        print("%s %s" % ("PASS" if cond else "FAIL", what))
-        if not cond:
-            fails += 1
-            print("     " + "\n     ".join(out.splitlines()[-6:]))
-        return cond
+    ok = E.Checks(tail=6)
 
     root = "failure_dump_" + engine
     # (1) the time step becomes unstable as the column collapses (2e-4 s is stable at the start, not at step 400)
@@ -549,8 +537,8 @@ def test_failure_dump(exe, engine):
                                                                                   "timestep " + m.group(3)),
                         timeout=TIMEOUT)
         ok(rc == 0, "the suggested time step %s passes the set-up check" % m.group(3), out)
-    print("failure_dump (%s): %d failed" % (engine, fails))
-    return 1 if fails else 0
+    print("failure_dump (%s): %d failed" % (engine, ok.fails))
+    return 1 if ok.fails else 0
 
 
 def tables(style):

@@ -78,21 +78,9 @@ NEIGH = "neighbor 0.001 bin\nneigh_modify delay 0 every 1 check yes"
 RECOLLIDE_NEIGH = "neighbor 0.02 bin\nneigh_modify delay 0 every 100000 check no"
 SCENES = {
     "headon": dict(boundary="f f f", box="-0.05 0.05 -0.05 0.05 -0.05 0.05", integrate="all", extra="",
-                   atoms="""create_atoms 1 single -0.00505 0 0 units box
-create_atoms 1 single 0.00505 0 0 units box
-velocity all set 0 0 0
-set atom 1 vx 1.0
-set atom 2 vx -1.0
-"""),
+                   atoms=E.TWO_GRAINS["headon"]),
     "oblique": dict(boundary="f f f", box="-0.05 0.05 -0.05 0.05 -0.05 0.05", integrate="all", extra="",
-                    atoms="""create_atoms 1 single -0.00505 0.004 0.001 units box
-create_atoms 1 single 0.00505 0 0 units box
-velocity all set 0 0 0
-set atom 1 vx 1.5
-set atom 1 vy -0.3
-set atom 1 omega 0 0 200
-set atom 2 omega -100 0 0
-"""),
+                    atoms=E.TWO_GRAINS["oblique"]),
     "recollide": dict(boundary="p p p", box="-0.0105 0.0105 -0.05 0.05 -0.05 0.05", integrate="all", extra="",
                       neigh=RECOLLIDE_NEIGH, steps=20000,
                       atoms="""create_atoms 1 single -0.00505 0.004 0.001 units box
@@ -132,11 +120,7 @@ communicate single vel yes
 region box block {box} units box
 create_box 1 box
 {neigh}
-fix m1 all property/global youngsModulus peratomtype 5e6
-fix m2 all property/global poissonsRatio peratomtype 0.45
-fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
-fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
-fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
+""" + E.lig_materials() + """fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
 fix m6 all property/global characteristicVelocity scalar 0.8
 pair_style {style} {args}
 pair_coeff * *
@@ -196,23 +180,8 @@ def run(cmd, workdir, text, timeout=120):
     return E.run(cmd, workdir, text, timeout=timeout)
 
 
-def load_dump(path):
-    lines = [l.strip() for l in open(path).read().splitlines()]
-    i = lines.index("ITEM: ATOMS id x y z vx vy vz omegax omegay omegaz")
-    return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
-
-
-def thermo(out):
-    rows, on = [], False
-    for l in out.splitlines():
-        if l.split()[:1] == ["Step"]:
-            on = True
-            continue
-        if on:
-            if l.startswith("Loop time"):
-                break
-            rows.append(l.split())
-    return rows
+load_dump = E.dem_dump
+thermo = E.thermo_words
 
 
 def same(lmp, liggghts=False):
@@ -839,29 +808,8 @@ def refused_liggghts(lig):
 
 # LAMMPS: a pour into an empty box (after examples/granular/in.pour): no 'Communication cutoff 0.0' or
 # 'Atom sorting disabled' warnings, the same trajectory as the stock style
-POUR_LMP = """units           lj
-atom_style      sphere
-boundary        p p fm
-newton          off
-comm_modify     vel yes
-region          reg block -10 10 -10 10 -0.5 16 units box
-create_box      1 reg
-neighbor        0.2 bin
-neigh_modify    delay 0
-pair_style      {style} 2000.0 NULL 50.0 NULL 0.5 0
-pair_coeff      * *
-timestep        0.001
-fix             1 all nve/sphere
-fix             2 all gravity 1.0 spherical 0.0 -180.0
-fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
-region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
-fix             ins all pour 1000 1 300719 vol 0.13 50 region slab
-thermo_style    custom step atoms ke
-thermo_modify   lost ignore norm no format float %.12g
-thermo          1000
-run             {steps}
-write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
-"""
+POUR_LMP = E.POUR_LJ.format(newton="newton          off\n", pair_style="{style} 2000.0 NULL 50.0 NULL 0.5 0",
+                             pair_coeff="* *", steps="{steps}")
 
 
 def pour_lammps(lmp, steps=5000):

@@ -63,11 +63,7 @@ communicate single vel yes
 read_data ../bed.data
 neighbor 0.0004 bin
 neigh_modify delay 0
-fix m1 all property/global youngsModulus peratomtype 5e7
-fix m2 all property/global poissonsRatio peratomtype 0.3
-fix m3 all property/global coefficientRestitution peratomtypepair 1 0.6
-fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
-pair_style {style} model hertz tangential history
+""" + E.lig_materials("5e7", "0.3", "0.6", "0.5") + """pair_style {style} model hertz tangential history
 pair_coeff * *
 fix floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0
 fix g all gravity 9.81 vector 0 0 -1

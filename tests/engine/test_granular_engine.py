@@ -31,8 +31,9 @@ MODELS = {
     "hertz_material_tsuji_mindlin": "hertz/material 1e8 0.6 0.3 tangential mindlin NULL 1.0 0.4 damping tsuji",
     "hertz_material_mindlin_sds_marshall": "hertz/material 1e8 3e3 0.3 tangential mindlin NULL 1.0 0.4 "
                                            "rolling sds 50 0.01 0.3 twisting marshall",
-    "dmt_mindlin_sds_sds": "dmt 1e8 3e3 0.3 0.05 tangential mindlin 5e7 0.5 0.5 rolling sds 50 0.01 0.2 "
-                           "twisting sds 1e-3 1e-6 0.1",
+    # dmt without friction: stock 2021 reads an unset cohesion in dmt's friction limits, so a frictional dmt
+    # collision agrees with it only while that memory happens to hold 0 (measured: 1 run in 4 differs by 3e-3)
+    "dmt_mindlin_frictionless": "dmt 1e8 3e3 0.3 0.05 tangential mindlin 5e7 0.5 0.0",
     "hooke_nohistory_twisting": "hooke 2e4 50 tangential linear_nohistory 0.5 0.4 damping velocity "
                                 "rolling sds 5 0.01 0.3 twisting sds 1e-4 1e-7 0.1",
 }
@@ -46,21 +47,8 @@ region box block -0.05 0.05 -0.05 0.05 -0.05 0.05 units box
 create_box 1 box
 """
 PAIR_ATOMS = {
-    "headon": """create_atoms 1 single -0.00505 0 0 units box
-create_atoms 1 single 0.00505 0 0 units box
-velocity all set 0 0 0
-set atom 1 vx 1.0
-set atom 2 vx -1.0
-set atom 1 omega 0 30 50
-""",
-    "oblique": """create_atoms 1 single -0.00505 0.004 0.001 units box
-create_atoms 1 single 0.00505 0 0 units box
-velocity all set 0 0 0
-set atom 1 vx 1.5
-set atom 1 vy -0.3
-set atom 1 omega 0 0 200
-set atom 2 omega -100 0 0
-""",
+    "headon": E.TWO_GRAINS["headon"] + "set atom 1 omega 0 30 50\n",
+    "oblique": E.TWO_GRAINS["oblique"],
 }
 PAIR_TAIL = """set atom * diameter 0.01
 set atom * density 2500
@@ -137,23 +125,8 @@ PACKS = {
 }
 
 
-def load_dump(path):
-    lines = [l.strip() for l in open(path).read().splitlines()]
-    i = lines.index("ITEM: ATOMS id x y z vx vy vz omegax omegay omegaz")
-    return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
-
-
-def thermo(out):
-    rows, on = [], False
-    for l in out.splitlines():
-        if l.split()[:1] == ["Step"]:
-            on = True
-            continue
-        if on:
-            if l.startswith("Loop time"):
-                break
-            rows.append(l.split())
-    return rows
+load_dump = E.dem_dump
+thermo = E.thermo_words
 
 
 def run_pair(lmp, wd, text):
@@ -310,28 +283,7 @@ def badinput(lmp):
 # fix pour into an empty box (after LAMMPS examples/granular/in.pour, the granular words): the cutoff comes from
 # the radii fix pour will insert, so no 'Communication cutoff 0.0' or 'Atom sorting' warnings, and the stock run
 # (newton on: rolling and twisting with newton off in a periodic box are refused, see badinput)
-POUR = """units           lj
-atom_style      sphere
-boundary        p p fm
-comm_modify     vel yes
-region          reg block -10 10 -10 10 -0.5 16 units box
-create_box      1 reg
-neighbor        0.2 bin
-neigh_modify    delay 0
-pair_style      {style}
-pair_coeff      * * hertz 2000.0 50.0 tangential linear_history 571.0 0.5 0.5 rolling sds 200 10 0.1 twisting marshall
-timestep        0.001
-fix             1 all nve/sphere
-fix             2 all gravity 1.0 spherical 0.0 -180.0
-fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
-region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
-fix             ins all pour 1000 1 300719 vol 0.13 50 region slab
-thermo_style    custom step atoms ke
-thermo_modify   lost ignore norm no format float %.12g
-thermo          1000
-run             {steps}
-write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
-"""
+POUR = E.POUR_LJ.format(newton="", pair_style="{style}", pair_coeff="* * hertz 2000.0 50.0 tangential linear_history 571.0 0.5 0.5 rolling sds 200 10 0.1 twisting marshall", steps="{steps}")
 
 
 def pour(lmp, steps=5000):

@@ -31,17 +31,7 @@ import engine_test as E  # noqa: E402  (the dam-break scenes and the run helper)
 
 TIMEOUT = 60
 SIGNALS = (124, 134, 136, 137, 139)
-fails = 0
-
-
-def ok(cond, what, out=""):
-    global fails
-    print("%s %s" % ("PASS" if cond else "FAIL", what))
-    if not cond:
-        fails += 1
-        if out:
-            print("     " + "\n     ".join(out.splitlines()[-8:]))
-    return cond
+ok = E.Checks(tail=8)
 
 
 def R(s, *pairs):
@@ -305,8 +295,8 @@ def main(argv):
     else:
         print(__doc__)
         return 2
-    print("%s (%s): %d failed" % (case, engine, fails))
-    return 1 if fails else 0
+    print("%s (%s): %d failed" % (case, engine, ok.fails))
+    return 1 if ok.fails else 0
 
 
 if __name__ == "__main__":

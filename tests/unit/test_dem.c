@@ -3,6 +3,7 @@
  * carried through rebuilds and arbitrary reordering, closed-form single contacts. */
 #include <math.h>
 #define TEST_RNG_SEED 88172645463325252ull
+#include "dem_granular_table.h"
 #include "testlib.h"
 
 static sphdem_dem make(const sphdem_dem_params *p) {
@@ -715,25 +716,7 @@ static void test_cohesion(void) {
 /* The granular model (LAMMPS pair_style granular): a two-type table with every sub-model family, pair- vs
  * particle-parallel forces equal, momentum conserved, the table required, bad tables refused, and the rolling /
  * twisting history negated by sphdem_dem_flip_history (the forces of a flipped pair change). */
-static void fill_granular(sphdem_dem_granular *t) {
-  memset(t, 0, sizeof(sphdem_dem_granular) * 4);
-  for (int k = 0; k < 4; k++) {
-    sphdem_dem_granular *c = &t[k];
-    c->normal = k == 0 ? SPHDEM_GRAN_HERTZ_MATERIAL : k == 3 ? SPHDEM_GRAN_DMT : SPHDEM_GRAN_HERTZ;
-    c->damping = k == 0 ? SPHDEM_GRAN_DAMP_TSUJI : k == 3 ? SPHDEM_GRAN_DAMP_VISCOELASTIC : SPHDEM_GRAN_DAMP_MASS_VELOCITY;
-    c->tangential = k == 3 ? SPHDEM_GRAN_TANG_MINDLIN : SPHDEM_GRAN_TANG_LINEAR_HISTORY;
-    c->rolling = SPHDEM_GRAN_ROLL_SDS;
-    c->twisting = k == 0 ? SPHDEM_GRAN_TWIST_MARSHALL : SPHDEM_GRAN_TWIST_SDS;
-    c->kn = k == 1 || k == 2 ? 2e6 : 1e7;
-    c->damp = k == 0 ? 0.5 : 1e2;
-    c->cohesion = 0.05;
-    c->kt = k == 3 ? 5e6 : 5e5;
-    c->damp_t = 0.5;
-    c->mu = 0.4;
-    c->kr = 10; c->damp_r = 0.01; c->mu_r = 0.2;
-    c->ktw = 1e-3; c->damp_tw = 1e-6; c->mu_tw = 0.1;
-  }
-}
+static void fill_granular(sphdem_dem_granular *t) { dem_granular_test_table(t, SPHDEM_GRAN_DAMP_MASS_VELOCITY); }
 
 static void test_granular(void) {
   double lo[3] = {0, 0, 0}, hi[3] = {1.5, 1.5, 1.5};

@@ -5,6 +5,7 @@
  * (skipped) where no GPU is usable. The trajectory is advanced with the CPU forces and fed to both. */
 #include <math.h>
 #define TEST_RNG_SEED 0x9E3779B97F4A7C15ull
+#include "dem_granular_table.h"
 #include "testlib.h"
 
 int main(void) {
@@ -33,22 +34,7 @@ int main(void) {
   int *fl = malloc(sizeof(int) * n);
   for (int i = 0; i < n; i++) fl[i] = (i % 2) << SPHDEM_DEM_MATERIAL_SHIFT;
   sphdem_dem_granular gt[4];
-  memset(gt, 0, sizeof gt);
-  for (int k = 0; k < 4; k++) {
-    sphdem_dem_granular *c = &gt[k];
-    c->normal = k == 0 ? SPHDEM_GRAN_HERTZ_MATERIAL : k == 3 ? SPHDEM_GRAN_DMT : SPHDEM_GRAN_HERTZ;
-    c->damping = k == 0 ? SPHDEM_GRAN_DAMP_TSUJI : SPHDEM_GRAN_DAMP_VISCOELASTIC;
-    c->tangential = k == 3 ? SPHDEM_GRAN_TANG_MINDLIN : SPHDEM_GRAN_TANG_LINEAR_HISTORY;
-    c->rolling = SPHDEM_GRAN_ROLL_SDS;
-    c->twisting = k == 0 ? SPHDEM_GRAN_TWIST_MARSHALL : SPHDEM_GRAN_TWIST_SDS;
-    c->kn = k == 1 || k == 2 ? 2e6 : 1e7;
-    c->damp = k == 0 ? 0.5 : 1e2;
-    c->cohesion = 0.05;
-    c->kt = k == 3 ? 5e6 : 5e5;
-    c->damp_t = 0.5; c->mu = 0.4;
-    c->kr = 10; c->damp_r = 0.01; c->mu_r = 0.2;
-    c->ktw = 1e-3; c->damp_tw = 1e-6; c->mu_tw = 0.1;
-  }
+  dem_granular_test_table(gt, SPHDEM_GRAN_DAMP_VISCOELASTIC);
   for (int model = 1; model <= 4; model++)
     for (int algo = 0; algo < 2; algo++) {
       sphdem_dem_params p;

@@ -117,6 +117,18 @@ static int same_set(sphdem_points *a, sphdem_points *b, double dx, const char *w
   return worst < 1e-9;
 }
 
+/* the walls of mesh m (N layers) against the hand-built ones (hand_walls(lo, hi, N, open_top 0, inner)); frees both */
+static void expect_hand_walls(const sphdem_mesh *m, const double *lo, const double *hi, double dx, int N, int inner,
+                              const double *O, const char *what, const char *claim) {
+  sphdem_points got = {0}, want = {0};
+  char msg[256] = "";
+  int rc = sphdem_wall_from_mesh(m, dx, N, O, &got, msg, sizeof msg);
+  hand_walls(&want, lo, hi, dx, N, 0, inner);
+  TEST_ASSERT(rc == SPHDEM_OK && same_set(&got, &want, dx, what), "%s %s", claim, msg);
+  sphdem_points_free(&got);
+  sphdem_points_free(&want);
+}
+
 static double min_pair_distance(const sphdem_points *p) {
   double dmin = HUGE_VAL;
   for (long i = 0; i < p->n; i++)
@@ -157,12 +169,7 @@ static void test_box(void) {
     sphdem_points_free(&want);
     if (!open_top) {
       sphdem_mesh_flip(&m);
-      rc = sphdem_wall_from_mesh(&m, dx, 2, O, &got, msg, sizeof msg);
-      hand_walls(&want, lo, hi, dx, 2, 0, 1);
-      TEST_ASSERT(rc == SPHDEM_OK && same_set(&got, &want, dx, "flipped box, 2 layers inside"),
-                  "flip: the walls go inside the box");
-      sphdem_points_free(&got);
-      sphdem_points_free(&want);
+      expect_hand_walls(&m, lo, hi, dx, 2, 1, O, "flipped box, 2 layers inside", "flip: the walls go inside the box");
       /* orient toward the centre turns every facet back (the box again) */
       double c[3] = {4 * dx, 3 * dx, 5 * dx};
       long turned = sphdem_mesh_orient(&m, c);
@@ -176,12 +183,8 @@ static void test_box(void) {
       }
       turned = sphdem_mesh_orient(&m, c);
       TEST_ASSERT(turned == m.nfacet / 2, "orient turns the %ld flipped facets (turned %ld)", m.nfacet / 2, turned);
-      rc = sphdem_wall_from_mesh(&m, dx, 3, O, &got, msg, sizeof msg);
-      hand_walls(&want, lo, hi, dx, 3, 0, 0);
-      TEST_ASSERT(rc == SPHDEM_OK && same_set(&got, &want, dx, "mixed normals oriented to the centre"),
-                  "orient: mixed normals give the box walls");
-      sphdem_points_free(&got);
-      sphdem_points_free(&want);
+      expect_hand_walls(&m, lo, hi, dx, 3, 0, O, "mixed normals oriented to the centre",
+                        "orient: mixed normals give the box walls");
     }
     sphdem_mesh_free(&m);
   }
