@@ -16,13 +16,16 @@ cmake -S . -B "$B" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSPHDEM_SANITIZE=ON -DSPHD
   { cat "$B.log"; exit 1; }
 # only what runs below: the programs of the unit-labelled tests (read from the generated test file, which
 # names them before they are built) and the two launchers
-targets=$(python3 - "$B/tests/CTestTestfile.cmake" <<'PY'
+# (a unit test run by an interpreter, e.g. python3 scripts/check_deps.py, names no program of the build)
+targets=$(python3 - "$B/tests/CTestTestfile.cmake" "$B" <<'PY'
 import os, re, sys
 text = open(sys.argv[1]).read()
+build = os.path.realpath(sys.argv[2]) + os.sep
 exe = dict(re.findall(r'^add_test\((\S+) "([^"]+)"', text, re.M))
 unit = [n for n, props in re.findall(r'^set_tests_properties\((\S+) PROPERTIES (.*)$', text, re.M)
         if re.search(r'LABELS "([^"]*;)?unit(;[^"]*)?"', props)]
-print(" ".join(sorted({os.path.basename(exe[n]) for n in unit if n in exe})))
+print(" ".join(sorted({os.path.basename(exe[n]) for n in unit
+                       if n in exe and os.path.realpath(exe[n]).startswith(build)})))
 PY
 )
 [ -n "$targets" ] || { echo "sanitize: no unit-labelled tests found in $B/tests/CTestTestfile.cmake"; exit 1; }
