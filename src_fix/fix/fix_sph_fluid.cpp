@@ -733,8 +733,8 @@ void FixSPHFluid::setup(int) {
                cpl, neighbor->skin, comm->cutghostuser);
       sphdem_compat::logmesg(lmp, line);
     }
-    announced_ = true;
   }
+  announced_ = true; /* on every rank: note_unused_walls is collective */
   run_step0_ = update->ntimestep;
   run_t0_ = wall_seconds();
   sphdem_timers_reset(ctx_); /* the split printed at the end of the run covers the run only */
