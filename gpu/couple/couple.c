@@ -268,6 +268,7 @@ int sphdem_set_grains_store(sphdem_ctx c, sphdem_grain_store g, int n, const int
   }
   D->couple.ng = n;
   c->couple.ngown = n;
+  c->D.couple.ngown = n;
   c->couple.grains_dirty = 1;
   return SPHDEM_OK;
 }
@@ -288,6 +289,7 @@ int sphdem_couple_set_ghosts(sphdem_ctx c, int nghost) {
     return sphdem_fail(c, SPHDEM_ERR_ARG, "couple_set_ghosts: %d ghost grains for %lld grains", nghost,
                        (long long)c->D.couple.ng);
   c->couple.ngown = c->D.couple.ng - nghost;
+  c->D.couple.ngown = c->couple.ngown;
   return SPHDEM_OK;
 }
 
@@ -359,8 +361,46 @@ static void set_layers(sphdem_dev *D) {
   }
 }
 
+/* Many ranks with an exchange: the owners' grain forces and Shepard sums to the ghost grains (the reaction on
+ * this rank's fluid sums them), grains in upload order (gtag - 1). Collective. */
+static int exchange_grains(struct sphdem_ctx_s *c) {
+  if (!c->xfn) return SPHDEM_OK;
+  sphdem_dev *D = &c->D;
+  const int64_t n = D->couple.ng, n0 = c->couple.ngown < n ? c->couple.ngown : n, ng = n - n0;
+  double *own = sphdem_xbuf(c, 9 * (n + 1));
+  if (!own) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate %lld host values", (long long)n);
+  double *ghost = own + 4 * (size_t)n0, *h = ghost + 4 * (size_t)ng; /* h: 4 n values of the device layout */
+  int64_t *tag = (int64_t *)(h + 4 * (size_t)n);                      /* n tags in the last n doubles */
+  if (n > 0) {
+    TRYC(rt_sync(&c->rt));
+    TRYC(rt_d2h(&c->rt, tag, D->couple.gtag, 8 * (size_t)n));
+    TRYC(rt_d2h(&c->rt, h, D->couple.gf, 24 * (size_t)n));
+    TRYC(rt_d2h(&c->rt, h + 3 * (size_t)n, D->couple.grain_shepard, 8 * (size_t)n));
+    for (int64_t s = 0; s < n; s++) {
+      const int64_t k = tag[s] - 1;
+      if (k >= n0) continue;
+      for (int d = 0; d < 3; d++) own[4 * k + d] = h[3 * s + d];
+      own[4 * k + 3] = h[3 * n + s];
+    }
+  }
+  if (c->xfn(c->xuser, SPHDEM_XCHG_GRAIN, 4, (int)n0, (int)ng, own, ghost) != 0)
+    return sphdem_fail(c, SPHDEM_ERR_STATE, "couple: the owners' grain forces did not reach the ghost grains");
+  if (ng > 0) {
+    for (int64_t s = 0; s < n; s++) {
+      const int64_t g = tag[s] - 1 - n0;
+      if (g < 0) continue;
+      for (int d = 0; d < 3; d++) h[3 * s + d] = ghost[4 * g + d];
+      h[3 * n + s] = ghost[4 * g + 3];
+    }
+    TRYC(rt_h2d(&c->rt, D->couple.gf, h, 24 * (size_t)n));
+    TRYC(rt_h2d(&c->rt, D->couple.grain_shepard, h + 3 * (size_t)n, 8 * (size_t)n));
+  }
+  return SPHDEM_OK;
+}
+
 static int couple_prepare(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
+  if (D->nf == 0) return sphdem_exchange_fluid(c, SPHDEM_XCHG_EPS); /* many ranks: collective */
   TRYC(ensure_couple_fluid(c, D->nf));
   /* wall porosity (wall_porosity 1), written by the wall-state pass */
   if (D->couple.eos && c->couple.cp.wall_porosity && (D->nw > c->couple.cap_cw || !D->couple.wall_porosity)) {
@@ -376,7 +416,8 @@ static int couple_prepare(struct sphdem_ctx_s *c) {
   set_layers(D);
   TRYC(c->ops->couple_porosity(c));
   TRYC(rt_sync(&c->rt));
-  return SPHDEM_OK;
+  /* many ranks: the ghosts' porosity from their owners (this rank's sums miss the grains beyond the band) */
+  return sphdem_exchange_fluid(c, SPHDEM_XCHG_EPS);
 }
 
 static int couple_finish(struct sphdem_ctx_s *c) {
@@ -385,13 +426,17 @@ static int couple_finish(struct sphdem_ctx_s *c) {
   if (n > 0 && D->nf > 0) {
     TRYC(c->ops->couple_grains(c));
     TRYC(rt_sync(&c->rt));
-    TRYC(c->ops->couple_reaction(c));
-  } else { /* no grain, or no fluid on this rank (many ranks): no force either way */
-    if (D->nf > 0) TRYC(rt_zero(&c->rt, D->couple.fr, 24 * (size_t)D->nf));
+  } else if (n > 0) { /* no fluid on this rank (many ranks): no force on its grains */
     double *gz[4] = {D->couple.gf, D->couple.gfd, D->couple.gfpg, D->couple.gtq};
-    for (int k = 0; k < 4 && n > 0; k++) TRYC(rt_zero(&c->rt, gz[k], 24 * (size_t)n));
+    for (int k = 0; k < 4; k++) TRYC(rt_zero(&c->rt, gz[k], 24 * (size_t)n));
+    TRYC(rt_zero(&c->rt, D->couple.grain_shepard, 8 * (size_t)n));
   }
+  TRYC(exchange_grains(c)); /* many ranks: the ghost grains' forces from their owners (collective) */
+  if (n > 0 && D->nf > 0) TRYC(c->ops->couple_reaction(c));
+  else if (D->nf > 0) TRYC(rt_zero(&c->rt, D->couple.fr, 24 * (size_t)D->nf));
   TRYC(rt_sync(&c->rt));
+  /* many ranks: the ghosts' acceleration with their owners' reaction (collective) */
+  TRYC(sphdem_exchange_fluid(c, SPHDEM_XCHG_ACC));
   /* grain forces to host memory, in upload order */
   if (12 * n > c->couple.cap_hgf) {
     free(c->couple.hgf);

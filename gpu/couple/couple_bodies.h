@@ -254,7 +254,13 @@ SPHDEM_HD double couple_grain_wall_sum(const sphdem_dev *D, const double *xj) {
   return sigw;
 }
 
+/* Many ranks with an exchange: grain j is another rank's; its forces come from its owner. */
+SPHDEM_HD int couple_grain_ghost(const sphdem_dev *D, int64_t j) {
+  return D->xown && D->couple.gtag[j] > D->couple.ngown;
+}
+
 SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
+  if (couple_grain_ghost(D, j)) return;
   const double *xj = D->couple.gx + 3 * j;
   couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
   if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);

@@ -134,6 +134,7 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   const int32_t *gl = c->couple.cpl_g;
 #pragma omp parallel for schedule(dynamic, 16)
   for (int64_t j = 0; j < D->couple.ng; j++) {
+    if (couple_grain_ghost(D, j)) continue; /* its owner's forces arrive by the exchange */
     const double *xj = D->couple.gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
     if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);

@@ -23,6 +23,7 @@ typedef struct {
   double *fr;          /* reaction force m_a S_a on fluid particles (eq 33), 3 per particle */
   double *wall_porosity;        /* porosity at wall particles (superficial density only; extrapolated from the fluid) */
   int64_t ng;
+  int64_t ngown;       /* grains with gtag <= ngown are owned; the rest are ghost copies (= ng on one rank) */
   double *gx, *gv, *grad, *gom;
   double *grain_shepard;        /* Shepard sum sum_b V_b W_jb at each grain (eqs 28, 33) */
   double *gf, *gfd, *gfpg, *gtq; /* total fluid force, drag part, pressure-gradient/viscous part, torque */

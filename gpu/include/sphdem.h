@@ -144,6 +144,24 @@ int sphdem_set_ghosts(sphdem_ctx ctx, int nghost, int nwghost);
  * each, for the caller indices n - nghost .. n - 1); the owned particles are left as they are. */
 int sphdem_update_ghosts(sphdem_ctx ctx, int nghost, const double *x, const double *v, const double *rho,
                          const double *state);
+/* Many ranks: the owners' values handed to their ghost copies in the middle of a rate evaluation, so that each
+ * rank evaluates its owned particles only (the ghosts' own sums would miss neighbours beyond the band anyway).
+ * The core calls fn at fixed points of every sphdem_compute_rates, on every rank in the same order (fn is
+ * collective: the shim's forward communication), with the values of the nown owned particles of the set in the
+ * caller's order (ncomp per particle) in own, and takes the nghost ghosts' values (same order as the ghosts of
+ * the last upload) from ghost. what: SPHDEM_XCHG_RATES drho, a (4: after the rate pass); SPHDEM_XCHG_EPS the
+ * coupling's porosity (1: after the porosity pass); SPHDEM_XCHG_GRAIN a grain's fluid force and Shepard sum
+ * (4: grains in the order of their upload, after the grain pass); SPHDEM_XCHG_ACC a (3: after the reaction on
+ * the fluid); SPHDEM_XCHG_WALL the wall state of the plain fluid's Adami walls: pressure, density, extrapolated
+ * velocity (3) and, coupled with superficial density, porosity (5 or 6: wall particles in the order of the last
+ * sphdem_set_walls, after the wall pass; not with ghost mirror walls or the delta-plus fluid, whose wall passes
+ * run over the ghosts too). fn returns 0 on success. NULL (the default): every rank evaluates its ghosts too. */
+typedef enum {
+  SPHDEM_XCHG_RATES = 0, SPHDEM_XCHG_EPS = 1, SPHDEM_XCHG_GRAIN = 2, SPHDEM_XCHG_ACC = 3, SPHDEM_XCHG_WALL = 4
+} sphdem_xchg;
+typedef int (*sphdem_exchange_fn)(void *user, int what, int ncomp, int nown, int nghost, const double *own,
+                                  double *ghost);
+int sphdem_set_exchange(sphdem_ctx ctx, sphdem_exchange_fn fn, void *user);
 /* Upload wall (dummy) particles: positions, prescribed velocity, acceleration (NULL = 0), mass. */
 int sphdem_set_walls(sphdem_ctx ctx, int n, const double *x, const double *v, const double *a,
                      const double *mass);

@@ -63,6 +63,7 @@ SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
  * they exist (CPU) or from the cell walk; both visit fluid then wall neighbours in the same cell order, so
  * the sums are identical. */
 SPHDEM_HD void rates_body(const sphdem_dev *D, int64_t a) {
+  if (fluid_ghost(D, a)) return; /* its owner's rates arrive by the exchange */
   rates_acc R;
   rates_init(D, a, &R);
   int32_t cells[27];

@@ -297,7 +297,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
 #ifdef SPHDEM_WITH_CUDA
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
-  free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap);
+  free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap); free(c->xbuf);
   if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); }
   free(c);
   *pc = NULL;
@@ -530,6 +530,7 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   TRY(ensure_host(c, n));
   D->nw = n;
   c->nwown = n;
+  D->nwown = n;
   if (n > 0) {
     TRY(up(c, D->wx, x, 24 * (size_t)n));
     TRY(up(c, D->wmass, mass, 8 * (size_t)n));
@@ -571,7 +572,7 @@ int sphdem_set_ghosts(sphdem_ctx c, int nghost, int nwghost) {
     return sphdem_fail(c, SPHDEM_ERR_ARG, "set_ghosts: %d fluid and %d wall ghosts for %lld fluid and %lld wall "
                        "particles", nghost, nwghost, (long long)D->nf, (long long)D->nw);
   if (nghost >= 0) D->nown = D->nf - nghost;
-  if (nwghost >= 0) c->nwown = D->nw - nwghost;
+  if (nwghost >= 0) c->nwown = D->nwown = D->nw - nwghost;
   return SPHDEM_OK;
 }
 
@@ -670,16 +671,12 @@ static int feature_hooks(struct sphdem_ctx_s *c, int which, double *tx) {
 int sphdem_compute_rates(sphdem_ctx c) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;
-  if (D->nf == 0) { /* nothing to evaluate; the features still take part in the reductions over the ranks
-                     * (delta-plus: the shifting speed) and close their evaluation (coupling: zero grain forces) */
-    double tx = 0.0;
-    TRY(feature_hooks(c, HOOK_PREPARE_RATES, &tx));
-    TRY(feature_hooks(c, HOOK_FINISH, &tx));
-    c->have_rates = 1;
-    return SPHDEM_OK;
-  }
-  if (c->need_sort) TRY(sort_all(c));
-  else if (c->need_wall_sort && D->nw > 0) {
+  /* no fluid on this rank (many ranks): nothing to evaluate, but every hook and exchange still runs, since the
+   * features and the exchanges take part in collective calls (delta-plus: the shifting speed; coupling: the
+   * ghosts' porosity and forces; zero grain forces here) */
+  const int empty = D->nf == 0;
+  if (!empty && c->need_sort) TRY(sort_all(c));
+  else if (!empty && c->need_wall_sort && D->nw > 0) {
     double t0 = rt_now();
     TRY(sort_set(c, SPHDEM_SET_WALL));
     TRY(rt_sync(&c->rt));
@@ -690,14 +687,20 @@ int sphdem_compute_rates(sphdem_ctx c) {
   double t0 = rt_now(), tx = 0.0; /* tx: time the features booked on their own timers */
   /* coupling: grain sort and porosity before the EOS; keyword isolated: the kernel sums */
   TRY(feature_hooks(c, HOOK_PREPARE, &tx));
-  TRY(c->ops->pressure(c));
-  TRY(rt_sync(&c->rt));
+  if (!empty) { TRY(c->ops->pressure(c)); TRY(rt_sync(&c->rt)); }
   double t1 = rt_now();
-  if (D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
+  /* many ranks, plain fluid: each rank the state of its own walls, the ghost walls' from their owners */
+  D->xwall = D->xown && !D->ghost.on && !D->mp.on;
+  if (!empty && D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
+  double tw = rt_now();
+  if (D->xwall) TRY(sphdem_exchange_walls(c));
+  tx += rt_now() - tw; /* booked as transfer */
   double t2 = rt_now();
   TRY(feature_hooks(c, HOOK_PREPARE_RATES, &tx)); /* delta-plus: renormalisation, viscosity, shifting */
-  TRY(c->ops->rates(c));
-  TRY(rt_sync(&c->rt));
+  if (!empty) { TRY(c->ops->rates(c)); TRY(rt_sync(&c->rt)); }
+  double tq = rt_now();
+  TRY(sphdem_exchange_fluid(c, SPHDEM_XCHG_RATES)); /* many ranks: the ghosts' rates from their owners */
+  tx += rt_now() - tq;                              /* booked as transfer */
   TRY(feature_hooks(c, HOOK_FINISH, &tx)); /* coupling: grain forces, reaction on the fluid */
   double t3 = rt_now();
   c->timers[SPHDEM_T_WALL] += t2 - t1;

@@ -49,6 +49,12 @@ SPHDEM_HD double tait_density(const sphdem_dev *D, double p) {
   return D->P.rho0 * pow(base, 1.0 / D->P.gamma);
 }
 
+/* Many ranks with an exchange (sphdem_set_exchange): fluid particle i is another rank's, its rates and
+ * coupling sums come from its owner, so the passes skip it. */
+SPHDEM_HD int fluid_ghost(const sphdem_dev *D, int64_t i) { return D->xown && D->uidx[i] >= D->nown; }
+/* The same for wall particle w: its state comes from its owner (plain fluid, Adami walls). */
+SPHDEM_HD int wall_ghost(const sphdem_dev *D, int64_t w) { return D->xwall && D->wtag[w] > D->nwown; }
+
 /* Porosity used in the fluid equations: eq 26 floored at eps_min (1 while the coupling is off). */
 SPHDEM_HD double fluid_eps(const sphdem_dev *D, int64_t i) {
   return D->couple.eps ? fmax(D->couple.eps[i], D->couple.eps_floor) : 1.0;
@@ -270,6 +276,7 @@ SPHDEM_HD void wall_state_finish(const sphdem_dev *D, int64_t w, const wall_stat
 }
 
 SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
+  if (wall_ghost(D, w)) return; /* its owner's state arrives by the exchange */
   const double *xw = D->wx + 3 * w;
   wall_state_acc A = {0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
   int32_t cells[27];

@@ -138,6 +138,7 @@ int sphdem_cpu_wall_state(struct sphdem_ctx_s *c) {
   TRY_CPU(cpu_ensure_lists(c));
 #pragma omp parallel for schedule(static)
   for (int64_t w = 0; w < D->nw; w++) {
+    if (wall_ghost(D, w)) continue; /* its owner's state arrives by the exchange */
     const double *xw = D->wx + 3 * w;
     wall_state_acc A = {0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
     for (int64_t k = D->wfl_start[w]; k < D->wfl_start[w + 1]; k++) wall_state_add(D, xw, D->wfl[k], &A);
@@ -172,8 +173,10 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
       const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
       double rhoa = D->rhop[a], pra = D->pr2[a], ma = D->mass[a], da = 0.0, aa[3] = {0, 0, 0}, ua[3] = {0, 0, 0};
       double epsa = fluid_eps(D, a);
+      const int ga = fluid_ghost(D, a);
       for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) {
         int32_t b = D->nl[k];
+        if (ga && fluid_ghost(D, b)) continue; /* two ghosts: neither side is this rank's */
         fluid_pair_rec P;
         if (!fluid_pair_terms(D, xa, va, rhoa, pra, epsa, b, &P)) continue;
         double mb = D->mass[b], *Bb = B + 7 * (size_t)b;
@@ -190,6 +193,7 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
     }
 #pragma omp for schedule(static)
     for (int64_t a = 0; a < n; a++) {
+      if (fluid_ghost(D, a)) continue; /* its owner's rates arrive by the exchange */
       rates_acc R;
       rates_init(D, a, &R);
       for (int s = 0; s < nt; s++) {

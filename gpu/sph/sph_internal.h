@@ -33,6 +33,9 @@ typedef struct {
   int64_t nf;
   int64_t nown;        /* particles with uidx < nown are owned; the rest are ghost copies of other ranks' (or
                         * periodic images): they enter the pair sums, not the statistics (= nf on one rank) */
+  int xown;            /* 1: the passes evaluate owned particles only (sphdem_set_exchange hands the ghosts theirs) */
+  int xwall;           /* 1: the wall pass too (owned walls: wtag <= nwown; the plain fluid's Adami walls) */
+  int64_t nwown;       /* owned wall particles (device mirror of the context's nwown) */
   double *x, *v, *rho, *mass, *drho, *a, *u, *p, *x0;
   double *rhop, *ve;   /* density and velocity predicted to the force time (velocity Verlet) */
   double *pr2;         /* P / rho^2 at the force time */
@@ -121,6 +124,10 @@ struct sphdem_ctx_s {
   int host_tags_valid;
   int64_t *hmap;                /* tag -> caller index scratch */
   int64_t hmap_len;
+  sphdem_exchange_fn xfn;       /* many ranks: the owners' values to the ghosts (sphdem_set_exchange) */
+  void *xuser;
+  double *xbuf;                 /* its host staging */
+  int64_t xbuf_cap;
   void *backend_data;
   /* the features' host state */
   sphdem_couple_host couple;    /* couple.c, couple_cpu.c */
@@ -131,6 +138,13 @@ struct sphdem_ctx_s {
 #ifdef __cplusplus
 extern "C" {
 #endif
+/* Many ranks: the owned values of a fluid field (SPHDEM_XCHG_RATES, _EPS, _ACC) to the ghosts through
+ * sphdem_set_exchange's function; collective, nothing without one (exchange.c). The grains' exchange: couple.c. */
+int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what);
+/* The plain fluid's wall state (SPHDEM_XCHG_WALL) likewise (exchange.c). */
+int sphdem_exchange_walls(struct sphdem_ctx_s *c);
+/* Host staging of n doubles for the exchanges (exchange.c). */
+double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n);
 /* Set the context error message (printf-style); returns code. */
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
 /* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph_ctx.c). */

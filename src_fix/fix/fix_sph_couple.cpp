@@ -176,9 +176,10 @@ void FixSPHCouple::init() {
   if (!fluid_->attach_coupler(this))
     fail("fix sph/fluid " + fluid_id_ + " is already coupled by another fix sph/couple (one per fluid fix)");
   if (fluid_->many_ranks()) {
-    /* the coupling passes chain three coupling supports (reaction <- grain force <- porosity) */
+    /* each rank evaluates its own fluid and grains; the ghosts' porosity, grain forces and reaction come from
+     * their owners inside the rate evaluation (sphdem_set_exchange): one coupling support of ghosts suffices */
     const double hc = cp_.hc > 0 ? cp_.hc : fluid_->params().h;
-    fluid_->extend_ghost_band(3.0 * 2.0 * hc);
+    fluid_->require_ghost_band(2.0 * hc);
   }
 
   if (!atom->radius_flag) fail("the atom style must define a per-atom radius (atom_style sphere or granular)");
@@ -418,6 +419,19 @@ void FixSPHCouple::couple_after_rates(sphdem_ctx ctx) {
     row[C_VALID] = 1.0;
   }
   stats_dirty_ = true;
+}
+
+/* Many ranks, inside a rate evaluation: the owned grains' fluid force and Shepard sum to their ghost copies (the
+ * reaction on each rank's fluid sums them), through this fix's forward communication. Collective. */
+void FixSPHCouple::couple_exchange_grains(int nown, int nghost, const double *own, double *ghost) {
+  const size_t nall = (size_t)(atom->nlocal + atom->nghost);
+  if (gcomm_.size() < 6 * nall) gcomm_.resize(6 * nall, 0.0);
+  const size_t no = std::min((size_t)nown, ngown_), ng = std::min((size_t)nghost, gidx_.size() - ngown_);
+  for (size_t k = 0; k < no; k++)
+    for (int c = 0; c < 4; c++) gcomm_[6 * (size_t)gidx_[k] + c] = own[4 * k + c];
+  comm->forward_comm_fix(this);
+  for (size_t j = 0; j < ng; j++)
+    for (int c = 0; c < 4; c++) ghost[4 * j + c] = gcomm_[6 * (size_t)gidx_[ngown_ + j] + c];
 }
 
 int FixSPHCouple::sphdem_pack_forward(int n, int *list, double *buf, int, int *) {

@@ -44,6 +44,7 @@ class FixSPHCouple : public Fix, public SPHCoupler {
   void couple_after_rates(sphdem_ctx ctx) override;
   double couple_superficial_floor() const override { return cp_.superficial ? cp_.eps_min : 0.0; }
   int couple_groupbit() const override { return groupbit; }
+  void couple_exchange_grains(int nown, int nghost, const double *own, double *ghost) override;
 
  private:
   /* per-atom array: f_ID[1-3] fluid force, [4-6] its drag part, [7-9] its pressure-gradient/viscous

@@ -417,17 +417,21 @@ void FixSPHFluid::box_to_params() {
 /* How many pair sums deep one rate evaluation reaches: the rates (1); the wall state or the kernel sums that the
  * rates read at the neighbours (+1); the delta-plus gradients and shifting read at the neighbours and themselves
  * built on the wall state (+1); mirror ghost walls interpolate at a mirror point up to two supports inside (+2). */
-void FixSPHFluid::extend_ghost_band(double extra) {
+void FixSPHFluid::require_ghost_band(double reach) {
   if (!multi_) return;
-  cut_need_ += extra;
+  cut_need_ = std::max(cut_need_, reach + neighbor->skin);
   const double cut = sphdem_compat::comm_cutoff_for_band(cut_need_, neighbor->skin,
                                                          atom->radius_flag && !domain->triclinic);
   if (comm->cutghostuser < cut) comm->cutghostuser = cut;
 }
 
+/* Kernel supports (2h) of ghosts each rank needs beyond its subdomain: its own fluid's neighbours; the ghost walls'
+ * state comes from their owners for the plain fluid (sphdem_set_exchange), while the delta-plus fluid and mirror
+ * ghost walls evaluate the ghost walls (and their own gradients) here, and isolated's kernel sums of neighbours
+ * reach one support further. */
 int FixSPHFluid::ghost_levels() const {
   int levels = 1;
-  if (wall_groupbit_ || prm_.isolated > 0.0) levels++;
+  if ((wall_groupbit_ && (mp_.enabled || ghost_)) || prm_.isolated > 0.0) levels++;
   if (mp_.enabled) levels++;
   if (ghost_) levels += 2;
   return levels;
@@ -668,6 +672,7 @@ void FixSPHFluid::setup(int) {
   }
   if (multi_) comm_ = sphdem_mpi::comm(&world);
   check(sphdem_set_comm(ctx_, multi_ ? &comm_ : nullptr), "set_comm");
+  check(sphdem_set_exchange(ctx_, multi_ ? &FixSPHFluid::exchange_cb : nullptr, this), "set_exchange");
   if (rk4_ && coupler_) fail("integrator rk4 cannot be used with fix sph/couple (grains need velocity Verlet)");
   if (mp_.enabled) {
     if (coupler_ && mp_.single) fail(std::string("fix sph/couple: ") + SPHDEM_MP_COUPLE_WHY);
@@ -723,14 +728,18 @@ void FixSPHFluid::setup(int) {
     sphdem_compat::logmesg(lmp, line);
     sphdem_compat::logmesg(lmp, "Fix sph/fluid: terms: " + terms_line() + "\n");
     if (multi_) {
-      const double extra = cut_need_ - 2.0 * prm_.h * ghost_levels() - neighbor->skin;
-      char cpl[64] = "";
-      if (extra > 1e-12 * cut_need_) snprintf(cpl, sizeof cpl, " + coupling %g", extra);
+      const double fluid_reach = 2.0 * prm_.h * ghost_levels();
+      char reach[96];
+      if (cut_need_ - neighbor->skin > fluid_reach * (1 + 1e-12)) /* the coupling's support is the wider */
+        snprintf(reach, sizeof reach, "2 hc %g (the coupling; %d x 2h = %g)", cut_need_ - neighbor->skin,
+                 ghost_levels(), fluid_reach);
+      else
+        snprintf(reach, sizeof reach, "%d x 2h", ghost_levels());
       snprintf(line, sizeof line,
-               "Fix sph/fluid: %d MPI ranks (processors %d %d %d); ghost fluid and walls within %g = %d x 2h%s + "
+               "Fix sph/fluid: %d MPI ranks (processors %d %d %d); ghost fluid and walls within %g = %s + "
                "neighbor skin %g (communication cutoff %g)\n",
-               comm->nprocs, comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], cut_need_, ghost_levels(),
-               cpl, neighbor->skin, comm->cutghostuser);
+               comm->nprocs, comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], cut_need_, reach,
+               neighbor->skin, comm->cutghostuser);
       sphdem_compat::logmesg(lmp, line);
     }
   }
@@ -1075,6 +1084,56 @@ void FixSPHFluid::ghost_state_to_core() {
     gs[SPHDEM_NSTATE * j] = g[G_DRHO];
   }
   check(sphdem_update_ghosts(ctx_, (int)ng, gx.data(), gv.data(), gr.data(), gs.data()), "update_ghosts");
+}
+
+int FixSPHFluid::exchange_cb(void *user, int what, int ncomp, int nown, int nghost, const double *own,
+                             double *ghost) {
+  return static_cast<FixSPHFluid *>(user)->exchange(what, ncomp, nown, nghost, own, ghost);
+}
+
+/* Many ranks, inside a rate evaluation (the core's exchange points): the owned fluid's values of one field into
+ * their slots of the forward-communication buffer, the engine's forward communication, the ghosts' values back.
+ * The grains' exchange goes to the coupling fix. Collective: the communication runs even when a count is off. */
+int FixSPHFluid::exchange(int what, int ncomp, int nown, int nghost, const double *own, double *ghost) {
+  if (what == SPHDEM_XCHG_GRAIN) {
+    if (!coupler_) return 1;
+    coupler_->couple_exchange_grains(nown, nghost, own, ghost);
+    return 0;
+  }
+  if (what == SPHDEM_XCHG_WALL) return exchange_walls(ncomp, nown, nghost, own, ghost);
+  int slot[4] = {-1, -1, -1, -1};
+  if (what == SPHDEM_XCHG_RATES && ncomp == 4) slot[0] = G_DRHO, slot[1] = G_A, slot[2] = G_A + 1, slot[3] = G_A + 2;
+  else if (what == SPHDEM_XCHG_ACC && ncomp == 3) slot[0] = G_A, slot[1] = G_A + 1, slot[2] = G_A + 2;
+  else if (what == SPHDEM_XCHG_EPS && ncomp == 1) slot[0] = G_EPS;
+  const bool ok = slot[0] >= 0 && (size_t)nown == nfown_ && (size_t)nghost == fidx_.size() - nfown_;
+  const size_t nall = (size_t)(atom->nlocal + atom->nghost);
+  if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
+  if (ok)
+    for (size_t k = 0; k < nfown_; k++)
+      for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * fidx_[k] + slot[c]] = own[(size_t)ncomp * k + c];
+  comm->forward_comm_fix(this);
+  if (!ok) return 1;
+  for (size_t j = 0; j < (size_t)nghost; j++)
+    for (int c = 0; c < ncomp; c++) ghost[(size_t)ncomp * j + c] = gcomm_[(size_t)GCOMM * fidx_[nfown_ + j] + slot[c]];
+  return 0;
+}
+
+/* The wall state (pressure, density, extrapolated velocity, porosity) in the wall atoms' slots of the same buffer
+ * (its wall entries are refilled before each other use). Collective; nothing without walls (on every rank). */
+int FixSPHFluid::exchange_walls(int ncomp, int nown, int nghost, const double *own, double *ghost) {
+  if (!wall_groupbit_) return nown == 0 && nghost == 0 ? 0 : 1;
+  static const int slot[6] = {G_DRHO, G_RHO, G_V, G_V + 1, G_V + 2, G_EPS};
+  const bool ok = (ncomp == 5 || ncomp == 6) && (size_t)nown == nwown_ && (size_t)nghost == widx_.size() - nwown_;
+  const size_t nall = (size_t)(atom->nlocal + atom->nghost);
+  if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
+  if (ok)
+    for (size_t k = 0; k < nwown_; k++)
+      for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * widx_[k] + slot[c]] = own[(size_t)ncomp * k + c];
+  comm->forward_comm_fix(this);
+  if (!ok) return 1;
+  for (size_t j = 0; j < (size_t)nghost; j++)
+    for (int c = 0; c < ncomp; c++) ghost[(size_t)ncomp * j + c] = gcomm_[(size_t)GCOMM * widx_[nwown_ + j] + slot[c]];
+  return 0;
 }
 
 /* Many ranks: the ghost fluid and walls reach cut_need_ = levels 2h + skin beyond each subdomain, enough while no

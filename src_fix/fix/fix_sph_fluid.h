@@ -30,6 +30,8 @@ class SPHCoupler {
    * rho = eps rho_start and m = eps m (eps floored at this value) so their intrinsic density is rho_start */
   virtual double couple_superficial_floor() const = 0;
   virtual int couple_groupbit() const = 0; /* the grains (their moves also ask for neighbour builds) */
+  /* many ranks: the owned grains' values (ncomp 4 each, upload order) to their ghost copies; collective */
+  virtual void couple_exchange_grains(int nown, int nghost, const double *own, double *ghost) = 0;
 
  protected:
   /* Never deleted through this base: a protected non-virtual destructor leaves the exception
@@ -73,7 +75,7 @@ class FixSPHFluid : public Fix {
   /* many ranks: the ghost fluid and walls enter the core (the communication cutoff is set for them) */
   bool many_ranks() const { return multi_; }
   /* fix sph/couple (in its init, after this fix's): the coupling passes reach `extra` deeper */
-  void extend_ghost_band(double extra);
+  void require_ghost_band(double reach); /* many ranks: ghosts within at least reach + skin */
 
  private:
   /* per-atom array columns: f_ID[1] density, f_ID[2] pressure, f_ID[3] porosity, then state kept
@@ -141,6 +143,10 @@ class FixSPHFluid : public Fix {
   int ghost_levels() const;
   void fill_gcomm(bool fluid, bool walls);
   void ghost_state_to_core();
+  /* sphdem_set_exchange's function: the owners' values of a field to the ghosts (forward communication) */
+  static int exchange_cb(void *user, int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
+  int exchange(int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
+  int exchange_walls(int ncomp, int nown, int nghost, const double *own, double *ghost);
   void check_displacement();
   void fail_any(bool bad, const std::string &msg); /* collective: every rank stops with the first message */
 
