@@ -25,89 +25,83 @@ double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n) {
   return c->xbuf;
 }
 
-/* Many ranks, plain fluid with Adami walls: the owned walls' state (pressure, density, extrapolated velocity,
- * porosity when coupled with superficial density) to the ghost walls, walls in caller order (wtag - 1).
- * Collective. */
-int sphdem_exchange_walls(struct sphdem_ctx_s *c) {
-  sphdem_dev *D = &c->D;
-  double *arr[4] = {D->wp, D->wrho, D->wvx, D->couple.wall_porosity};
-  const int nc[4] = {1, 1, 3, 1};
-  const int narr = D->couple.wall_porosity ? 4 : 3, ncomp = narr == 4 ? 6 : 5;
-  const int64_t n = D->nw, n0 = D->nwown < n ? D->nwown : n, ng = n - n0;
-  const double t0 = rt_now();
-  double *own = sphdem_xbuf(c, (n + 1) * (int64_t)(2 * ncomp + 1));
+/* The exchange of the device arrays arr[0..narr) (nc[k] values per element, n elements in sorted slots; slot s
+ * holds caller index uidx[s], or wtag[s] - 1 for walls): the owned elements' values (caller index < n0) to fn in
+ * caller order, the ghosts' values back into their slots. The CPU backend's arrays are host memory and are read
+ * and written in place; the GPU's travel whole through the staging (the ghosts are spread over the sorted slots).
+ * Collective: every rank calls it at the same points, with or without elements. */
+static int exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
+                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr, const char *what_name) {
+  int ncomp = 0;
+  for (int k = 0; k < narr; k++) ncomp += nc[k];
+  const int64_t ng = n - n0;
+  const int direct = c->backend == SPHDEM_DEVICE_CPU;
+  const double t0 = rt_now(); /* the whole exchange, the shim's communication included, is transfer time */
+  double *own = sphdem_xbuf(c, (n + 1) * (int64_t)(ncomp + 4));
   if (!own) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "exchange: cannot allocate %lld host values", (long long)n);
   double *ghost = own + (size_t)ncomp * (size_t)n0, *h = ghost + (size_t)ncomp * (size_t)ng;
-  int64_t *tag = (int64_t *)(h + (size_t)ncomp * (size_t)n);
+  int64_t *cidx = (int64_t *)(h + 3 * (size_t)n); /* slot -> caller index, in the last n doubles */
   if (n > 0) {
     TRY(rt_sync(&c->rt));
-    TRY(rt_d2h(&c->rt, tag, D->wtag, 8 * (size_t)n));
+    if (uidx_dev) {
+      const int32_t *ui = uidx_dev;
+      if (!direct) { TRY(rt_d2h(&c->rt, h, uidx_dev, 4 * (size_t)n)); ui = (const int32_t *)h; }
+      for (int64_t s = 0; s < n; s++) cidx[s] = ui[s];
+    } else {
+      if (direct) for (int64_t s = 0; s < n; s++) cidx[s] = tag_dev[s] - 1;
+      else {
+        TRY(rt_d2h(&c->rt, cidx, tag_dev, 8 * (size_t)n));
+        for (int64_t s = 0; s < n; s++) cidx[s] -= 1;
+      }
+    }
     for (int k = 0, off = 0; k < narr; off += nc[k], k++) {
-      TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n));
+      const double *src = arr[k];
+      if (!direct) { TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n)); src = h; }
       for (int64_t s = 0; s < n; s++)
-        if (tag[s] - 1 < n0)
-          for (int d = 0; d < nc[k]; d++) own[(size_t)ncomp * (tag[s] - 1) + off + d] = h[(size_t)nc[k] * s + d];
+        if (cidx[s] < n0)
+          for (int d = 0; d < nc[k]; d++) own[(size_t)ncomp * cidx[s] + off + d] = src[(size_t)nc[k] * s + d];
     }
   }
-  if (c->xfn(c->xuser, SPHDEM_XCHG_WALL, ncomp, (int)n0, (int)ng, own, ghost) != 0)
-    return sphdem_fail(c, SPHDEM_ERR_STATE, "exchange: the owners' wall state did not reach the ghost walls");
+  if (c->xfn(c->xuser, what, ncomp, (int)n0, (int)ng, own, ghost) != 0)
+    return sphdem_fail(c, SPHDEM_ERR_STATE, "exchange: the owners' %s did not reach the ghosts", what_name);
   if (ng > 0)
     for (int k = 0, off = 0; k < narr; off += nc[k], k++) {
-      TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n));
+      double *dst = arr[k];
+      if (!direct) { TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n)); dst = h; }
       for (int64_t s = 0; s < n; s++) {
-        const int64_t g = tag[s] - 1 - n0;
+        const int64_t g = cidx[s] - n0;
         if (g >= 0)
-          for (int d = 0; d < nc[k]; d++) h[(size_t)nc[k] * s + d] = ghost[(size_t)ncomp * g + off + d];
+          for (int d = 0; d < nc[k]; d++) dst[(size_t)nc[k] * s + d] = ghost[(size_t)ncomp * g + off + d];
       }
-      TRY(rt_h2d(&c->rt, arr[k], h, 8 * (size_t)nc[k] * (size_t)n));
+      if (!direct) TRY(rt_h2d(&c->rt, arr[k], h, 8 * (size_t)nc[k] * (size_t)n));
     }
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   return SPHDEM_OK;
 }
 
-/* The owned values of the field's device arrays (sorted slots; slot s holds caller index uidx[s]) to the
- * exchange function in caller order, the ghosts' values back into their slots. Collective: every rank calls
- * it at the same points, with or without particles. */
+/* Many ranks, plain fluid with Adami walls: the owned walls' state (pressure, density, extrapolated velocity,
+ * porosity when coupled with superficial density) to the ghost walls. Collective. */
+int sphdem_exchange_walls(struct sphdem_ctx_s *c) {
+  sphdem_dev *D = &c->D;
+  double *const arr[4] = {D->wp, D->wrho, D->wvx, D->couple.wall_porosity};
+  const int nc[4] = {1, 1, 3, 1};
+  const int64_t n0 = D->nwown < D->nw ? D->nwown : D->nw;
+  return exchange_slots(c, SPHDEM_XCHG_WALL, D->nw, n0, NULL, D->wtag, arr, nc, D->couple.wall_porosity ? 4 : 3,
+                        "wall state");
+}
+
+/* The fluid's fields: drho and a after the rate pass, the porosity after the coupling's porosity pass, a after
+ * its reaction. */
 int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what) {
   if (!c->xfn) return SPHDEM_OK;
   sphdem_dev *D = &c->D;
   double *arr[2] = {NULL, NULL};
-  int nc[2] = {0, 0};
+  int nc[2] = {0, 0}, narr = 1;
   switch (what) {
-    case SPHDEM_XCHG_RATES: arr[0] = D->drho, nc[0] = 1, arr[1] = D->a, nc[1] = 3; break;
+    case SPHDEM_XCHG_RATES: arr[0] = D->drho, nc[0] = 1, arr[1] = D->a, nc[1] = 3, narr = 2; break;
     case SPHDEM_XCHG_ACC: arr[0] = D->a, nc[0] = 3; break;
     case SPHDEM_XCHG_EPS: arr[0] = D->couple.eps, nc[0] = 1; break;
     default: return sphdem_fail(c, SPHDEM_ERR_ARG, "exchange: unknown fluid field %d", what);
   }
-  const int64_t n = D->nf, n0 = D->nown, ng = n - n0;
-  const int ncomp = nc[0] + nc[1];
-  const double t0 = rt_now(); /* the whole exchange, the shim's communication included, is transfer time */
-  double *own = sphdem_xbuf(c, (n + 1) * (int64_t)(ncomp + 4));
-  if (!own) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "exchange: cannot allocate %lld host values", (long long)n);
-  double *ghost = own + (size_t)ncomp * (size_t)n0, *h = ghost + (size_t)ncomp * (size_t)ng;
-  int32_t *ui = (int32_t *)(h + 3 * (size_t)n); /* slot -> caller index, in the last n doubles */
-  if (n > 0) {
-    TRY(rt_sync(&c->rt));
-    TRY(rt_d2h(&c->rt, ui, D->uidx, 4 * (size_t)n));
-    for (int k = 0, off = 0; k < 2 && arr[k]; off += nc[k], k++) {
-      TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n));
-      for (int64_t s = 0; s < n; s++)
-        if (ui[s] < n0)
-          for (int d = 0; d < nc[k]; d++) own[(size_t)ncomp * ui[s] + off + d] = h[(size_t)nc[k] * s + d];
-    }
-  }
-  if (c->xfn(c->xuser, what, ncomp, (int)n0, (int)ng, own, ghost) != 0)
-    return sphdem_fail(c, SPHDEM_ERR_STATE, "exchange: the owners' values did not reach the ghosts (field %d)", what);
-  if (ng > 0)
-    for (int k = 0, off = 0; k < 2 && arr[k]; off += nc[k], k++) {
-      TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n));
-      for (int64_t s = 0; s < n; s++) {
-        const int64_t g = (int64_t)ui[s] - n0;
-        if (g >= 0)
-          for (int d = 0; d < nc[k]; d++) h[(size_t)nc[k] * s + d] = ghost[(size_t)ncomp * g + off + d];
-      }
-      TRY(rt_h2d(&c->rt, arr[k], h, 8 * (size_t)nc[k] * (size_t)n));
-    }
-  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
-  return SPHDEM_OK;
+  return exchange_slots(c, what, D->nf, D->nown, D->uidx, NULL, arr, nc, narr, "fluid values");
 }

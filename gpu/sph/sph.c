@@ -592,20 +592,21 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
   double t0 = rt_now();
   TRY(ensure_host(c, n));
   TRY(rt_sync(&c->rt));
-  TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
-  const int32_t *ui = c->huidx;
-  double *h = c->hbuf;
+  const int direct = c->backend == SPHDEM_DEVICE_CPU; /* the CPU's arrays are host memory: written in place */
+  if (!direct) TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
+  const int32_t *ui = direct ? D->uidx : c->huidx;
   fluid_field f[6];
   const int nfld = fluid_fields(D, (double *)x, (double *)v, (double *)rho, (double *)state, 0, f); /* read only */
   for (int k = 0; k < nfld; k++) {
     if (!f[k].host) continue;
-    TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
+    double *h = direct ? f[k].dev : c->hbuf;
+    if (!direct) TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
     for (int64_t s = 0; s < n; s++) {
       const int64_t g = (int64_t)ui[s] - n0;
       if (g < 0) continue;
       for (int d = 0; d < f[k].ncomp; d++) h[f[k].ncomp * s + d] = f[k].host[g * f[k].stride + f[k].off + d];
     }
-    TRY(up(c, f[k].dev, h, 8 * (size_t)f[k].ncomp * (size_t)n));
+    if (!direct) TRY(up(c, f[k].dev, h, 8 * (size_t)f[k].ncomp * (size_t)n));
   }
   D->iso.ok = 0;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
@@ -623,6 +624,7 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   double t0 = rt_now();
   TRY(ensure_host(c, n));
   TRY(rt_sync(&c->rt));
+  const int direct = c->backend == SPHDEM_DEVICE_CPU; /* the CPU's arrays are host memory: read in place */
   TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
   const int32_t *ui = c->huidx;
   double *h = c->hbuf;
@@ -630,9 +632,10 @@ int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p,
   const int nfld = fluid_fields(D, x, v, rho, state, 1, f);
   for (int k = 0; k < nfld; k++) {
     if (!f[k].host) continue;
-    TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
+    const double *src = direct ? f[k].dev : h;
+    if (!direct) TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
     for (int64_t s = 0; s < n; s++)
-      for (int d = 0; d < f[k].ncomp; d++) f[k].host[(int64_t)ui[s] * f[k].stride + f[k].off + d] = h[f[k].ncomp * s + d];
+      for (int d = 0; d < f[k].ncomp; d++) f[k].host[(int64_t)ui[s] * f[k].stride + f[k].off + d] = src[f[k].ncomp * s + d];
   }
   if (p) {
     TRY(down(c, h, D->rho, 8 * (size_t)n));
