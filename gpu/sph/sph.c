@@ -610,9 +610,22 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
   }
   D->iso.ok = 0;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
-  sphdem_red r;
-  TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
-  if (!(r.disp2max <= 0.25 * D->P.skin * D->P.skin)) c->need_sort = 1;
+  /* the ghosts moved (the owned particles were checked after their drift): resort when one went beyond skin/2 */
+  double d2max = 0.0;
+  if (direct) {
+    for (int64_t s = 0; s < n; s++) {
+      if (ui[s] < n0) continue;
+      double r[3];
+      const double *xs = D->x + 3 * s;
+      const double d2 = isfinite(xs[0] + xs[1] + xs[2]) ? separation(D, xs, D->x0 + 3 * s, r) : 1e300;
+      if (!(d2 <= d2max)) d2max = d2;
+    }
+  } else {
+    sphdem_red r;
+    TRY(sphdem_timed_reduce(c, SPHDEM_SET_FLUID, &r));
+    d2max = r.disp2max;
+  }
+  if (!(d2max <= 0.25 * D->P.skin * D->P.skin)) c->need_sort = 1;
   return SPHDEM_OK;
 }
 
