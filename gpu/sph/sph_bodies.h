@@ -459,10 +459,12 @@ SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int half, i
   const int32_t *cs = set == 0 ? D->cstart : D->wcstart, *ce = set == 0 ? D->cend : D->wcend;
   double rc = 2.0 * D->h + D->P.skin, rc2 = rc * rc, r[3];
   int32_t cells[27], n = 0;
+  const int gha = fluid_ghost(D, a);
   int nn = neighbor_cells(D, D->cell[a], cells);
   for (int k = 0; k < nn; k++)
     for (int32_t b = cs[cells[k]]; b < ce[cells[k]]; b++) {
       if (set == 0 && (half ? b <= a : b == a)) continue;
+      if (set == 0 && half && gha && fluid_ghost(D, b)) continue; /* two ghosts: neither side is this rank's */
       if (separation(D, xa, xs + 3 * b, r) >= rc2) continue;
       if (out) out[n] = b;
       n++;

@@ -123,8 +123,31 @@ static int cpu_build_list(struct sphdem_ctx_s *c, int set) {
   return SPHDEM_OK;
 }
 
+/* Many ranks: the half lists leave out pairs of two ghosts, so they are rebuilt when a slot's ghost status
+ * differs from the build's (an upload in place may swap owned and ghost entries). */
+static int cpu_lists_partition(struct sphdem_ctx_s *c) {
+  const sphdem_dev *D = &c->D;
+  if (!D->xown) { if (c->nl_xown) c->nl_dirty = 1; return SPHDEM_OK; }
+  if (!c->nl_xown) c->nl_dirty = 1;
+  const int64_t cap0 = c->nl_ghost_cap;
+  if (grow(c, (void **)&c->nl_ghost, &c->nl_ghost_cap, D->nf + 1, 1)) return SPHDEM_ERR_ALLOC;
+  int changed = c->nl_ghost_cap != cap0;
+  if (changed) memset(c->nl_ghost, 0, (size_t)c->nl_ghost_cap);
+  for (int64_t s = 0; s < D->nf; s++) {
+    const unsigned char g = (unsigned char)fluid_ghost(D, s);
+    changed |= g != c->nl_ghost[s];
+    c->nl_ghost[s] = g;
+  }
+  if (changed) c->nl_dirty = 1;
+  return SPHDEM_OK;
+}
+
 static int cpu_ensure_lists(struct sphdem_ctx_s *c) {
-  if (c->nl_dirty) { TRY_CPU(cpu_build_list(c, 0)); c->nl_dirty = 0; c->wl_dirty = 1; }
+  TRY_CPU(cpu_lists_partition(c));
+  if (c->nl_dirty) {
+    TRY_CPU(cpu_build_list(c, 0));
+    c->nl_dirty = 0, c->wl_dirty = 1, c->nl_xown = c->D.xown;
+  }
   if (c->wl_dirty) { TRY_CPU(cpu_build_list(c, 1)); c->wl_dirty = 0; }
   return SPHDEM_OK;
 }
@@ -173,10 +196,8 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
       const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
       double rhoa = D->rhop[a], pra = D->pr2[a], ma = D->mass[a], da = 0.0, aa[3] = {0, 0, 0}, ua[3] = {0, 0, 0};
       double epsa = fluid_eps(D, a);
-      const int ga = fluid_ghost(D, a);
-      for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) {
+      for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) { /* (two ghosts: not in the half list) */
         int32_t b = D->nl[k];
-        if (ga && fluid_ghost(D, b)) continue; /* two ghosts: neither side is this rank's */
         fluid_pair_rec P;
         if (!fluid_pair_terms(D, xa, va, rhoa, pra, epsa, b, &P)) continue;
         double mb = D->mass[b], *Bb = B + 7 * (size_t)b;

@@ -106,6 +106,9 @@ struct sphdem_ctx_s {
   int have_rates;
   int half_kicked;              /* between the two half kicks of a step */
   int nl_dirty, wl_dirty;       /* neighbour lists must be rebuilt (after a fluid / wall sort) */
+  unsigned char *nl_ghost;      /* CPU, many ranks: which slots were ghosts when the half lists were built (they */
+  int64_t nl_ghost_cap;         /* leave out pairs of two ghosts); NULL or stale: rebuilt when it differs */
+  int nl_xown;
   int cpu_sym;                  /* CPU: fluid pairs once from half lists (1) or gathered like the GPU (0) */
   double *symbuf;               /* CPU symmetric pass: per-thread rate accumulators */
   int64_t symbuf_cap;
