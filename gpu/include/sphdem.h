@@ -149,7 +149,8 @@ int sphdem_update_ghosts(sphdem_ctx ctx, int nghost, const double *x, const doub
  * The core calls fn at fixed points of every sphdem_compute_rates, on every rank in the same order (fn is
  * collective: the shim's forward communication), with the values of the nown owned particles of the set in the
  * caller's order (ncomp per particle) in own, and takes the nghost ghosts' values (same order as the ghosts of
- * the last upload) from ghost. what: SPHDEM_XCHG_RATES drho, a (4: after the rate pass); SPHDEM_XCHG_EPS the
+ * the last upload) from ghost. what: SPHDEM_XCHG_RATES drho, a (4: after the rate pass; 7 with the XSPH /
+ * shift velocity u inside sphdem_step_rk4, whose stages move the ghosts too); SPHDEM_XCHG_EPS the
  * coupling's porosity (1: after the porosity pass); SPHDEM_XCHG_GRAIN a grain's fluid force and Shepard sum
  * (4: grains in the order of their upload, after the grain pass); SPHDEM_XCHG_ACC a (3: after the reaction on
  * the fluid); SPHDEM_XCHG_WALL the wall state of the plain fluid's Adami walls: pressure, density, extrapolated

@@ -95,10 +95,13 @@ int sphdem_exchange_walls(struct sphdem_ctx_s *c) {
 int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what) {
   if (!c->xfn) return SPHDEM_OK;
   sphdem_dev *D = &c->D;
-  double *arr[2] = {NULL, NULL};
-  int nc[2] = {0, 0}, narr = 1;
+  double *arr[3] = {NULL, NULL, NULL};
+  int nc[3] = {0, 0, 0}, narr = 1;
   switch (what) {
-    case SPHDEM_XCHG_RATES: arr[0] = D->drho, nc[0] = 1, arr[1] = D->a, nc[1] = 3, narr = 2; break;
+    case SPHDEM_XCHG_RATES: /* Runge-Kutta stages move the ghosts with v + u: u too */
+      arr[0] = D->drho, nc[0] = 1, arr[1] = D->a, nc[1] = 3, narr = 2;
+      if (c->rk_stepping) arr[2] = D->u, nc[2] = 3, narr = 3;
+      break;
     case SPHDEM_XCHG_ACC: arr[0] = D->a, nc[0] = 3; break;
     case SPHDEM_XCHG_EPS: arr[0] = D->couple.eps, nc[0] = 1; break;
     default: return sphdem_fail(c, SPHDEM_ERR_ARG, "exchange: unknown fluid field %d", what);

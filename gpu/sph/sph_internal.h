@@ -128,6 +128,7 @@ struct sphdem_ctx_s {
   int64_t *hmap;                /* tag -> caller index scratch */
   int64_t hmap_len;
   sphdem_exchange_fn xfn;       /* many ranks: the owners' values to the ghosts (sphdem_set_exchange) */
+  int rk_stepping;              /* inside step_rk4: the rates' exchange carries the XSPH / shift velocity too */
   void *xuser;
   double *xbuf;                 /* its host staging */
   int64_t xbuf_cap;

@@ -47,13 +47,18 @@ int sphdem_step_rk4(sphdem_ctx c, double dt) {
   if (D->couple.on) return sphdem_fail(c, SPHDEM_ERR_STATE, "step_rk4: the Runge-Kutta integrator cannot be used with "
                                                          "the SPH-DEM coupling (use velocity Verlet)");
   if (!(dt > 0)) return sphdem_fail(c, SPHDEM_ERR_ARG, "step_rk4: dt must be > 0 (got %g)", dt);
-  if (D->nf == 0) return SPHDEM_OK;
-  TRY(sphdem_rk_ensure(c, D->nf));
+  if (D->nf == 0 && !c->xfn) return SPHDEM_OK; /* many ranks: the rate evaluations are collective */
+  if (D->nf > 0) TRY(sphdem_rk_ensure(c, D->nf));
   c->half_kicked = 0;
   /* stage weights dt/6, dt/3, dt/3, dt/6; the next stage's state at t + dt/2, t + dt/2, t + dt */
   const double wk[4] = {dt / 6.0, dt / 3.0, dt / 3.0, dt / 6.0}, cst[3] = {0.5 * dt, 0.5 * dt, dt};
+  /* many ranks: the ghosts take each stage's rates and XSPH / shift velocity from their owners, so their stage
+   * states follow their owners' (the same arithmetic on the same values) */
+  c->rk_stepping = 1;
   for (int s = 0; s < 4; s++) {
-    TRY(sphdem_compute_rates(c));
+    const int rc = sphdem_compute_rates(c);
+    if (rc != SPHDEM_OK) { c->rk_stepping = 0; return rc; }
+    if (D->nf == 0) continue;
     double t0 = rt_now();
     if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
     TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
@@ -61,5 +66,6 @@ int sphdem_step_rk4(sphdem_ctx c, double dt) {
     c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
     TRY(rk_moved(c));
   }
+  c->rk_stepping = 0;
   return SPHDEM_OK;
 }

@@ -442,9 +442,6 @@ int FixSPHFluid::ghost_levels() const {
 void FixSPHFluid::init() {
   multi_ = comm->nprocs > 1;
   if (multi_) {
-    if (rk4_)
-      fail("integrator rk4 runs on one MPI rank only (its four stages would each need the ghost fluid's state); "
-           "use integrator verlet or mpirun -np 1");
     /* the ghost fluid and walls must reach as deep as the chain of pair sums of one rate evaluation */
     cut_need_ = 2.0 * prm_.h * ghost_levels() + neighbor->skin;
     const double cut = sphdem_compat::comm_cutoff_for_band(cut_need_, neighbor->skin,
@@ -1101,8 +1098,11 @@ int FixSPHFluid::exchange(int what, int ncomp, int nown, int nghost, const doubl
     return 0;
   }
   if (what == SPHDEM_XCHG_WALL) return exchange_walls(ncomp, nown, nghost, own, ghost);
-  int slot[4] = {-1, -1, -1, -1};
-  if (what == SPHDEM_XCHG_RATES && ncomp == 4) slot[0] = G_DRHO, slot[1] = G_A, slot[2] = G_A + 1, slot[3] = G_A + 2;
+  int slot[7] = {-1, -1, -1, -1, -1, -1, -1};
+  if (what == SPHDEM_XCHG_RATES && (ncomp == 4 || ncomp == 7)) { /* drho, a (, u in the velocity slots) */
+    const int s7[7] = {G_DRHO, G_A, G_A + 1, G_A + 2, G_V, G_V + 1, G_V + 2};
+    for (int c = 0; c < ncomp; c++) slot[c] = s7[c];
+  }
   else if (what == SPHDEM_XCHG_ACC && ncomp == 3) slot[0] = G_A, slot[1] = G_A + 1, slot[2] = G_A + 2;
   else if (what == SPHDEM_XCHG_EPS && ncomp == 1) slot[0] = G_EPS;
   const bool ok = slot[0] >= 0 && (size_t)nown == nfown_ && (size_t)nghost == fidx_.size() - nfown_;
@@ -1327,6 +1327,10 @@ void FixSPHFluid::initial_integrate(int) {
   if (rk4_) { /* the whole step here: four rate evaluations with the walls as they are now */
     if (walls_move_) upload_walls(true);
     check(sphdem_step_rk4(ctx_, dt_fluid_), "step_rk4");
+    if (multi_) { /* the engine's forward communication and exchange read the moved fluid */
+      download();
+      check_displacement();
+    }
     return;
   }
   check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
