@@ -136,7 +136,10 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->ct = p->ct < 0.0 ? D->cdamp : p->ct;
   D->Estar = p->E / (2.0 * (1.0 - p->nu * p->nu));    /* He eq 21, one material */
   D->tmax_fac = (2.0 - p->nu) / (2.0 - 2.0 * p->nu) * p->mu; /* He eq 22 */
-  for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+  for (int d = 0; d < 3; d++) {
+    D->L[d] = p->boxhi[d] - p->boxlo[d];
+    D->halfL[d] = p->periodic[d] ? 0.5 * D->L[d] : HUGE_VAL;
+  }
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
   /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
@@ -212,6 +215,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hx0);
   free(m->htag);
   free(m->cpu_pfb);
+  free(m->cpu_tf);
   sphdem_grains_destroy(&m->gstore);
   free(m);
   *pm = NULL;
@@ -385,6 +389,7 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
       changed = 1;
     }
   }
+  if (changed) m->tf_valid = 0;
   if (!rc && changed) rc = rt_h2d(&m->rt, D->hin, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
   if (!rc && changed && r) rc = rt_h2d(&m->rt, D->rin, r, sizeof(double) * 3 * (size_t)np);
   free(pk);
@@ -502,6 +507,7 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
 
 static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
   dem_dev *D = &m->D;
+  m->tf_valid = 0; /* a new list, a carried history */
   /* keep the current list (sorted by key) and its history for the carry, unless a restart seeded it */
   int64_t npold = m->seeded ? D->np_old : m->nbuilds ? D->np : 0;
   if (!m->seeded && npold > m->cap_pold) {
@@ -531,6 +537,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
+  D->pcap = D->pa ? m->cap_p : 0;
   TRY(m->ops->count(m, &np));
   if (np > 2147483647LL) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "%lld candidate pairs exceed 2^31", (long long)np);
   if (np > m->cap_p || !D->pa) {
@@ -544,6 +551,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
     m->cap_p = cap;
   }
+  D->pcap = m->cap_p;
   if (roll && (np > m->cap_roll || !D->rin)) {
     int64_t cap = np + np / 4 + 64;
     TRY(grow(m, (void **)&D->rin, sizeof(double) * 3, np, cap));
@@ -579,6 +587,28 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   return sphdem_dem_compute_store(m, m->gstore, tag, flags, dt, update_history, f, torque, virial);
 }
 
+/* The first bad grain of sphdem_dem_compute_store, in the words of its checks (rc of sphdem_dem_fail). */
+static int grain_error(struct sphdem_dem_s *m, int n, const int64_t *tag, const double *x, const double *radius,
+                       const double *mass, const int *flags, int nmat) {
+  for (int i = 0; i < n; i++) {
+    if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
+    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
+    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
+    if (!isfinite(radius[i]) || !isfinite(mass[i]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
+                             radius[i], mass[i]);
+    /* checked before binning: a non-finite position has no cell */
+    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
+                             x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
+                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, nmat, nmat > 1 ? "s are" : " is");
+  }
+  return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "a grain is not valid");
+}
+
 int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *tag, const int *flags, double dt,
                              int update_history, double *f, double *torque, double *virial) {
   if (!m) return SPHDEM_ERR_ARG;
@@ -598,24 +628,33 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs its type-pair table (sphdem_dem_set_granular)");
   if (granular && n > 0 && !flags)
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs the grain types in the flags (NULL given)");
+  /* one pass without early exits, which also measures how far the grains moved since the last build (when
+   * the same grains come again: else the list is rebuilt anyway); the message comes from grain_error when a
+   * grain is bad */
+  const int same_n = !m->need_build && m->tags_valid && n == D->n && m->hx0;
+  const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x;
+  /* sums and extremes only (no test per grain): nonfinite stays 0 unless a value is inf or NaN */
+  double nonfinite = 0.0, rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0;
+  int64_t tmin = SPHDEM_DEM_MAX_TAG, tmax = 1;
   for (int i = 0; i < n; i++) {
-    if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
-    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
-    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
-    if (!isfinite(radius[i]) || !isfinite(mass[i]))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
-                             radius[i], mass[i]);
-    /* checked before binning: a non-finite position has no cell */
-    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
-                             x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-    if (radius[i] > rmax) rmax = radius[i];
-    if (flags && (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE))) has_ghosts = 1;
-    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
-                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, nmat, nmat > 1 ? "s are" : " is");
+    const double r = radius[i], ms = mass[i], xa = x[3 * i], ya = x[3 * i + 1], za = x[3 * i + 2];
+    nonfinite += (xa - xa) + (ya - ya) + (za - za) + (r - r) + (ms - ms);
+    rmax = r > rmax ? r : rmax;
+    rmin = r < rmin ? r : rmin;
+    mmin = ms < mmin ? ms : mmin;
+    tmin = tag[i] < tmin ? tag[i] : tmin;
+    tmax = tag[i] > tmax ? tag[i] : tmax;
+    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2], d2 = dx * dx + dy * dy + dz * dz;
+    d2max = d2 > d2max ? d2 : d2max;
   }
+  int bad = !(nonfinite == 0.0) | !(rmin > 0.0) | !(mmin > 0.0) | (tmin < 1) | (tmax > SPHDEM_DEM_MAX_TAG);
+  const int moved = d2max > lim;
+  if (flags)
+    for (int i = 0; i < n; i++) {
+      has_ghosts |= (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)) != 0;
+      bad |= (flags[i] < 0) | ((flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat);
+    }
+  if (bad) return grain_error(m, n, tag, x, radius, mass, flags, nmat);
   TRY(ensure_grains(m, n));
   if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
   m->has_ghosts = has_ghosts;
@@ -623,13 +662,7 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   int new_tags = !m->tags_valid || n != D->n || (n && memcmp(m->htag, tag, sizeof(int64_t) * n));
   if (new_tags) m->need_build = 1;
   if (2.0 * rmax > m->dmax_built) m->need_build = 1;
-  if (!m->need_build) {
-    double lim = 0.25 * D->P.skin * D->P.skin;
-    for (int64_t i = 0; i < n && !m->need_build; i++) {
-      double dx = x[3 * i] - m->hx0[3 * i], dy = x[3 * i + 1] - m->hx0[3 * i + 1], dz = x[3 * i + 2] - m->hx0[3 * i + 2];
-      if (dx * dx + dy * dy + dz * dz > lim) m->need_build = 1;
-    }
-  }
+  if (same_n && moved) m->need_build = 1;
   D->n = n;
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
@@ -678,14 +711,16 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
     }
   }
   m->ncontacts = ntouch;
-  /* the new history becomes the current one */
-  double *t = D->hin;
-  D->hin = D->hout;
-  D->hout = t;
-  if (D->rin) {
-    t = D->rin;
-    D->rin = D->rout;
-    D->rout = t;
+  /* the new history becomes the current one (unless the backend wrote it in place) */
+  if (!m->hist_in_place) {
+    double *t = D->hin;
+    D->hin = D->hout;
+    D->hout = t;
+    if (D->rin) {
+      t = D->rin;
+      D->rin = D->rout;
+      D->rout = t;
+    }
   }
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;

@@ -46,6 +46,7 @@ typedef struct {
   sphdem_dem_granular *gran; /* ngran x ngran type-pair coefficients (device), grain type from its flags */
   int gran_rolling;   /* some type pair of gran has a rolling model: the rolling history rin/rout is kept */
   double L[3];
+  double halfL[3];    /* L / 2 on periodic axes, HUGE_VAL on the others (the minimum-image test of dem_sep) */
   double glo[3], cs_inv[3];
   int nc[3];
   int64_t ncells;
@@ -63,6 +64,7 @@ typedef struct {
   /* pair list: per-slot counts and offsets, pairs sorted by key, history double-buffered */
   int64_t *cnt, *off;
   int64_t np;
+  int64_t pcap;       /* pairs the arrays pa, pb, key hold (the fill writes no further) */
   int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
   uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
   double *hin, *hout;
@@ -125,8 +127,13 @@ struct sphdem_dem_s {
   void *backend_data;
   /* CPU particle-parallel: F and Tb of each pair (6 doubles per pair), see dem_particle_forward_body */
   double *cpu_pfb;
+  unsigned char *cpu_tf;       /* and whether each pair touches (1) or not (0), for the reverse half */
   int64_t cap_pfb;
+  int hist_in_place;           /* the last forces wrote the new history over the old (hin): no swap */
+  int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
+                                  particle-parallel pass only since (cleared by builds and history edits) */
   int64_t cpu_ntouch;          /* touching pairs counted by the CPU particle-parallel pass */
+  int cpu_prefilled;           /* the CPU count (one thread) wrote pa, pb, key already: the fill has no scan */
   /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
   double t[SPHDEM_DEM_NTIMERS];
   int64_t ncalls;

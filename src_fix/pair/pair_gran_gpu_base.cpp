@@ -366,11 +366,14 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   double **f = atom->f, **t = atom->torque;
-  for (int i = 0; i < nlocal; i++)
-    for (int d = 0; d < 3; d++) {
-      f[i][d] += fbuf_[3 * i + d];
-      t[i][d] += tbuf_[3 * i + d];
+  if (nlocal > 0) { /* the engines' n x 3 arrays are contiguous blocks */
+    double *f0 = f[0], *t0 = t[0];
+    const double *fb = fbuf_.data(), *tb = tbuf_.data();
+    for (int k = 0; k < 3 * nlocal; k++) {
+      f0[k] += fb[k];
+      t0[k] += tb[k];
     }
+  }
   /* a periodic image's share goes to the atom itself; other ranks' atoms get theirs there */
   for (int i = nlocal; i < n; i++) {
     const int o = image_of_[i - nlocal];
