@@ -27,13 +27,15 @@ loop time to other jobs on a shared machine) and the split.
 candidate pairs within the skin do not touch, the list is rebuilt often); pour grains inserted into an
 empty box while the run goes on, so that the atom count changes (LAMMPS: examples/granular/in.pour, 3000
 grains by fix pour in lj units with the Hertz arguments 2000 NULL 50 NULL 0.5 0; LIGGGHTS: fix insert/pack every
-500 steps, d = 5 mm falling onto the floor at 2 m/s). At the end a table of
+500 steps, d = 5 mm falling onto the floor at 2 m/s).
+--callgrind column:100,gas:300,pour:5000 adds a table of instruction counts (valgrind callgrind, one run per code at
+these steps): the run loop, the pair style's compute and the engine's neighbour builds, with their ratios to stock. At the end a table of
 the ratios /gpu (CPU backend, 1 rank, 1 thread) / stock (1 rank): loop time, Pair time, and Pair time
 against stock Pair + Neigh (the /gpu styles build their pair list inside Pair).
 
   python3 bench/dem_bench.py [--build build] [--sizes 1e4,1e5] [--steps 1e4:1000,1e5:100,1e6:10]
                              [--repeat 3] [--no-mpi] [--engines lammps,liggghts] [--compare-build DIR]
-                             [--scenes column,gas,pour]
+                             [--scenes column,gas,pour] [--callgrind column:100,gas:300,pour:5000]
 python3 standard library only. A benchmark: it prints numbers and asserts nothing.
 """
 import argparse
@@ -196,6 +198,37 @@ def run(cmd, text, wd, env):
     return r
 
 
+CG_PATTERNS = {"loop": r"LAMMPS_NS::Verlet::run\(int\)", "pair": r"LAMMPS_NS::Pair\w*::compute\(int, int\)",
+               "neigh": r"LAMMPS_NS::Neighbor::build\(int\)"}
+
+
+def callgrind(cmd, text, wd, env):
+    """instructions (valgrind callgrind, Ir inclusive) of the run loop (Verlet::run), of the pair style's compute and of
+    the engine's neighbour-list builds: counts that other jobs on the machine do not change"""
+    os.makedirs(wd, exist_ok=True)
+    with open(os.path.join(wd, "in.bench"), "w") as fp:
+        fp.write(text)
+    out = os.path.join(wd, "callgrind.out")
+    p = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out] + cmd + ["-in", "in.bench", "-log",
+                       "none"], cwd=wd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       errors="replace", timeout=7200)
+    if p.returncode != 0:
+        print("  FAILED under callgrind (%d): %s\n%s" % (p.returncode, " ".join(cmd), p.stdout[-1500:]), flush=True)
+        return None
+    ann = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out], stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True, errors="replace").stdout
+    r = {k: 0 for k in CG_PATTERNS}
+    for line in ann.splitlines():
+        m = re.match(r"\s*([0-9,]+) .*?(\S*:)?(LAMMPS_NS::.*?) \[", line)
+        if not m:
+            continue
+        for k, pat in CG_PATTERNS.items():
+            if re.fullmatch(pat, m.group(3)):
+                r[k] = max(r[k], int(m.group(1).replace(",", "")))
+    os.remove(out)
+    return r
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -208,6 +241,9 @@ def main():
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--scenes", default="column", help="column, gas, pour (comma-separated)")
     ap.add_argument("--pour-steps", type=int, default=20000, help="steps of the pour scene (its size is fixed)")
+    ap.add_argument("--callgrind", default=None, metavar="SCENE:STEPS,...",
+                    help="also count instructions (valgrind callgrind, one run per code) with these steps per scene, "
+                         "e.g. column:100,gas:300,pour:5000")
     a = ap.parse_args()
     a.build = os.path.abspath(a.build)
     if a.compare_build:
@@ -225,7 +261,8 @@ def main():
           "load average %.2f %.2f %.2f" % ((a.build, (", before: " + a.compare_build) if a.compare_build else "", a.repeat,
                                             "present" if gpu else "absent (GPU rows skipped)", wd0) + os.getloadavg()),
           flush=True)
-    rows, ratios = [], []
+    rows, ratios, cg_rows = [], [], []
+    cg_steps = {k: int(v) for k, v in (kv.split(":") for kv in a.callgrind.split(","))} if a.callgrind else {}
     runs = []
     for scene in a.scenes.split(","):
         if scene not in ("column", "gas", "pour"):
@@ -286,6 +323,25 @@ def main():
                     scene, n, eng, label, st, loop, n * st / loop, contacts * st / loop, r["cpu_min"], split)
                 rows.append(row)
                 print(row, flush=True)
+            if scene in cg_steps:
+                cg = {}
+                for k, (label, cmd, text) in enumerate(cases):
+                    if "2 ranks" in label or "GPU" in label:
+                        continue
+                    text = gen(nx, nz, cg_steps[scene], stock_style if label.startswith("stock") else ours_style,
+                               "" if label.startswith("stock") else "device cpu")
+                    r = callgrind(cmd, text, os.path.join(wd0, "cg_%s_%s_%g_%d" % (eng, scene, size, k)), env)
+                    if r:
+                        cg[label] = r
+                st = cg.get(cases[0][0])
+                for label in cg:
+                    r = cg[label]
+                    rel = ("%.2f | %.2f | %.2f" % (r["loop"] / st["loop"], r["pair"] / st["pair"],
+                                                   (r["pair"] + r["neigh"]) / (st["pair"] + st["neigh"]))) if st else "- | - | -"
+                    row = "| %s | %s | %s | %d | %.4g | %.4g | %.4g | %s |" % (scene, eng, label, cg_steps[scene], r["loop"],
+                                                                           r["pair"], r["neigh"], rel)
+                    cg_rows.append(row)
+                    print(row, flush=True)
             s1, g1 = best.get(cases[0][0]), best.get("%s CPU 1 thr" % ours_style)
             if s1 and g1:
                 sp = s1.get("Pair", float("nan"))
@@ -302,6 +358,13 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for scene, n, eng, rl, rp, rpn, rc in ratios:
         print("| %s | %d | %s | %.2f | %.2f | %.2f | %.2f |" % (scene, n, eng, rl, rp, rpn, rc))
+    if cg_rows:
+        print("\nInstructions (callgrind Ir, inclusive; one run each; ratios to stock 1 rank)\n")
+        print("| scene | engine | code | steps | loop (Verlet::run) | Pair compute | Neighbor::build | loop ratio | "
+              "Pair ratio | Pair + Neigh ratio |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for row in cg_rows:
+            print(row)
 
 
 if __name__ == "__main__":

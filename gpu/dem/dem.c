@@ -213,6 +213,9 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
                   D->rin, D->rout, D->roll_old, D->gran};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) rt_free(&m->rt, &arrs[k], 0);
   free(m->hx0);
+  free(m->hr0);
+  free(m->cpu_gap);
+  free(m->cpu_bt);
   free(m->htag);
   free(m->cpu_pfb);
   free(m->cpu_tf);
@@ -451,6 +454,9 @@ static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
   if (rc) return SPHDEM_ERR_ALLOC;
   double *hx = (double *)realloc(m->hx0, sizeof(double) * 3 * cap);
   if (hx) m->hx0 = hx;
+  double *hr = (double *)realloc(m->hr0, sizeof(double) * cap);
+  if (hr) m->hr0 = hr;
+  if (!hr) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate host copies for %lld grains", (long long)n);
   int64_t *ht = (int64_t *)realloc(m->htag, sizeof(int64_t) * cap);
   if (ht) m->htag = ht;
   if (!hx || !ht) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate host copies for %lld grains", (long long)n);
@@ -631,23 +637,26 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   /* one pass without early exits, which also measures how far the grains moved since the last build (when
    * the same grains come again: else the list is rebuilt anyway); the message comes from grain_error when a
    * grain is bad */
-  const int same_n = !m->need_build && m->tags_valid && n == D->n && m->hx0;
-  const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x;
+  const int same_n = !m->need_build && m->tags_valid && n == D->n && m->hx0 && m->hr0;
+  const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x, *r0 = same_n ? m->hr0 : radius;
   /* sums and extremes only (no test per grain): nonfinite stays 0 unless a value is inf or NaN */
-  double nonfinite = 0.0, rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0;
-  int64_t tmin = SPHDEM_DEM_MAX_TAG, tmax = 1;
+  double nonfinite = 0.0, rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
   for (int i = 0; i < n; i++) {
     const double r = radius[i], ms = mass[i], xa = x[3 * i], ya = x[3 * i + 1], za = x[3 * i + 2];
+    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz; /* (may overflow for finite, far apart positions) */
     nonfinite += (xa - xa) + (ya - ya) + (za - za) + (r - r) + (ms - ms);
     rmax = r > rmax ? r : rmax;
     rmin = r < rmin ? r : rmin;
     mmin = ms < mmin ? ms : mmin;
-    tmin = tag[i] < tmin ? tag[i] : tmin;
-    tmax = tag[i] > tmax ? tag[i] : tmax;
-    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2], d2 = dx * dx + dy * dy + dz * dz;
     d2max = d2 > d2max ? d2 : d2max;
+    drmax = r - r0[i] > drmax ? r - r0[i] : drmax;
   }
-  int bad = !(nonfinite == 0.0) | !(rmin > 0.0) | !(mmin > 0.0) | (tmin < 1) | (tmax > SPHDEM_DEM_MAX_TAG);
+  int bad = !(nonfinite == 0.0) | !(rmin > 0.0) | !(mmin > 0.0);
+  /* the tags: unless they are those of the last call (checked then) */
+  const int tags_same = m->tags_valid && n == D->n && m->htag && (!n || !memcmp(m->htag, tag, sizeof(int64_t) * n));
+  if (!tags_same)
+    for (int i = 0; i < n; i++) bad |= (tag[i] < 1) | (tag[i] > SPHDEM_DEM_MAX_TAG);
   const int moved = d2max > lim;
   if (flags)
     for (int i = 0; i < n; i++) {
@@ -659,7 +668,7 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
   m->has_ghosts = has_ghosts;
   /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */
-  int new_tags = !m->tags_valid || n != D->n || (n && memcmp(m->htag, tag, sizeof(int64_t) * n));
+  int new_tags = !tags_same;
   if (new_tags) m->need_build = 1;
   if (2.0 * rmax > m->dmax_built) m->need_build = 1;
   if (same_n && moved) m->need_build = 1;
@@ -684,8 +693,12 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_UPLOAD] += t1 - t0;
   t0 = t1;
+  /* no grain moved by more than sqrt(d2max) nor grew by more than drmax since the build */
+  D->gap_thr = 2.0 * (sqrt(d2max) + drmax);
   if (m->need_build) {
     TRY(build(m, n, x, 2.0 * rmax));
+    D->gap_thr = 0.0;
+    if (n) memcpy(m->hr0, radius, sizeof(double) * n);
     t1 = rt_now();
     m->t[SPHDEM_DEM_T_DETECT] += t1 - t0;
     t0 = t1;

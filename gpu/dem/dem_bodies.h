@@ -734,12 +734,12 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
   if (found >= 0 && D->carry_touching) h[3] = 1.0; /* the engine wraps positions at its builds: image not recorded */
 }
 
-/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom. */
-DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
-                                    const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
-                                    double *hout, double *vir, const int model) {
+/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom; wall: b < 0 (fixed at
+ * compile time by dem_contact_model). */
+DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const double *del, const double rsq,
+                                      const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
+                                      double *hout, double *vir, const int model, const int wall) {
   const int32_t a = D->pa[p], b = D->pb[p];
-  const int wall = b < 0;
   const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double ra = D->rad[a];
@@ -904,6 +904,15 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
   return 1;
 }
 
+/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom: the body above
+ * compiled for a grain partner and for a wall apart (no branch on the partner inside the law). */
+DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
+                                    const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
+                                    double *hout, double *vir, const int model) {
+  if (D->pb[p] < 0) return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 1);
+  return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 0);
+}
+
 /* The contact law of D->P.model for an overlapping pair, each model compiled with it fixed. */
 SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *del, double rsq, double rb,
                                    double radsum, double *Fa, double *Ta, double *Tb, double *hout, double *vir) {
@@ -1032,27 +1041,51 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
   dem_store_grain(D, i, f, t, vs);
 }
 
+/* The gap of pair p at a build: its distance less r_a + r_b (a wall: the distance less r_a, -HUGE_VAL behind the
+ * plane), less 1e-6 (r_a + r_b), far more than the rounding of the distances. While no grain has moved by more
+ * than delta nor grown by more than dr since, a pair of gap > 2 (delta + dr) does not touch. */
+SPHDEM_HD double dem_pair_gap(const dem_dev *D, int64_t p) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  const double ra = D->rad[a];
+  if (b >= 0) {
+    double del[3];
+    const double radsum = ra + D->rad[b];
+    const double r = sqrt(dem_sep(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b, del));
+    return r - radsum - 1e-6 * radsum;
+  }
+  const double dist = dem_wall_dist(D, -1 - b, D->x + 3 * (int64_t)a);
+  return dist > 0.0 ? dist - ra - 1e-6 * ra : -HUGE_VAL;
+}
+
 /* The particle-parallel pass in two halves that evaluate each pair once (the CPU loops; the same
  * additions in the same order as dem_particle_force_body, so the same bits). Forward: grain i sums
  * its pairs as a into f, tq, keeps F and Tb of each touching pair in pfb (6 per pair) and marks the pair
- * in tf (1 touching, 0 not); returns the touching pairs. Reverse (after every forward): grain i adds -F and
- * Tb of its touching pairs as b. Each pair is evaluated by one grain only, so the history may be updated in
+ * in tf (1 touching, 0 not) and its grain b in bt; returns the touching pairs. Reverse (after every forward):
+ * grain i adds -F and Tb of its touching pairs as b. Each pair is evaluated by one grain only, so the history may be updated in
  * place (D->hout == D->hin, D->rout == D->rin). known: tf holds the marks of the previous evaluation of this
  * list and the history was not changed since, so a pair marked 0 has the history of a separated pair already
- * (dem_separated_history would change nothing: it is not read). dem_particle_forward_model has the contact
- * law inlined for a model fixed at compile time. */
+ * (dem_separated_history would change nothing: it is not read). With D->gap0 the pairs whose gap at the build
+ * exceeds D->gap_thr are not touching without a look at their grains (dem_pair_gap). dem_particle_forward_model
+ * has the contact law inlined for a model fixed at compile time. */
 DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
-                                                 const int known, const int model) {
+                                                 unsigned char *bt, const int known, const int model) {
   double F[3], Ta[3], Tb[3], vir[6] = {0, 0, 0, 0, 0, 0}, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
   int64_t nt = 0;
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
     double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
-    if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+    if ((D->gap0 && D->gap0[p] > D->gap_thr) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
       if (!known || tf[p]) dem_separated_history(D, p, hout);
       tf[p] = 0;
       continue;
     }
     tf[p] = 1;
+    if (D->pb[p] >= 0) { /* grain b has a touching pair for the reverse half (any thread may set it: the same 1) */
+#ifdef __CUDA_ARCH__
+      bt[D->pb[p]] = 1;
+#else
+      __atomic_store_n(&bt[D->pb[p]], (unsigned char)1, __ATOMIC_RELAXED);
+#endif
+    }
     dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
     nt += dem_pair_counted(D, (int32_t)i);
     for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
@@ -1064,12 +1097,16 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   dem_store_grain(D, i, f, t, vs);
   return nt;
 }
-SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf) {
-  return dem_particle_forward_model(D, i, pfb, tf, 0, D->P.model);
+SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
+                                            unsigned char *bt) {
+  return dem_particle_forward_model(D, i, pfb, tf, bt, 0, D->P.model);
 }
 
-SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb, const unsigned char *tf) {
-  if (D->rstart[i] == D->rend[i]) return;
+/* bt[i]: the forward half found a touching pair of grain i as b (cleared here for the next evaluation) */
+SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb, const unsigned char *tf,
+                                         unsigned char *bt) {
+  if (!bt[i]) return;
+  bt[i] = 0;
   double f[3] = {D->f[3 * i], D->f[3 * i + 1], D->f[3 * i + 2]}, t[3] = {D->tq[3 * i], D->tq[3 * i + 1], D->tq[3 * i + 2]};
   for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
     const int64_t p = D->rlist[k];

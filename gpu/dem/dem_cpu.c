@@ -130,22 +130,34 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
   for (int64_t k = 0; k < np; k++) D->rkey[k] = D->pb[D->rlist[k]];
-  return m->ops->reverse_ranges(m);
+  DEM_TRY(m->ops->reverse_ranges(m));
+  /* the gap of each pair now, for the forces to pass over the pairs that cannot touch yet */
+  D->gap0 = NULL;
+  if (np > m->cap_gap) {
+    const int64_t cap = np + np / 4 + 64;
+    double *g = (double *)realloc(m->cpu_gap, sizeof(double) * (size_t)cap);
+    if (!g) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair gaps (%lld pairs)", (long long)np);
+    m->cpu_gap = g;
+    m->cap_gap = cap;
+  }
+  for (int64_t p = 0; p < np; p++) m->cpu_gap[p] = dem_pair_gap(D, p);
+  D->gap0 = m->cpu_gap;
+  return SPHDEM_OK;
 }
 
 /* Forward pass of the particle-parallel forces with the contact law of one model inlined. */
 static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D, int64_t n, double *pfb,
-                                                               unsigned char *tf, int known, const int model,
-                                                               int serial) {
+                                                               unsigned char *tf, unsigned char *bt, int known,
+                                                               const int model, int serial) {
   int64_t nt = 0;
   if (serial) { /* no call into the OpenMP runtime at all (it costs microseconds per region) */
     /* a local copy of the constants and array pointers: the stores of forces and history through the
      * pointers cannot alias it, so the loop keeps them in registers instead of reloading them per pair */
     const dem_dev Dl = *D;
-    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(&Dl, i, pfb, tf, known, model);
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(&Dl, i, pfb, tf, bt, known, model);
   } else {
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt)
-    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, tf, known, model);
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, tf, bt, known, model);
   }
   return nt;
 }
@@ -185,23 +197,31 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
     if (!b || !t) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
     m->cap_pfb = cap;
   }
+  if (n > m->cap_bt) { /* all 0 between the passes (the reverse half clears what the forward half set) */
+    const int64_t cap = n + n / 4 + 64;
+    unsigned char *t = (unsigned char *)calloc((size_t)cap, 1);
+    if (!t) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the grain marks (%lld grains)", (long long)n);
+    free(m->cpu_bt);
+    m->cpu_bt = t;
+    m->cap_bt = cap;
+  }
   m->hist_in_place = 1;
   double *pfb = m->cpu_pfb;
-  unsigned char *tf = m->cpu_tf;
+  unsigned char *tf = m->cpu_tf, *bt = m->cpu_bt;
   const int serial = c_serial(n);
   switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
-    case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, tf, known, SPHDEM_DEM_HOOKE, serial); break;
-    case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, tf, known, SPHDEM_DEM_HERTZ, serial); break;
-    case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, tf, known, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
-    case SPHDEM_DEM_GRANULAR: nt = c_forward(D, n, pfb, tf, known, SPHDEM_DEM_GRANULAR, serial); break;
-    default: nt = c_forward(D, n, pfb, tf, known, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
+    case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HOOKE, serial); break;
+    case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ, serial); break;
+    case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
+    case SPHDEM_DEM_GRANULAR: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_GRANULAR, serial); break;
+    default: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
   }
   if (serial) {
     const dem_dev Dl = *D;
-    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(&Dl, i, pfb, tf);
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(&Dl, i, pfb, tf, bt);
   } else {
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb, tf);
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb, tf, bt);
   }
   m->cpu_ntouch = nt;
   m->tf_valid = 1;

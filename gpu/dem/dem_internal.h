@@ -78,6 +78,11 @@ typedef struct {
   int64_t np_old;
   uint64_t *key_old;
   double *hist_old;
+  /* CPU particle-parallel: per pair its gap at the last build (dem_pair_gap; NULL: none kept), and the
+   * least gap a pair may have had then and touch now: twice the largest displacement and radius growth of a
+   * grain since (dem_particle_forward_model skips the pairs above it) */
+  double *gap0;
+  double gap_thr;
   /* particle-parallel CSR: pairs where the grain is a: [fstart, fend); where it is b: rlist[rstart..rend) */
   int32_t *fstart, *fend, *rstart, *rend, *rlist, *rkey;
   double *vir;        /* 6 virial components, 8 bytes of device counter, the coincident-pair slot (below) */
@@ -119,8 +124,8 @@ struct sphdem_dem_s {
   struct sphdem_grains_s *gstore; /* private store of sphdem_dem_compute (a shim hands its own store) */
   int64_t nbuilds, ncontacts;
   int has_ghosts;              /* the last grains had SPHDEM_DEM_GHOST or SPHDEM_DEM_IMAGE flags */
-  /* host copies for the rebuild decision */
-  double *hx0;
+  /* host copies for the rebuild decision: positions and radii at the last build, tags */
+  double *hx0, *hr0;
   int64_t *htag;
   int64_t hcap;
   double dmax_built;
@@ -129,6 +134,10 @@ struct sphdem_dem_s {
   double *cpu_pfb;
   unsigned char *cpu_tf;       /* and whether each pair touches (1) or not (0), for the reverse half */
   int64_t cap_pfb;
+  unsigned char *cpu_bt;       /* per grain: a touching pair as b this evaluation (the reverse half skips the others) */
+  int64_t cap_bt;
+  double *cpu_gap;             /* D.gap0 of the CPU backend */
+  int64_t cap_gap;
   int hist_in_place;           /* the last forces wrote the new history over the old (hin): no swap */
   int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
                                   particle-parallel pass only since (cleared by builds and history edits) */
