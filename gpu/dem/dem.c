@@ -529,8 +529,8 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
   const int roll = (D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0) ||
                    (D->P.model == SPHDEM_DEM_GRANULAR && D->gran_rolling);
-  D->roll_carry = roll && m->roll_valid && !m->seeded && npold > 0;
-  if (D->roll_carry) {
+  D->roll_carry = roll && npold > 0 && (m->seeded ? m->seed_roll : m->roll_valid);
+  if (D->roll_carry && !m->seeded) { /* (a seed with rolling torques put them into roll_old) */
     if (npold > m->cap_rold) {
       int64_t cap = npold + npold / 4 + 16;
       TRY(grow(m, (void **)&D->roll_old, sizeof(double) * 3, npold, cap));
@@ -540,6 +540,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   }
   D->np_old = npold;
   m->seeded = 0;
+  m->seed_roll = 0;
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
@@ -838,7 +839,24 @@ static int cmp_key_index(const void *a, const void *b) {
   return ka < kb ? -1 : ka > kb;
 }
 
+int64_t sphdem_dem_get_rolling(sphdem_dem m, double *roll, int64_t max) {
+  if (!m || max < 0 || (max > 0 && !roll)) return -SPHDEM_ERR_ARG;
+  const dem_dev *D = &m->D;
+  if (!m->nbuilds || !D->rin || !m->roll_valid) return 0;
+  const int64_t np = D->np, k = np < max ? np : max;
+  if (k > 0) {
+    int rc = rt_d2h(&m->rt, roll, D->rin, sizeof(double) * 3 * k);
+    if (rc) return -rc;
+  }
+  return np;
+}
+
 int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist) {
+  return sphdem_dem_set_history_rolling(m, n, keys, hist, NULL);
+}
+
+int sphdem_dem_set_history_rolling(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist,
+                                   const double *roll) {
   if (!m) return SPHDEM_ERR_ARG;
   if (n < 0 || (n > 0 && (!keys || !hist))) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: n %lld, keys/hist missing", (long long)n);
   dem_dev *D = &m->D;
@@ -863,10 +881,21 @@ int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const 
   int rc = dup ? sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: a pair key appears twice") : SPHDEM_OK;
   if (!rc && n) rc = rt_h2d(&m->rt, D->key_old, ks, sizeof(uint64_t) * (size_t)n);
   if (!rc && n) rc = rt_h2d(&m->rt, D->hist_old, hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)n);
+  /* the rolling torques in the same key order, for the carry of the next build (roll_old) */
+  if (!rc && roll && n > m->cap_rold) {
+    rc = grow(m, (void **)&D->roll_old, sizeof(double) * 3, n, n + 16);
+    if (!rc) m->cap_rold = n + 16;
+  }
+  if (!rc && roll && n) {
+    for (int64_t i = 0; i < n; i++)
+      for (int q = 0; q < 3; q++) hs[3 * i + q] = roll[3 * idx[i].i + q];
+    rc = rt_h2d(&m->rt, D->roll_old, hs, sizeof(double) * 3 * (size_t)n);
+  }
   free(idx); free(ks); free(hs);
   if (rc) return rc;
   D->np_old = n;
   m->seeded = 1;
+  m->seed_roll = roll != NULL;
   m->need_build = 1;
   return SPHDEM_OK;
 }

@@ -116,6 +116,7 @@ struct sphdem_dem_s {
   int need_build;
   int build_requested;         /* sphdem_dem_request_build since the last build */
   int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
+  int seed_roll;               /* and roll_old its rolling torques (sphdem_dem_set_history_rolling) */
   int roll_valid;              /* D->rin holds the rolling torques of the current list */
   int64_t cap_roll, cap_rold;  /* capacities (pairs) of rin/rout and roll_old */
   int tags_valid;              /* device tag array matches htag */
