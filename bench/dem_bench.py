@@ -22,8 +22,20 @@ of the whole process (smallest of the repeats, set-up included, all ranks: less 
 loop time to other jobs on a shared machine) and the split.
 --compare-build DIR adds rows for the launchers of another build (e.g. before a change).
 
+--scenes picks the scenes (default column): column is the dense column above; gas a loose granular gas
+(the same lattice at spacing 5.5 mm = 1.1 d, random velocities of about 0.3 m/s per component: most
+candidate pairs within the skin do not touch, the list is rebuilt often); pour grains inserted into an
+empty box while the run goes on, so that the atom count changes (LAMMPS: examples/granular/in.pour, 3000
+grains by fix pour in lj units with the Hertz arguments 2000 NULL 50 NULL 0.5 0; LIGGGHTS: fix insert/pack every
+500 steps, d = 5 mm falling onto the floor at 2 m/s).
+--callgrind column:100,gas:300,pour:5000 adds a table of instruction counts (valgrind callgrind, one run per code at
+these steps): the run loop, the pair style's compute and the engine's neighbour builds, with their ratios to stock. At the end a table of
+the ratios /gpu (CPU backend, 1 rank, 1 thread) / stock (1 rank): loop time, Pair time, and Pair time
+against stock Pair + Neigh (the /gpu styles build their pair list inside Pair).
+
   python3 bench/dem_bench.py [--build build] [--sizes 1e4,1e5] [--steps 1e4:1000,1e5:100,1e6:10]
                              [--repeat 3] [--no-mpi] [--engines lammps,liggghts] [--compare-build DIR]
+                             [--scenes column,gas,pour] [--callgrind column:100,gas:300,pour:5000]
 python3 standard library only. A benchmark: it prints numbers and asserts nothing.
 """
 import argparse
@@ -68,26 +80,75 @@ run             {steps}
 """
 
 
-def lammps_input(nx, nz, steps, style, extra):
-    L, Hins = nx * A, nz * A
-    return (COMMON_TOP.format(L=L, H=Hins + 0.02).replace("units           si\n", "units           si\natom_style      sphere\n")
+GAS_A = 0.0055  # gas: lattice spacing 1.1 d
+GAS_LATTICE = LATTICE.replace("{a}", "%g" % GAS_A).replace("0.0058", "0.3")
+# LIGGGHTS pour: grains of d = 5 mm inserted at 2 m/s into a box of 50 x 50 mm (periodic x y) 20-50 mm above the floor
+POUR_L = 0.05
+# LAMMPS pour: examples/granular/in.pour of LAMMPS (lj units, 3000 grains poured into a periodic box by fix pour
+# in batches, each when the one before has fallen out of the slab), its own Hertz arguments
+POUR_LMP = """units           lj
+atom_style      sphere
+boundary        p p fm
+newton          off
+comm_modify     vel yes
+region          reg block -10 10 -10 10 -0.5 16 units box
+create_box      1 reg
+neighbor        0.2 bin
+neigh_modify    delay 0
+pair_style      {style} 2000.0 NULL 50.0 NULL 0.5 0 {extra}
+pair_coeff      * *
+timestep        0.001
+fix             1 all nve/sphere
+fix             2 all gravity 1.0 spherical 0.0 -180.0
+fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
+region          slab block -9.0 9.0 -9.0 9.0 10.0 15.0
+fix             ins all pour 3000 1 300719 vol 0.13 50 region slab
+compute         cn all contact/atom
+compute         ncs all reduce sum c_cn
+thermo_style    custom step atoms ke c_ncs
+thermo_modify   lost ignore norm no
+thermo          {steps}
+run             {steps}
+"""
+POUR_LIG = """fix             pts all particletemplate/sphere 15485863 atom_type 1 density constant 2500 radius constant 0.0025
+fix             pdd all particledistribution/discrete 32452843 1 pts 1.0
+region          slab block 0.003 0.047 0.003 0.047 0.02 0.05 units box
+fix             ins all insert/pack seed 49979687 distributiontemplate pdd insert_every 500 overlapcheck yes &
+                vel constant 0 0 -2.0 particles_in_region 400 region slab
+"""
+
+
+def scene_parts(scene, nx, nz, engine):
+    """(L, H, the lines that make the grains) of a scene"""
+    if scene == "pour":
+        return POUR_L, 0.06, POUR_LIG
+    a, lat = (GAS_A, GAS_LATTICE) if scene == "gas" else (A, LATTICE)
+    L, Hins = nx * a, nz * a
+    return L, Hins + 0.02 + (nz * a if scene == "gas" else 0.0), lat.format(a=a, L=L, Hins=Hins)
+
+
+def lammps_input(nx, nz, steps, style, extra, scene="column"):
+    if scene == "pour":
+        return POUR_LMP.format(style=style, extra=extra, steps=steps)
+    L, H, grains = scene_parts(scene, nx, nz, "lammps")
+    return (COMMON_TOP.format(L=L, H=H).replace("units           si\n", "units           si\natom_style      sphere\n")
             + "comm_modify     vel yes\nneigh_modify    delay 0 every 1 check yes\n"
-            + LATTICE.format(a=A, L=L, Hins=Hins)
+            + grains
             + "pair_style      %s 2e7 NULL 5e3 NULL 0.5 1 %s\npair_coeff      * *\n" % (style, extra)
             + "fix             floor all wall/gran hertz/history 2e7 NULL 5e3 NULL 0.5 1 zplane 0 NULL\n"
             + TAIL.format(steps=steps))
 
 
-def liggghts_input(nx, nz, steps, style, extra):
-    L, Hins = nx * A, nz * A
-    return (COMMON_TOP.format(L=L, H=Hins + 0.02).replace("units           si\n", "units           si\natom_style      granular\n")
+def liggghts_input(nx, nz, steps, style, extra, scene="column"):
+    L, H, grains = scene_parts(scene, nx, nz, "liggghts")
+    return (COMMON_TOP.format(L=L, H=H).replace("units           si\n", "units           si\natom_style      granular\n")
             + "communicate     single vel yes\nneigh_modify    delay 0\n"
             + "fix             m1 all property/global youngsModulus peratomtype 5e6\n"
             + "fix             m2 all property/global poissonsRatio peratomtype 0.45\n"
             + "fix             m3 all property/global coefficientRestitution peratomtypepair 1 0.7\n"
             + "fix             m4 all property/global coefficientFriction peratomtypepair 1 0.5\n"
             + "pair_style      %s model hertz tangential history %s\npair_coeff      * *\n" % (style, extra)
-            + LATTICE.format(a=A, L=L, Hins=Hins)
+            + grains
             + "fix             floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0\n"
             + TAIL.format(steps=steps))
 
@@ -137,6 +198,37 @@ def run(cmd, text, wd, env):
     return r
 
 
+CG_PATTERNS = {"loop": r"LAMMPS_NS::Verlet::run\(int\)", "pair": r"LAMMPS_NS::Pair\w*::compute\(int, int\)",
+               "neigh": r"LAMMPS_NS::Neighbor::build\(int\)"}
+
+
+def callgrind(cmd, text, wd, env):
+    """instructions (valgrind callgrind, Ir inclusive) of the run loop (Verlet::run), of the pair style's compute and of
+    the engine's neighbour-list builds: counts that other jobs on the machine do not change"""
+    os.makedirs(wd, exist_ok=True)
+    with open(os.path.join(wd, "in.bench"), "w") as fp:
+        fp.write(text)
+    out = os.path.join(wd, "callgrind.out")
+    p = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out] + cmd + ["-in", "in.bench", "-log",
+                       "none"], cwd=wd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                       errors="replace", timeout=7200)
+    if p.returncode != 0:
+        print("  FAILED under callgrind (%d): %s\n%s" % (p.returncode, " ".join(cmd), p.stdout[-1500:]), flush=True)
+        return None
+    ann = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out], stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True, errors="replace").stdout
+    r = {k: 0 for k in CG_PATTERNS}
+    for line in ann.splitlines():
+        m = re.match(r"\s*([0-9,]+) .*?(\S*:)?(LAMMPS_NS::.*?) \[", line)
+        if not m:
+            continue
+        for k, pat in CG_PATTERNS.items():
+            if re.fullmatch(pat, m.group(3)):
+                r[k] = max(r[k], int(m.group(1).replace(",", "")))
+    os.remove(out)
+    return r
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -147,6 +239,11 @@ def main():
     ap.add_argument("--engines", default="liggghts,lammps")
     ap.add_argument("--compare-build", default=None, help="another build whose launchers get rows labelled 'before'")
     ap.add_argument("--workdir", default=None)
+    ap.add_argument("--scenes", default="column", help="column, gas, pour (comma-separated)")
+    ap.add_argument("--pour-steps", type=int, default=20000, help="steps of the pour scene (its size is fixed)")
+    ap.add_argument("--callgrind", default=None, metavar="SCENE:STEPS,...",
+                    help="also count instructions (valgrind callgrind, one run per code) with these steps per scene, "
+                         "e.g. column:100,gas:300,pour:5000")
     a = ap.parse_args()
     a.build = os.path.abspath(a.build)
     if a.compare_build:
@@ -160,16 +257,25 @@ def main():
     wd0 = a.workdir or tempfile.mkdtemp(prefix="dem_bench_")
     launch = {"lammps": ("lmp_sphdem", "/usr/bin/lmp", lammps_input, "gran/hertz/history"),
               "liggghts": ("liggghts_sphdem", "/usr/bin/liggghts", liggghts_input, "gran")}
-    print("# dem_bench.py: build %s%s, repeat %d (best loop time kept), OMP_NUM_THREADS=1, GPU %s, workdir %s" %
-          (a.build, (", before: " + a.compare_build) if a.compare_build else "", a.repeat,
-           "present" if gpu else "absent (GPU rows skipped)", wd0), flush=True)
-    rows = []
-    for size in (float(s) for s in a.sizes.split(",")):
-        nx = max(2, int(round(size ** (1.0 / 3.0))))
-        nz = max(1, int(round(size / (nx * nx))))
-        steps = steps_for.get(size, 100)
+    print("# dem_bench.py: build %s%s, repeat %d (best loop time kept), OMP_NUM_THREADS=1, GPU %s, workdir %s, "
+          "load average %.2f %.2f %.2f" % ((a.build, (", before: " + a.compare_build) if a.compare_build else "", a.repeat,
+                                            "present" if gpu else "absent (GPU rows skipped)", wd0) + os.getloadavg()),
+          flush=True)
+    rows, ratios, cg_rows = [], [], []
+    cg_steps = {k: int(v) for k, v in (kv.split(":") for kv in a.callgrind.split(","))} if a.callgrind else {}
+    runs = []
+    for scene in a.scenes.split(","):
+        if scene not in ("column", "gas", "pour"):
+            sys.exit("unknown scene %r (column, gas, pour)" % scene)
+        for size in ([0.0] if scene == "pour" else [float(s) for s in a.sizes.split(",")]):
+            runs.append((scene, size))
+    for scene, size in runs:
+        nx = max(2, int(round(size ** (1.0 / 3.0)))) if size else 0
+        nz = max(1, int(round(size / (nx * nx)))) if size else 0
+        steps = a.pour_steps if scene == "pour" else steps_for.get(size, 100)
         for eng in a.engines.split(","):
-            exe, stock_exe, gen, stock_style = launch[eng]
+            exe, stock_exe, gen0, stock_style = launch[eng]
+            gen = lambda nx, nz, steps, style, extra, gen0=gen0: gen0(nx, nz, steps, style, extra, scene)
             ours_style = stock_style + ("/gpu" if eng == "liggghts" else "/gpu")
             cases = [("stock %s 1 rank" % stock_style, [stock_exe], gen(nx, nz, steps, stock_style, ""))]
             if mpirun:
@@ -189,7 +295,7 @@ def main():
             best = {}
             for rep in range(a.repeat):  # interleaved, so that a busy moment hits every code alike
                 for k, (label, cmd, text) in enumerate(cases):
-                    r = run(cmd, text, os.path.join(wd0, "%s_%g_%d" % (eng, size, k)), env)
+                    r = run(cmd, text, os.path.join(wd0, "%s_%s_%g_%d" % (eng, scene, size, k)), env)
                     if r and (label not in best or r["loop"] < best[label]["loop"]):
                         cpu_min = min(r["cpu"], best[label]["cpu_min"]) if label in best else r["cpu"]
                         best[label] = r
@@ -213,15 +319,52 @@ def main():
                               r.get("Pair", float("nan"))))
                 else:
                     split = "Neigh %.3f s, Pair %.3f s" % (r.get("Neigh", float("nan")), r.get("Pair", float("nan")))
-                row = "| %d | %s | %s | %d | %.3f | %.4g | %.4g | %.2f | %s |" % (
-                    n, eng, label, st, loop, n * st / loop, contacts * st / loop, r["cpu_min"], split)
+                row = "| %s | %d | %s | %s | %d | %.3f | %.4g | %.4g | %.2f | %s |" % (
+                    scene, n, eng, label, st, loop, n * st / loop, contacts * st / loop, r["cpu_min"], split)
                 rows.append(row)
                 print(row, flush=True)
-    print("\n| grains | engine | code | steps | loop s (best of %d) | particle-steps/s | contacts/s | CPU s of the "
-          "process (min; set-up included) | split |" % a.repeat)
-    print("|---|---|---|---|---|---|---|---|---|")
+            if scene in cg_steps:
+                cg = {}
+                for k, (label, cmd, text) in enumerate(cases):
+                    if "2 ranks" in label or "GPU" in label:
+                        continue
+                    text = gen(nx, nz, cg_steps[scene], stock_style if label.startswith("stock") else ours_style,
+                               "" if label.startswith("stock") else "device cpu")
+                    r = callgrind(cmd, text, os.path.join(wd0, "cg_%s_%s_%g_%d" % (eng, scene, size, k)), env)
+                    if r:
+                        cg[label] = r
+                st = cg.get(cases[0][0])
+                for label in cg:
+                    r = cg[label]
+                    rel = ("%.2f | %.2f | %.2f" % (r["loop"] / st["loop"], r["pair"] / st["pair"],
+                                                   (r["pair"] + r["neigh"]) / (st["pair"] + st["neigh"]))) if st else "- | - | -"
+                    row = "| %s | %s | %s | %d | %.4g | %.4g | %.4g | %s |" % (scene, eng, label, cg_steps[scene], r["loop"],
+                                                                           r["pair"], r["neigh"], rel)
+                    cg_rows.append(row)
+                    print(row, flush=True)
+            s1, g1 = best.get(cases[0][0]), best.get("%s CPU 1 thr" % ours_style)
+            if s1 and g1:
+                sp = s1.get("Pair", float("nan"))
+                ratios.append((scene, s1["atoms"], eng, g1["loop"] / s1["loop"], g1.get("Pair", float("nan")) / sp,
+                               g1.get("Pair", float("nan")) / (sp + s1.get("Neigh", 0.0)), g1["cpu_min"] / s1["cpu_min"]))
+    print("\n| scene | grains | engine | code | steps | loop s (best of %d) | particle-steps/s | contacts/s | CPU s of "
+          "the process (min; set-up included) | split |" % a.repeat)
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for row in rows:
         print(row)
+    print("\n/gpu (CPU backend, 1 rank, 1 thread) / stock (1 rank); load average %.2f %.2f %.2f at the end\n" %
+          os.getloadavg())
+    print("| scene | grains (end) | engine | loop | Pair | Pair / (stock Pair + Neigh) | process CPU |")
+    print("|---|---|---|---|---|---|---|")
+    for scene, n, eng, rl, rp, rpn, rc in ratios:
+        print("| %s | %d | %s | %.2f | %.2f | %.2f | %.2f |" % (scene, n, eng, rl, rp, rpn, rc))
+    if cg_rows:
+        print("\nInstructions (callgrind Ir, inclusive; one run each; ratios to stock 1 rank)\n")
+        print("| scene | engine | code | steps | loop (Verlet::run) | Pair compute | Neighbor::build | loop ratio | "
+              "Pair ratio | Pair + Neigh ratio |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for row in cg_rows:
+            print(row)
 
 
 if __name__ == "__main__":

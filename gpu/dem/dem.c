@@ -136,7 +136,10 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->ct = p->ct < 0.0 ? D->cdamp : p->ct;
   D->Estar = p->E / (2.0 * (1.0 - p->nu * p->nu));    /* He eq 21, one material */
   D->tmax_fac = (2.0 - p->nu) / (2.0 - 2.0 * p->nu) * p->mu; /* He eq 22 */
-  for (int d = 0; d < 3; d++) D->L[d] = p->boxhi[d] - p->boxlo[d];
+  for (int d = 0; d < 3; d++) {
+    D->L[d] = p->boxhi[d] - p->boxlo[d];
+    D->halfL[d] = p->periodic[d] ? 0.5 * D->L[d] : HUGE_VAL;
+  }
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
   /* the moduli exist only for the models that take E (the LAMMPS-syntax models leave E = 0) */
@@ -210,8 +213,12 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
                   D->rin, D->rout, D->roll_old, D->gran};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) rt_free(&m->rt, &arrs[k], 0);
   free(m->hx0);
+  free(m->hr0);
+  free(m->cpu_gap);
+  free(m->cpu_bt);
   free(m->htag);
   free(m->cpu_pfb);
+  free(m->cpu_tf);
   sphdem_grains_destroy(&m->gstore);
   free(m);
   *pm = NULL;
@@ -385,6 +392,7 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
       changed = 1;
     }
   }
+  if (changed) m->tf_valid = 0;
   if (!rc && changed) rc = rt_h2d(&m->rt, D->hin, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
   if (!rc && changed && r) rc = rt_h2d(&m->rt, D->rin, r, sizeof(double) * 3 * (size_t)np);
   free(pk);
@@ -446,6 +454,9 @@ static int ensure_grains(struct sphdem_dem_s *m, int64_t n) {
   if (rc) return SPHDEM_ERR_ALLOC;
   double *hx = (double *)realloc(m->hx0, sizeof(double) * 3 * cap);
   if (hx) m->hx0 = hx;
+  double *hr = (double *)realloc(m->hr0, sizeof(double) * cap);
+  if (hr) m->hr0 = hr;
+  if (!hr) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate host copies for %lld grains", (long long)n);
   int64_t *ht = (int64_t *)realloc(m->htag, sizeof(int64_t) * cap);
   if (ht) m->htag = ht;
   if (!hx || !ht) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate host copies for %lld grains", (long long)n);
@@ -502,6 +513,7 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
 
 static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
   dem_dev *D = &m->D;
+  m->tf_valid = 0; /* a new list, a carried history */
   /* keep the current list (sorted by key) and its history for the carry, unless a restart seeded it */
   int64_t npold = m->seeded ? D->np_old : m->nbuilds ? D->np : 0;
   if (!m->seeded && npold > m->cap_pold) {
@@ -517,8 +529,8 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   /* epsd2: the rolling torques of the current list, for the carry (not kept by a restart seed) */
   const int roll = (D->P.rolling_model != SPHDEM_DEM_ROLL_CDT && D->P.mu_r > 0.0) ||
                    (D->P.model == SPHDEM_DEM_GRANULAR && D->gran_rolling);
-  D->roll_carry = roll && m->roll_valid && !m->seeded && npold > 0;
-  if (D->roll_carry) {
+  D->roll_carry = roll && npold > 0 && (m->seeded ? m->seed_roll : m->roll_valid);
+  if (D->roll_carry && !m->seeded) { /* (a seed with rolling torques put them into roll_old) */
     if (npold > m->cap_rold) {
       int64_t cap = npold + npold / 4 + 16;
       TRY(grow(m, (void **)&D->roll_old, sizeof(double) * 3, npold, cap));
@@ -528,9 +540,11 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   }
   D->np_old = npold;
   m->seeded = 0;
+  m->seed_roll = 0;
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
+  D->pcap = D->pa ? m->cap_p : 0;
   TRY(m->ops->count(m, &np));
   if (np > 2147483647LL) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "%lld candidate pairs exceed 2^31", (long long)np);
   if (np > m->cap_p || !D->pa) {
@@ -544,6 +558,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
     TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
     m->cap_p = cap;
   }
+  D->pcap = m->cap_p;
   if (roll && (np > m->cap_roll || !D->rin)) {
     int64_t cap = np + np / 4 + 64;
     TRY(grow(m, (void **)&D->rin, sizeof(double) * 3, np, cap));
@@ -579,6 +594,28 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   return sphdem_dem_compute_store(m, m->gstore, tag, flags, dt, update_history, f, torque, virial);
 }
 
+/* The first bad grain of sphdem_dem_compute_store, in the words of its checks (rc of sphdem_dem_fail). */
+static int grain_error(struct sphdem_dem_s *m, int n, const int64_t *tag, const double *x, const double *radius,
+                       const double *mass, const int *flags, int nmat) {
+  for (int i = 0; i < n; i++) {
+    if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
+    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
+    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
+    if (!isfinite(radius[i]) || !isfinite(mass[i]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
+                             radius[i], mass[i]);
+    /* checked before binning: a non-finite position has no cell */
+    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
+                             x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
+                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, nmat, nmat > 1 ? "s are" : " is");
+  }
+  return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "a grain is not valid");
+}
+
 int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *tag, const int *flags, double dt,
                              int update_history, double *f, double *torque, double *virial) {
   if (!m) return SPHDEM_ERR_ARG;
@@ -598,38 +635,44 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs its type-pair table (sphdem_dem_set_granular)");
   if (granular && n > 0 && !flags)
     return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "the granular model needs the grain types in the flags (NULL given)");
+  /* one pass without early exits, which also measures how far the grains moved since the last build (when
+   * the same grains come again: else the list is rebuilt anyway); the message comes from grain_error when a
+   * grain is bad */
+  const int same_n = !m->need_build && m->tags_valid && n == D->n && m->hx0 && m->hr0;
+  const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x, *r0 = same_n ? m->hr0 : radius;
+  /* sums and extremes only (no test per grain): nonfinite stays 0 unless a value is inf or NaN */
+  double nonfinite = 0.0, rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
   for (int i = 0; i < n; i++) {
-    if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
-    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
-    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
-    if (!isfinite(radius[i]) || !isfinite(mass[i]))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
-                             radius[i], mass[i]);
-    /* checked before binning: a non-finite position has no cell */
-    if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: position (%g, %g, %g) is not finite", (long long)tag[i],
-                             x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-    if (radius[i] > rmax) rmax = radius[i];
-    if (flags && (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE))) has_ghosts = 1;
-    if (flags && (flags[i] < 0 || (flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat))
-      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: material %d, but %d material%s given", (long long)tag[i],
-                             flags[i] < 0 ? -1 : flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT, nmat, nmat > 1 ? "s are" : " is");
+    const double r = radius[i], ms = mass[i], xa = x[3 * i], ya = x[3 * i + 1], za = x[3 * i + 2];
+    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz; /* (may overflow for finite, far apart positions) */
+    nonfinite += (xa - xa) + (ya - ya) + (za - za) + (r - r) + (ms - ms);
+    rmax = r > rmax ? r : rmax;
+    rmin = r < rmin ? r : rmin;
+    mmin = ms < mmin ? ms : mmin;
+    d2max = d2 > d2max ? d2 : d2max;
+    drmax = r - r0[i] > drmax ? r - r0[i] : drmax;
   }
+  int bad = !(nonfinite == 0.0) | !(rmin > 0.0) | !(mmin > 0.0);
+  /* the tags: unless they are those of the last call (checked then) */
+  const int tags_same = m->tags_valid && n == D->n && m->htag && (!n || !memcmp(m->htag, tag, sizeof(int64_t) * n));
+  if (!tags_same)
+    for (int i = 0; i < n; i++) bad |= (tag[i] < 1) | (tag[i] > SPHDEM_DEM_MAX_TAG);
+  const int moved = d2max > lim;
+  if (flags)
+    for (int i = 0; i < n; i++) {
+      has_ghosts |= (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)) != 0;
+      bad |= (flags[i] < 0) | ((flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat);
+    }
+  if (bad) return grain_error(m, n, tag, x, radius, mass, flags, nmat);
   TRY(ensure_grains(m, n));
   if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
   m->has_ghosts = has_ghosts;
   /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */
-  int new_tags = !m->tags_valid || n != D->n || (n && memcmp(m->htag, tag, sizeof(int64_t) * n));
+  int new_tags = !tags_same;
   if (new_tags) m->need_build = 1;
   if (2.0 * rmax > m->dmax_built) m->need_build = 1;
-  if (!m->need_build) {
-    double lim = 0.25 * D->P.skin * D->P.skin;
-    for (int64_t i = 0; i < n && !m->need_build; i++) {
-      double dx = x[3 * i] - m->hx0[3 * i], dy = x[3 * i + 1] - m->hx0[3 * i + 1], dz = x[3 * i + 2] - m->hx0[3 * i + 2];
-      if (dx * dx + dy * dy + dz * dz > lim) m->need_build = 1;
-    }
-  }
+  if (same_n && moved) m->need_build = 1;
   D->n = n;
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_CHECK] += t1 - t0;
@@ -651,8 +694,12 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_UPLOAD] += t1 - t0;
   t0 = t1;
+  /* no grain moved by more than sqrt(d2max) nor grew by more than drmax since the build */
+  D->gap_thr = 2.0 * (sqrt(d2max) + drmax);
   if (m->need_build) {
     TRY(build(m, n, x, 2.0 * rmax));
+    D->gap_thr = 0.0;
+    if (n) memcpy(m->hr0, radius, sizeof(double) * n);
     t1 = rt_now();
     m->t[SPHDEM_DEM_T_DETECT] += t1 - t0;
     t0 = t1;
@@ -678,14 +725,16 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
     }
   }
   m->ncontacts = ntouch;
-  /* the new history becomes the current one */
-  double *t = D->hin;
-  D->hin = D->hout;
-  D->hout = t;
-  if (D->rin) {
-    t = D->rin;
-    D->rin = D->rout;
-    D->rout = t;
+  /* the new history becomes the current one (unless the backend wrote it in place) */
+  if (!m->hist_in_place) {
+    double *t = D->hin;
+    D->hin = D->hout;
+    D->hout = t;
+    if (D->rin) {
+      t = D->rin;
+      D->rin = D->rout;
+      D->rout = t;
+    }
   }
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
@@ -790,7 +839,24 @@ static int cmp_key_index(const void *a, const void *b) {
   return ka < kb ? -1 : ka > kb;
 }
 
+int64_t sphdem_dem_get_rolling(sphdem_dem m, double *roll, int64_t max) {
+  if (!m || max < 0 || (max > 0 && !roll)) return -SPHDEM_ERR_ARG;
+  const dem_dev *D = &m->D;
+  if (!m->nbuilds || !D->rin || !m->roll_valid) return 0;
+  const int64_t np = D->np, k = np < max ? np : max;
+  if (k > 0) {
+    int rc = rt_d2h(&m->rt, roll, D->rin, sizeof(double) * 3 * k);
+    if (rc) return -rc;
+  }
+  return np;
+}
+
 int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist) {
+  return sphdem_dem_set_history_rolling(m, n, keys, hist, NULL);
+}
+
+int sphdem_dem_set_history_rolling(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist,
+                                   const double *roll) {
   if (!m) return SPHDEM_ERR_ARG;
   if (n < 0 || (n > 0 && (!keys || !hist))) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: n %lld, keys/hist missing", (long long)n);
   dem_dev *D = &m->D;
@@ -815,10 +881,21 @@ int sphdem_dem_set_history(sphdem_dem m, int64_t n, const uint64_t *keys, const 
   int rc = dup ? sphdem_dem_fail(m, SPHDEM_ERR_ARG, "set_history: a pair key appears twice") : SPHDEM_OK;
   if (!rc && n) rc = rt_h2d(&m->rt, D->key_old, ks, sizeof(uint64_t) * (size_t)n);
   if (!rc && n) rc = rt_h2d(&m->rt, D->hist_old, hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)n);
+  /* the rolling torques in the same key order, for the carry of the next build (roll_old) */
+  if (!rc && roll && n > m->cap_rold) {
+    rc = grow(m, (void **)&D->roll_old, sizeof(double) * 3, n, n + 16);
+    if (!rc) m->cap_rold = n + 16;
+  }
+  if (!rc && roll && n) {
+    for (int64_t i = 0; i < n; i++)
+      for (int q = 0; q < 3; q++) hs[3 * i + q] = roll[3 * idx[i].i + q];
+    rc = rt_h2d(&m->rt, D->roll_old, hs, sizeof(double) * 3 * (size_t)n);
+  }
   free(idx); free(ks); free(hs);
   if (rc) return rc;
   D->np_old = n;
   m->seeded = 1;
+  m->seed_roll = roll != NULL;
   m->need_build = 1;
   return SPHDEM_OK;
 }

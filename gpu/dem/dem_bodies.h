@@ -4,6 +4,7 @@
 #define SPHDEM_DEM_BODIES_H
 
 #include <math.h>
+#include <string.h>
 #include "dem_internal.h"
 
 #ifndef M_PI
@@ -67,6 +68,14 @@ SPHDEM_HD void dem_cell_body(const dem_dev *D, int64_t i) {
 /* Distinct wrapped coordinates c-1, c, c+1 along axis d (fewer when the axis has < 3 cells). */
 SPHDEM_HD int dem_axis_neighbors(const dem_dev *D, int d, int c, int out[3]) {
   int n = D->nc[d], k = 0;
+  if (n >= 3) { /* the three are distinct: no duplicate to drop */
+    if (c > 0) out[k++] = c - 1;
+    else if (D->P.periodic[d]) out[k++] = n - 1;
+    out[k++] = c;
+    if (c < n - 1) out[k++] = c + 1;
+    else if (D->P.periodic[d]) out[k++] = 0;
+    return k;
+  }
   for (int o = -1; o <= 1; o++) {
     int x = c + o;
     if (x < 0 || x >= n) {
@@ -88,22 +97,23 @@ SPHDEM_HD int dem_neighbor_cells(const dem_dev *D, int32_t c, int32_t *out) {
   int kx = dem_axis_neighbors(D, 0, cx, ax), ky = dem_axis_neighbors(D, 1, cy, ay),
       kz = dem_axis_neighbors(D, 2, cz, az), n = 0;
   for (int z = 0; z < kz; z++)
-    for (int y = 0; y < ky; y++)
-      for (int x = 0; x < kx; x++) out[n++] = (int32_t)(((int64_t)az[z] * ny + ay[y]) * nx + ax[x]);
+    for (int y = 0; y < ky; y++) {
+      const int64_t row = ((int64_t)az[z] * ny + ay[y]) * nx;
+      for (int x = 0; x < kx; x++) out[n++] = (int32_t)(row + ax[x]);
+    }
   return n;
 }
 
 /* r = xa - xb with the minimum image on periodic axes; returns |r|^2. */
 SPHDEM_HD double dem_sep(const dem_dev *D, const double *xa, const double *xb, double *r) {
-  double r2 = 0.0;
-  for (int d = 0; d < 3; d++) {
-    double s = xa[d] - xb[d];
-    /* |s| < L/2: rint(s/L) is 0 (s/L rounds to at most 0.5, and rint(0.5) = 0), s stays as it is */
-    if (D->P.periodic[d] && !(fabs(s) < 0.5 * D->L[d])) s -= D->L[d] * rint(s / D->L[d]);
-    r[d] = s;
-    r2 += s * s;
-  }
-  return r2;
+  double s[3] = {xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]};
+  /* |s| < L/2: rint(s/L) is 0 (s/L rounds to at most 0.5, and rint(0.5) = 0), s stays as it is (halfL is
+   * L/2 on periodic axes, HUGE_VAL on the others); one test for the three axes, as a pair rarely needs an image */
+  if (!((fabs(s[0]) < D->halfL[0]) & (fabs(s[1]) < D->halfL[1]) & (fabs(s[2]) < D->halfL[2])))
+    for (int d = 0; d < 3; d++)
+      if (!(fabs(s[d]) < D->halfL[d]) && D->P.periodic[d]) s[d] -= D->L[d] * rint(s[d] / D->L[d]);
+  for (int d = 0; d < 3; d++) r[d] = s[d];
+  return s[0] * s[0] + s[1] * s[1] + s[2] * s[2]; /* (0 + s0^2) + ... as before: the same bits */
 }
 
 /* keep_history: which periodic image of b touches a, as the touch flag of the history stores it
@@ -132,8 +142,10 @@ SPHDEM_HD uint32_t dem_wall_code(int w) { return 0xffffffffu - (uint32_t)w; }
 
 /* Yu 2024 §2.3 collision detection for sorted slot s: candidates j in the adjacent cells with a later
  * slot (each pair once) closer than r_i + r_j + skin, then the walls closer than r_i + skin. With
- * write = 0 it only counts; with write = 1 it stores the pairs from off[s] on, the grain of lower tag
- * first. Returns the count. */
+ * write = 0 it only counts; with write = 1 it stores the pairs from off[s] on (up to the capacity pcap of
+ * the pair arrays), the grain of lower tag first. Returns the count. The slots are sorted by cell, so a
+ * cell of lower index than s's holds earlier slots only: it is skipped, and s's own cell is read from
+ * s + 1 on. */
 /* Grains of other MPI ranks (SPHDEM_DEM_GHOST) and periodic images of this rank's grains
  * (SPHDEM_DEM_IMAGE) take part only in pairs with a grain of this rank; a pair with an image is kept once,
  * as the image of the grain of higher tag (its twin, the image of the other grain, is dropped). */
@@ -162,16 +174,17 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
   double ri = D->rad[i], r[3];
   int64_t k = 0, o = write ? D->off[s] : 0;
   int32_t cells[27];
-  int nn = dem_neighbor_cells(D, D->cell[s], cells);
+  const int32_t cs = D->cell[s];
+  int nn = dem_neighbor_cells(D, cs, cells);
   for (int q = 0; q < nn; q++) {
     int32_t c = cells[q];
-    for (int32_t t = D->cstart[c]; t < D->cend[c]; t++) {
-      if (t <= s) continue;
+    if (c < cs) continue;
+    for (int32_t t = c == cs ? (int32_t)s + 1 : D->cstart[c]; t < D->cend[c]; t++) {
       int32_t j = D->sidx[t];
       double cut = ri + D->rad[j] + D->P.skin;
       if (dem_sep(D, xi, D->x + 3 * (int64_t)j, r) >= cut * cut) continue;
       if (!dem_pair_kept(D, i, j)) continue;
-      if (write) {
+      if (write && o + k < D->pcap) {
         int64_t p = o + k;
         int lo = D->tag[i] < D->tag[j];
         D->pa[p] = lo ? i : j;
@@ -184,7 +197,7 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
   const int own = !(D->flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)); /* walls: this rank's grains */
   for (int w = 0; w < D->nw && own; w++) {
     if (dem_wall_dist(D, w, xi) >= ri + D->P.skin) continue;
-    if (write) {
+    if (write && o + k < D->pcap) {
       int64_t p = o + k;
       D->pa[p] = i;
       D->pb[p] = -1 - w;
@@ -676,6 +689,7 @@ DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, dou
     rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
     rb = D->rad[b];
     radsum = ra + rb;
+    if (!(rsq < radsum * radsum)) return 0; /* most candidate pairs of a loose packing: out first */
     if (rsq <= 1e-24 * radsum * radsum) { /* centres within 1e-12 of the contact distance: r = 0 */
       dem_flag_coincident(D, a, b);
       return 0;
@@ -720,12 +734,12 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
   if (found >= 0 && D->carry_touching) h[3] = 1.0; /* the engine wraps positions at its builds: image not recorded */
 }
 
-/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom. */
-DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
-                                    const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
-                                    double *hout, double *vir, const int model) {
+/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom; wall: b < 0 (fixed at
+ * compile time by dem_contact_model). */
+DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const double *del, const double rsq,
+                                      const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
+                                      double *hout, double *vir, const int model, const int wall) {
   const int32_t a = D->pa[p], b = D->pb[p];
-  const int wall = b < 0;
   const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double ra = D->rad[a];
@@ -890,6 +904,15 @@ DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *d
   return 1;
 }
 
+/* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom: the body above
+ * compiled for a grain partner and for a wall apart (no branch on the partner inside the law). */
+DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
+                                    const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
+                                    double *hout, double *vir, const int model) {
+  if (D->pb[p] < 0) return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 1);
+  return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 0);
+}
+
 /* The contact law of D->P.model for an overlapping pair, each model compiled with it fixed. */
 SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *del, double rsq, double rb,
                                    double radsum, double *Fa, double *Ta, double *Tb, double *hout, double *vir) {
@@ -911,9 +934,29 @@ SPHDEM_HD int dem_contact_touching(const dem_dev *D, int64_t p, const double *de
  * (LAMMPS: "unset non-touching neighbors") or, with keep_history, kept as it was (LIGGGHTS with
  * contactDistanceFactor 1 resets it only in surfacesClose, r < contactDistanceFactor (r_a + r_b), an
  * empty band: the history stays until the next list build, dem_carry_body). */
+/* the bits of x (0 for +0.0 only) */
+SPHDEM_HD uint64_t dem_bits(double x) {
+  uint64_t u;
+  memcpy(&u, &x, sizeof u);
+  return u;
+}
+
 SPHDEM_HD void dem_separated_history(const dem_dev *D, int64_t p, double *hout) {
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const int keep = D->P.keep_history;
+  if (hout == hin) { /* in place (the CPU's forward pass): only what changes is written, the same bits */
+    if (keep) {
+      if (hin[3] > 0.0) hout[3] = -hin[3];
+      return; /* the rest, and the rolling torque, stay */
+    }
+    if (dem_bits(hin[0]) | dem_bits(hin[1]) | dem_bits(hin[2]) | dem_bits(hin[3]) | dem_bits(hin[4]))
+      for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hout[q] = 0.0;
+    if (D->rin) {
+      double *r = D->rin + 3 * p;
+      if (dem_bits(r[0]) | dem_bits(r[1]) | dem_bits(r[2])) r[0] = r[1] = r[2] = 0.0;
+    }
+    return;
+  }
   for (int q = 0; q < 3; q++) hout[q] = keep ? hin[q] : 0.0;
   hout[3] = keep && hin[3] > 0.0 ? -hin[3] : keep ? hin[3] : 0.0; /* < 0: not touching, image kept */
   hout[4] = keep ? hin[4] : 0.0; /* hooke/hysteresis: the largest overlap, kept alike */
@@ -998,19 +1041,50 @@ SPHDEM_HD void dem_particle_force_body(const dem_dev *D, int64_t i) {
   dem_store_grain(D, i, f, t, vs);
 }
 
+/* The gap of pair p at a build: its distance less r_a + r_b (a wall: the distance less r_a, -HUGE_VAL behind the
+ * plane), less 1e-6 (r_a + r_b), far more than the rounding of the distances. While no grain has moved by more
+ * than delta nor grown by more than dr since, a pair of gap > 2 (delta + dr) does not touch. */
+SPHDEM_HD double dem_pair_gap(const dem_dev *D, int64_t p) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  const double ra = D->rad[a];
+  if (b >= 0) {
+    double del[3];
+    const double radsum = ra + D->rad[b];
+    const double r = sqrt(dem_sep(D, D->x + 3 * (int64_t)a, D->x + 3 * (int64_t)b, del));
+    return r - radsum - 1e-6 * radsum;
+  }
+  const double dist = dem_wall_dist(D, -1 - b, D->x + 3 * (int64_t)a);
+  return dist > 0.0 ? dist - ra - 1e-6 * ra : -HUGE_VAL;
+}
+
 /* The particle-parallel pass in two halves that evaluate each pair once (the CPU loops; the same
  * additions in the same order as dem_particle_force_body, so the same bits). Forward: grain i sums
- * its pairs as a into f, tq and keeps F and Tb of each touching pair in pfb (6 per pair); returns the
- * touching pairs. Reverse (after every forward): grain i adds -F and Tb of its pairs as b.
- * dem_particle_forward_model has the contact law inlined for a model fixed at compile time. */
-DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, const int model) {
+ * its pairs as a into f, tq, keeps F and Tb of each touching pair in pfb (6 per pair) and marks the pair
+ * in tf (1 touching, 0 not) and its grain b in bt; returns the touching pairs. Reverse (after every forward):
+ * grain i adds -F and Tb of its touching pairs as b. Each pair is evaluated by one grain only, so the history may be updated in
+ * place (D->hout == D->hin, D->rout == D->rin). known: tf holds the marks of the previous evaluation of this
+ * list and the history was not changed since, so a pair marked 0 has the history of a separated pair already
+ * (dem_separated_history would change nothing: it is not read). With D->gap0 the pairs whose gap at the build
+ * exceeds D->gap_thr are not touching without a look at their grains (dem_pair_gap). dem_particle_forward_model
+ * has the contact law inlined for a model fixed at compile time. */
+DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
+                                                 unsigned char *bt, const int known, const int model) {
   double F[3], Ta[3], Tb[3], vir[6] = {0, 0, 0, 0, 0, 0}, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
   int64_t nt = 0;
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
     double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
-    if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
-      dem_separated_history(D, p, hout);
+    if ((D->gap0 && D->gap0[p] > D->gap_thr) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+      if (!known || tf[p]) dem_separated_history(D, p, hout);
+      tf[p] = 0;
       continue;
+    }
+    tf[p] = 1;
+    if (D->pb[p] >= 0) { /* grain b has a touching pair for the reverse half (any thread may set it: the same 1) */
+#ifdef __CUDA_ARCH__
+      bt[D->pb[p]] = 1;
+#else
+      __atomic_store_n(&bt[D->pb[p]], (unsigned char)1, __ATOMIC_RELAXED);
+#endif
     }
     dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
     nt += dem_pair_counted(D, (int32_t)i);
@@ -1023,16 +1097,20 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   dem_store_grain(D, i, f, t, vs);
   return nt;
 }
-SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb) {
-  return dem_particle_forward_model(D, i, pfb, D->P.model);
+SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
+                                            unsigned char *bt) {
+  return dem_particle_forward_model(D, i, pfb, tf, bt, 0, D->P.model);
 }
 
-SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb) {
-  if (D->rstart[i] == D->rend[i]) return;
+/* bt[i]: the forward half found a touching pair of grain i as b (cleared here for the next evaluation) */
+SPHDEM_HD void dem_particle_reverse_body(const dem_dev *D, int64_t i, const double *pfb, const unsigned char *tf,
+                                         unsigned char *bt) {
+  if (!bt[i]) return;
+  bt[i] = 0;
   double f[3] = {D->f[3 * i], D->f[3 * i + 1], D->f[3 * i + 2]}, t[3] = {D->tq[3 * i], D->tq[3 * i + 1], D->tq[3 * i + 2]};
   for (int64_t k = D->rstart[i]; k < D->rend[i]; k++) {
     const int64_t p = D->rlist[k];
-    if (!(D->hout[SPHDEM_DEM_NHIST * p + 3] > 0.0)) continue; /* not touching */
+    if (!tf[p]) continue; /* not touching */
     const double *o = pfb + 6 * p;
     for (int d = 0; d < 3; d++) { f[d] -= o[d]; t[d] += o[3 + d]; }
   }

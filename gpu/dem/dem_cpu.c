@@ -34,9 +34,33 @@ static int c_cells(struct sphdem_dem_s *m) {
   return SPHDEM_OK;
 }
 
+/* 1 when a loop of this many iterations runs on one thread (no atomics needed) */
+static int c_serial(int64_t iters) {
+#ifdef _OPENMP
+  return iters <= SPHDEM_DEM_OMP_MIN || omp_get_max_threads() == 1;
+#else
+  (void)iters;
+  return 1;
+#endif
+}
+
 static int c_count(struct sphdem_dem_s *m, int64_t *np) {
   dem_dev *D = &m->D;
   int64_t n = D->n;
+  m->cpu_prefilled = 0;
+  if (c_serial(n) && D->pcap > 0) {
+    /* one thread: count and write in one scan, each slot from the running offset; when the pairs outgrow the
+     * arrays (then reallocated) the fill scans again */
+    int64_t acc = 0;
+    for (int64_t s = 0; s < n; s++) {
+      D->off[s] = acc;
+      D->cnt[s] = dem_scan_slot(D, s, 1);
+      acc += D->cnt[s];
+    }
+    *np = acc;
+    m->cpu_prefilled = acc <= D->pcap;
+    return SPHDEM_OK;
+  }
   DEM_TRY(m->ops->scan_count(m));
   int64_t acc = 0; /* exclusive prefix sum (Yu 2024 Fig. 2) */
   for (int64_t s = 0; s < n; s++) {
@@ -52,18 +76,11 @@ static int cmp_key(const void *a, const void *b) {
   uint64_t ka = g_sort_keys[*(const int32_t *)a], kb = g_sort_keys[*(const int32_t *)b];
   return ka < kb ? -1 : ka > kb;
 }
-static const int32_t *g_sort_pb;
-static int cmp_pb(const void *a, const void *b) {
-  int32_t ia = *(const int32_t *)a, ib = *(const int32_t *)b;
-  int32_t ka = g_sort_pb[ia], kb = g_sort_pb[ib];
-  if (ka != kb) return ka < kb ? -1 : 1;
-  return ia < ib ? -1 : ia > ib; /* stable */
-}
-
 static int c_fill(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
   int64_t np = D->np;
-  DEM_TRY(m->ops->scan_fill(m));
+  if (!m->cpu_prefilled) DEM_TRY(m->ops->scan_fill(m));
+  m->cpu_prefilled = 0;
   /* sort the list by key (keys are unique); rlist and rkey serve as scratch */
   int32_t *perm = D->rlist;
   for (int64_t p = 0; p < np; p++) perm[p] = (int32_t)p;
@@ -92,35 +109,55 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
   DEM_TRY(m->ops->forward_ranges(m));
-  for (int64_t p = 0; p < np; p++) D->rlist[p] = (int32_t)p;
-#pragma omp critical(sphdem_dem_qsort)
-  {
-    g_sort_pb = D->pb;
-    qsort(D->rlist, (size_t)np, sizeof(int32_t), cmp_pb);
+  /* the pairs in the order of their grain b, ties in pair order (a stable counting sort; the walls, pb < 0,
+   * first, which the reverse ranges skip): rend counts, rstart the offsets, both set again by reverse_ranges */
+  int64_t nwall = 0;
+  for (int64_t p = 0; p < np; p++) {
+    const int32_t b = D->pb[p];
+    if (b >= 0) D->rend[b]++;
+    else nwall++;
   }
+  int64_t wk = 0;
+  int32_t acc = (int32_t)nwall;
+  for (int64_t i = 0; i < n; i++) {
+    D->rstart[i] = acc;
+    acc += D->rend[i];
+  }
+  for (int64_t p = 0; p < np; p++) {
+    const int32_t b = D->pb[p];
+    D->rlist[b >= 0 ? D->rstart[b]++ : wk++] = (int32_t)p;
+  }
+  memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
+  memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
   for (int64_t k = 0; k < np; k++) D->rkey[k] = D->pb[D->rlist[k]];
-  return m->ops->reverse_ranges(m);
-}
-
-/* 1 when a loop of this many iterations runs on one thread (no atomics needed) */
-static int c_serial(int64_t iters) {
-#ifdef _OPENMP
-  return iters <= SPHDEM_DEM_OMP_MIN || omp_get_max_threads() == 1;
-#else
-  (void)iters;
-  return 1;
-#endif
+  DEM_TRY(m->ops->reverse_ranges(m));
+  /* the gap of each pair now, for the forces to pass over the pairs that cannot touch yet */
+  D->gap0 = NULL;
+  if (np > m->cap_gap) {
+    const int64_t cap = np + np / 4 + 64;
+    double *g = (double *)realloc(m->cpu_gap, sizeof(double) * (size_t)cap);
+    if (!g) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair gaps (%lld pairs)", (long long)np);
+    m->cpu_gap = g;
+    m->cap_gap = cap;
+  }
+  for (int64_t p = 0; p < np; p++) m->cpu_gap[p] = dem_pair_gap(D, p);
+  D->gap0 = m->cpu_gap;
+  return SPHDEM_OK;
 }
 
 /* Forward pass of the particle-parallel forces with the contact law of one model inlined. */
 static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D, int64_t n, double *pfb,
+                                                               unsigned char *tf, unsigned char *bt, int known,
                                                                const int model, int serial) {
   int64_t nt = 0;
   if (serial) { /* no call into the OpenMP runtime at all (it costs microseconds per region) */
-    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, model);
+    /* a local copy of the constants and array pointers: the stores of forces and history through the
+     * pointers cannot alias it, so the loop keeps them in registers instead of reloading them per pair */
+    const dem_dev Dl = *D;
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(&Dl, i, pfb, tf, bt, known, model);
   } else {
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : nt)
-    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, model);
+    for (int64_t i = 0; i < n; i++) nt += dem_particle_forward_model(D, i, pfb, tf, bt, known, model);
   }
   return nt;
 }
@@ -141,39 +178,62 @@ int sphdem_dem_cpu_pair_forces(struct sphdem_dem_s *m) {
 /* Particle-parallel forces, each pair evaluated once: forward (pairs as a, F and Tb kept per pair), then
  * reverse; the forward half counts the touching pairs into m->cpu_ntouch. */
 int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
-  const dem_dev *D = &m->D;
+  /* the history is updated in place (each pair is evaluated once, by its grain a): no copy of the history of
+   * the pairs that do not touch, and dem.c does not swap the buffers */
+  dem_dev Dm = m->D;
+  Dm.hout = Dm.hin;
+  Dm.rout = Dm.rin;
+  const dem_dev *D = &Dm;
   const int64_t n = D->n, np = D->np;
   int64_t nt = 0;
+  int known = m->tf_valid; /* tf marks the pairs of this list as the last call left them */
   if (np > m->cap_pfb) {
+    known = 0;
     int64_t cap = np + np / 4 + 64;
     double *b = (double *)realloc(m->cpu_pfb, sizeof(double) * 6 * (size_t)cap);
-    if (!b) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
-    m->cpu_pfb = b;
+    if (b) m->cpu_pfb = b;
+    unsigned char *t = b ? (unsigned char *)realloc(m->cpu_tf, (size_t)cap) : NULL;
+    if (t) m->cpu_tf = t;
+    if (!b || !t) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair force buffer (%lld pairs)", (long long)np);
     m->cap_pfb = cap;
   }
+  if (n > m->cap_bt) { /* all 0 between the passes (the reverse half clears what the forward half set) */
+    const int64_t cap = n + n / 4 + 64;
+    unsigned char *t = (unsigned char *)calloc((size_t)cap, 1);
+    if (!t) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the grain marks (%lld grains)", (long long)n);
+    free(m->cpu_bt);
+    m->cpu_bt = t;
+    m->cap_bt = cap;
+  }
+  m->hist_in_place = 1;
   double *pfb = m->cpu_pfb;
+  unsigned char *tf = m->cpu_tf, *bt = m->cpu_bt;
   const int serial = c_serial(n);
   switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
-    case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, SPHDEM_DEM_HOOKE, serial); break;
-    case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ, serial); break;
-    case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
-    case SPHDEM_DEM_GRANULAR: nt = c_forward(D, n, pfb, SPHDEM_DEM_GRANULAR, serial); break;
-    default: nt = c_forward(D, n, pfb, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
+    case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HOOKE, serial); break;
+    case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ, serial); break;
+    case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ_MINDLIN, serial); break;
+    case SPHDEM_DEM_GRANULAR: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_GRANULAR, serial); break;
+    default: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ_LIGGGHTS, serial); break;
   }
   if (serial) {
-    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+    const dem_dev Dl = *D;
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(&Dl, i, pfb, tf, bt);
   } else {
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb);
+    for (int64_t i = 0; i < n; i++) dem_particle_reverse_body(D, i, pfb, tf, bt);
   }
   m->cpu_ntouch = nt;
+  m->tf_valid = 1;
   return SPHDEM_OK;
 }
 
 static int c_forces(struct sphdem_dem_s *m, int64_t *ntouch) {
   dem_dev *D = &m->D;
   int64_t n = D->n, np = D->np, nt = 0;
+  m->hist_in_place = 0;
   if (D->P.algo == SPHDEM_DEM_PAIR_PARALLEL) {
+    m->tf_valid = 0;
     memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
     memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
     DEM_TRY(m->ops->pair_forces(m));

@@ -46,6 +46,7 @@ typedef struct {
   sphdem_dem_granular *gran; /* ngran x ngran type-pair coefficients (device), grain type from its flags */
   int gran_rolling;   /* some type pair of gran has a rolling model: the rolling history rin/rout is kept */
   double L[3];
+  double halfL[3];    /* L / 2 on periodic axes, HUGE_VAL on the others (the minimum-image test of dem_sep) */
   double glo[3], cs_inv[3];
   int nc[3];
   int64_t ncells;
@@ -63,6 +64,7 @@ typedef struct {
   /* pair list: per-slot counts and offsets, pairs sorted by key, history double-buffered */
   int64_t *cnt, *off;
   int64_t np;
+  int64_t pcap;       /* pairs the arrays pa, pb, key hold (the fill writes no further) */
   int32_t *pa, *pb;   /* grain indices; pb = -1 - w for wall w */
   uint64_t *key;      /* (tag_a << 32) | tag_b, walls 0xffffffff - w */
   double *hin, *hout;
@@ -76,6 +78,11 @@ typedef struct {
   int64_t np_old;
   uint64_t *key_old;
   double *hist_old;
+  /* CPU particle-parallel: per pair its gap at the last build (dem_pair_gap; NULL: none kept), and the
+   * least gap a pair may have had then and touch now: twice the largest displacement and radius growth of a
+   * grain since (dem_particle_forward_model skips the pairs above it) */
+  double *gap0;
+  double gap_thr;
   /* particle-parallel CSR: pairs where the grain is a: [fstart, fend); where it is b: rlist[rstart..rend) */
   int32_t *fstart, *fend, *rstart, *rend, *rlist, *rkey;
   double *vir;        /* 6 virial components, 8 bytes of device counter, the coincident-pair slot (below) */
@@ -109,6 +116,7 @@ struct sphdem_dem_s {
   int need_build;
   int build_requested;         /* sphdem_dem_request_build since the last build */
   int seeded;                  /* key_old/hist_old hold a history given by sphdem_dem_set_history */
+  int seed_roll;               /* and roll_old its rolling torques (sphdem_dem_set_history_rolling) */
   int roll_valid;              /* D->rin holds the rolling torques of the current list */
   int64_t cap_roll, cap_rold;  /* capacities (pairs) of rin/rout and roll_old */
   int tags_valid;              /* device tag array matches htag */
@@ -117,16 +125,25 @@ struct sphdem_dem_s {
   struct sphdem_grains_s *gstore; /* private store of sphdem_dem_compute (a shim hands its own store) */
   int64_t nbuilds, ncontacts;
   int has_ghosts;              /* the last grains had SPHDEM_DEM_GHOST or SPHDEM_DEM_IMAGE flags */
-  /* host copies for the rebuild decision */
-  double *hx0;
+  /* host copies for the rebuild decision: positions and radii at the last build, tags */
+  double *hx0, *hr0;
   int64_t *htag;
   int64_t hcap;
   double dmax_built;
   void *backend_data;
   /* CPU particle-parallel: F and Tb of each pair (6 doubles per pair), see dem_particle_forward_body */
   double *cpu_pfb;
+  unsigned char *cpu_tf;       /* and whether each pair touches (1) or not (0), for the reverse half */
   int64_t cap_pfb;
+  unsigned char *cpu_bt;       /* per grain: a touching pair as b this evaluation (the reverse half skips the others) */
+  int64_t cap_bt;
+  double *cpu_gap;             /* D.gap0 of the CPU backend */
+  int64_t cap_gap;
+  int hist_in_place;           /* the last forces wrote the new history over the old (hin): no swap */
+  int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
+                                  particle-parallel pass only since (cleared by builds and history edits) */
   int64_t cpu_ntouch;          /* touching pairs counted by the CPU particle-parallel pass */
+  int cpu_prefilled;           /* the CPU count (one thread) wrote pa, pb, key already: the fill has no scan */
   /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
   double t[SPHDEM_DEM_NTIMERS];
   int64_t ncalls;

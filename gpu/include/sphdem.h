@@ -616,6 +616,12 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
                                      HOOKE_HYSTERESIS_LIGGGHTS (0 for the other models) */
 int64_t sphdem_dem_get_history(sphdem_dem dem, uint64_t *keys, double *hist, int64_t max);
 int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist);
+/* The rolling torques of rolling_model epsd/epsd2 (3 doubles per pair, in the order of sphdem_dem_get_history;
+ * returns the pair count, 0 when none are kept) and a history given with them (roll NULL: as
+ * sphdem_dem_set_history, the rolling torques start from zero), as the hand-over between MPI ranks needs them. */
+int64_t sphdem_dem_get_rolling(sphdem_dem dem, double *roll, int64_t max);
+int sphdem_dem_set_history_rolling(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist,
+                                   const double *roll);
 /* Time split of the sphdem_dem_compute calls since creation or the last reset, in seconds of the
  * host clock: upload of the grains, the rebuild check (displacements against skin/2), contact
  * detection (cell grid, candidate pairs, history carry: only on calls that rebuild the pair list),

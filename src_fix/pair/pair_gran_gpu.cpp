@@ -216,9 +216,7 @@ void PairGranGPU::init_style() {
     if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
     if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
   }
-  if (ghosts_ && (rolling_ == 2 || rolling_ == 3))
-    fail(std::string("rolling_friction ") + (rolling_ == 2 ? "epsd2" : "epsd") + " keeps a rolling torque per "
-         "contact that is not handed over between MPI ranks: run it on one rank (cdt runs on any number)");
+  hand_rolling_ = rolling_ == 2 || rolling_ == 3; /* epsd2, epsd: a rolling torque per contact */
   if (neighbor->contactDistanceFactor != 1.0)
     fail("contact_distance_factor " + std::to_string(neighbor->contactDistanceFactor) +
          " (neigh_modify, or a cohesion model) is not supported: only 1");

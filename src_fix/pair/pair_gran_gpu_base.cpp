@@ -19,8 +19,8 @@ using namespace LAMMPS_NS;
 
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), nall_mapped_(-1), owned_prev_set_(false),
-      gathered_(false) {
+      freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), hand_rolling_(false), nall_mapped_(-1),
+      owned_prev_set_(false), gathered_(false) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
@@ -223,7 +223,7 @@ bool pair_has(const std::vector<int64_t> &sorted, uint64_t key) {
  * that changes rank finds on the new rank the pairs with that rank's atoms already (evaluated there too), and
  * the others (its partners stayed behind, or moved too) come from the rank it left. */
 void PairGranGPUBase::hand_over_history() {
-  const int nlocal = atom->nlocal, H = SPHDEM_DEM_HIST_DOUBLES;
+  const int nlocal = atom->nlocal, H = SPHDEM_DEM_HIST_DOUBLES, R = hand_rolling_ ? 3 : 0, W = H + R;
   std::vector<int64_t> now((size_t)nlocal);
   for (int i = 0; i < nlocal; i++) now[i] = (int64_t)atom->tag[i];
   std::sort(now.begin(), now.end());
@@ -237,14 +237,28 @@ void PairGranGPUBase::hand_over_history() {
   std::set_difference(now.begin(), now.end(), owned_prev_.begin(), owned_prev_.end(), std::back_inserter(arrived));
   owned_prev_.swap(now);
   std::vector<uint64_t> keys, sk;
-  std::vector<double> hist, sh;
+  std::vector<double> hist, roll, sh;
+  bool have = false;
   int bad = 0;
+  /* the core's history, and with rolling_friction epsd/epsd2 its rolling torques (0 where it keeps none) */
+  auto read = [&]() {
+    have = true;
+    if (!sphdem_restart::get_history(dem_, keys, hist)) return false;
+    roll.assign(keys.size() * (size_t)R, 0.0);
+    if (R && !keys.empty()) {
+      const int64_t nr = sphdem_dem_get_rolling(dem_, roll.data(), (int64_t)keys.size());
+      if (nr < 0) return false;
+      if (nr != (int64_t)keys.size()) roll.assign(roll.size(), 0.0);
+    }
+    return true;
+  };
   if (!left.empty()) {
-    if (!sphdem_restart::get_history(dem_, keys, hist)) bad = 1;
+    if (!read()) bad = 1;
     for (size_t p = 0; p < keys.size(); p++)
       if (sphdem_restart::has_history(&hist[p * H]) && pair_has(left, keys[p])) {
         sk.push_back(keys[p]);
         sh.insert(sh.end(), hist.begin() + p * H, hist.begin() + (p + 1) * H);
+        sh.insert(sh.end(), roll.begin() + p * R, roll.begin() + (p + 1) * R);
       }
   }
   const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
@@ -254,33 +268,35 @@ void PairGranGPUBase::hand_over_history() {
   std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
   MPI_Allgather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
   int total = 0;
-  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * H, dsph[r] = dsp[r] * H;
+  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
   if (total == 0) return;
   std::vector<uint64_t> rk((size_t)total);
-  std::vector<double> rh((size_t)total * H);
+  std::vector<double> rh((size_t)total * W);
   MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
-  MPI_Allgatherv(sh.data(), ns * H, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
+  MPI_Allgatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
   if (arrived.empty()) return;
   /* the pairs of atoms that joined this rank, each once, that the core does not hold already */
   std::vector<std::pair<uint64_t, int>> take;
   for (int k = 0; k < total; k++)
     if (pair_has(arrived, rk[k])) take.emplace_back(rk[k], k);
   if (take.empty()) return;
-  if (keys.empty() && !sphdem_restart::get_history(dem_, keys, hist))
-    fail(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
-  std::vector<uint64_t> have(keys);
-  std::sort(have.begin(), have.end());
+  if (!have && !read()) fail(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
+  std::vector<uint64_t> held(keys);
+  std::sort(held.begin(), held.end());
   std::stable_sort(take.begin(), take.end(),
                    [](const std::pair<uint64_t, int> &a, const std::pair<uint64_t, int> &b) { return a.first < b.first; });
   size_t added = 0;
   for (size_t t = 0; t < take.size(); t++) {
     if (t && take[t].first == take[t - 1].first) continue;
-    if (std::binary_search(have.begin(), have.end(), take[t].first)) continue;
+    if (std::binary_search(held.begin(), held.end(), take[t].first)) continue;
+    const size_t o = (size_t)take[t].second * W;
     keys.push_back(take[t].first);
-    hist.insert(hist.end(), rh.begin() + (size_t)take[t].second * H, rh.begin() + (size_t)(take[t].second + 1) * H);
+    hist.insert(hist.end(), rh.begin() + o, rh.begin() + o + H);
+    roll.insert(roll.end(), rh.begin() + o + H, rh.begin() + o + W);
     added++;
   }
-  if (added && sphdem_dem_set_history(dem_, (int64_t)keys.size(), keys.data(), hist.data()))
+  if (added && sphdem_dem_set_history_rolling(dem_, (int64_t)keys.size(), keys.data(), hist.data(),
+                                              R ? roll.data() : nullptr))
     fail(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
 }
 
@@ -366,11 +382,14 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   double **f = atom->f, **t = atom->torque;
-  for (int i = 0; i < nlocal; i++)
-    for (int d = 0; d < 3; d++) {
-      f[i][d] += fbuf_[3 * i + d];
-      t[i][d] += tbuf_[3 * i + d];
+  if (nlocal > 0) { /* the engines' n x 3 arrays are contiguous blocks */
+    double *f0 = f[0], *t0 = t[0];
+    const double *fb = fbuf_.data(), *tb = tbuf_.data();
+    for (int k = 0; k < 3 * nlocal; k++) {
+      f0[k] += fb[k];
+      t0[k] += tb[k];
     }
+  }
   /* a periodic image's share goes to the atom itself; other ranks' atoms get theirs there */
   for (int i = nlocal; i < n; i++) {
     const int o = image_of_[i - nlocal];

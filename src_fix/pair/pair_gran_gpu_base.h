@@ -48,6 +48,7 @@ class PairGranGPUBase : public Pair {
    * own atoms only, so a pair split between two ranks is evaluated on both (same atom order, the same
    * operands unless one atom is seen through a periodic shift) and both keep its history. */
   bool ghosts_;
+  bool hand_rolling_;                 /* the core keeps rolling torques per contact: they go with the hand-over */
   std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, or -1 */
   int nall_mapped_;                   /* atoms when image_of_ was made */
   std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build, sorted (history hand-over) */
@@ -66,7 +67,8 @@ class PairGranGPUBase : public Pair {
   /* many ranks: image_of_ from the atoms' tags (after each exchange of ghost atoms) */
   void map_ghosts(int nlocal, int nall);
   /* many ranks, collective, at the engine's list builds (after atoms changed rank): the history of the pairs of
-   * atoms that left a rank goes to the rank they joined, where the core's next build carries it */
+   * atoms that left a rank (and their rolling torques, hand_rolling_) goes to the rank they joined, where the
+   * core's next build carries it */
   void hand_over_history();
   /* many ranks, collective: the history of every rank to rank 0 (each pair once), for write_restart */
   void gather_history();

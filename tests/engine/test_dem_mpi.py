@@ -13,8 +13,8 @@ vs stock at another rank count, printed alongside).
                        np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
-                       np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) /gpu vs stock at
-                       np 2; rolling_friction epsd2 on 2 ranks stops naming it
+                       np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) and rolling_friction
+                       epsd2 and epsd (a rolling torque per contact) /gpu vs stock at np 2
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
@@ -300,15 +300,18 @@ def liggghts(mpirun, lig):
     h2 = hyst.final("stock_np2", "gran", 2)
     hg2 = hyst.final("gpu_np2", "gran/gpu", 2)
     compare(res, "model hooke/hysteresis: /gpu np 2 vs stock np 2", hg2, h2)
-    # rolling_friction epsd2 keeps a rolling torque per contact that is not handed over: refused on 2 ranks
-    text = r.script("gran/gpu", 2, "off", "run 10\n").replace(
-        "tangential history\n", "tangential history rolling_friction epsd2\n", 1).replace(
-        "pair_style", "fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05\npair_style", 1)
-    wd = os.path.join(r.root, "epsd2_np2")
-    rc, out = E.run(r.cmd(2), wd, text.replace("../bed.data", os.path.abspath(os.path.join(r.root, "bed.data"))))
-    good = rc != 0 and "ERROR" in out and "epsd2" in out and "one rank" in out
-    print("  %-58s %s" % ("rolling_friction epsd2 on 2 ranks", "stops naming it" if good else "FAIL\n" + out[-1200:]))
-    res.append(good)
+    # rolling_friction epsd2 and epsd keep a rolling torque per contact, handed over with the tangential history
+    for model, extra in (("epsd2", ""), ("epsd", "fix m6 all property/global coefficientRollingViscousDamping "
+                                                 "peratomtypepair 1 0.3\n")):
+        roll = Runner(mpirun, lig, True, os.path.join("dem_mpi_lig", model))
+        roll.text = LIG.replace("model hertz tangential history\n", "model hertz tangential history rolling_friction "
+                                "%s\n" % model).replace("pair_style", "fix m5 all property/global coefficientRollingFriction "
+                                                          "peratomtypepair 1 0.05\n" + extra + "pair_style", 1)
+        e1 = roll.final("stock_np1", "gran", 1)
+        e2 = roll.final("stock_np2", "gran", 2)
+        eg2 = roll.final("gpu_np2", "gran/gpu", 2)
+        compare(res, "rolling_friction %s: stock np 1 vs stock np 2" % model, e1, e2, bound=0)
+        compare(res, "rolling_friction %s: /gpu np 2 vs stock np 2" % model, eg2, e2)
     ok = all(res)
     print("%s LIGGGHTS gran/gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
     return ok
