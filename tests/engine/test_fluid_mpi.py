@@ -16,6 +16,20 @@
                  2 2 1 (grains and fluid on both sides of the cuts)
       thin       the tiny dam break on 8 ranks (8 1 1): subdomains thinner than the ghost band
       probe      compute sph/probe on the hydrostatic start (points on both sides of the cut), processors 1 2 1
+  dambreak3d EXE ENGINE MPIRUN EXAMPLES  examples/dambreak3d at dx 20 mm, 700 steps: the front crosses x = 0.295
+                 (processors 2 1 1, 4 1 1, 2 2 1); the ranks right of the column hold no fluid until it arrives
+  settling EXE ENGINE MPIRUN EXAMPLES    examples/settling, 1000 steps: the sphere settles across a horizontal cut
+                 (processors 1 1 2, 2 1 2)
+  options EXE ENGINE MPIRUN EXAMPLES     examples/dambreak2d with tensile, xsph, delta, wall_clamp, isolated, sync 7,
+                 2000 steps (processors 2 1 1, 2 2 1)
+  particles EXE ENGINE MPIRUN EXAMPLES   examples/dambreak_particles at dx 6 mm, 1600 steps (processors 1 2 1,
+                 4 1 1: cuts through the bed of beads and the water)
+  drum EXE ENGINE MPIRUN EXAMPLES        examples/drum (coarse), 0.005 s settling + 0.005 s rotation with water,
+                 grains built the same at any rank count (processors 2 1 1, 1 1 2, 2 1 2)
+  dense EXE ENGINE MPIRUN                the tiny dam break with a bed of 72 coupled grains across the cuts, 400 steps
+                 (processors 4 1 1, 1 4 1, 2 2 1): fails without the coupling's part of the ghost band
+  tworuns EXE ENGINE MPIRUN              run 100 + run 100 at 2 ranks against run 200 at 1 (no hang at the second
+                 run's set-up)
   restart EXE ENGINE MPIRUN          the tiny dam break written by write_restart at 2 ranks and continued at 1, and
                                      written at 1 and continued at 4, against the unbroken run at 1 rank
   couple EXE ENGINE MPIRUN           fix sph/couple: the momentum balance at 3 and 4 ranks, a coupled restart 3 -> 1
@@ -418,11 +432,11 @@ def test_drum(exe, engine, mpirun, examples):
 def test_particles(exe, engine, mpirun, examples):
     """examples/dambreak_particles (water and 7776 glass beads behind a gate lifted at 0.68 m/s; fix sph/fluid,
     fix sph/couple, the engine's granular pair style with shear history, fix move) at dx = 6 mm (3600 fluid, every
-    32 DEM steps), 2400 DEM steps (0.01 s: the gate rises 6.7 mm, the beads settle onto each other and onto the
-    wall particles): water and beads at processors 1 2 1 (cut y = 0.075 m through the bed and the water) and 4 1 1
+    32 DEM steps), 1600 DEM steps (6.6 ms: the gate rises 4.5 mm, the lower beads settle onto the wall particles
+    and each other): water and beads at processors 1 2 1 (cut y = 0.075 m through the bed and the water) and 4 1 1
     (cuts x = 0.038 m through both, 0.1, 0.162). Atoms matched by their initial x, y, z; bound 1e-9 relative (the
     module doc; the contacts add their round-off)."""
-    steps = 2400
+    steps = 1600
     dp = shorten(example(examples, "dambreak_particles"), steps, "moving", steps, "x y z vx vy vz f_water[1]", engine)
     for a, b in (("variable dx     index 0.003", "variable dx     index 0.006"),
                  ("variable every  index 16", "variable every  index 32")):
