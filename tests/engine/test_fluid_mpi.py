@@ -321,8 +321,9 @@ def test_dense(exe, engine, mpirun):
 
 def test_tworuns(exe, engine, mpirun):
     """two run commands in one script on 2 ranks (processors 2 1 1): the tiny dam break, run 100 + run 100, against
-    run 200 at 1 rank (bound 1e-9 relative, the module doc); every rank must take part in the set-up checks of the
-    second run (a run that hangs is stopped after 40 s and fails; the two runs take ~1 s)"""
+    run 200 at 1 rank (bound 1e-9 relative, the module doc); every rank must take part in the collective set-up
+    checks of the second run (where one rank skips one, LAMMPS hangs and LIGGGHTS aborts in MPI: a run that hangs
+    is stopped after 40 s and fails; the two runs take ~1 s)"""
     steps = et.STEPS
     base = et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="") + et.THERMO + \
         dump_lines(engine, "fluid", steps, "x y vx vy f_water[1]")
