@@ -801,7 +801,8 @@ def test_mpi_example(exe, engine, mpirun, examples):
         w = compare_vec(a, b, BED_COLS)
         iters = [r[3] for r in t] == [r[3] for r in t1]
         ok = w <= 1e-9 and iters and len(t) == len(t1) and "copies of the gas grid" not in out
-        print("%s %s: grains %.3e (bound 1e-9), PCG iterations the same: %s" % ("PASS" if ok else "FAIL", key, w, iters))
+        print("%s %s: grains %.3e (bound 1e-9), PCG iterations the same: %s" %
+              ("PASS" if ok else "FAIL", key, w, iters))
         fails += 0 if ok else 1
     print("%s examples/bubbling_bed at 1, 2 and 4 ranks (%s)" % ("PASS" if not fails else "FAIL", engine))
     return 1 if fails else 0

@@ -238,10 +238,10 @@ def test_dambreak3d(exe, engine, mpirun, examples):
 def test_settling(exe, engine, mpirun, examples):
     """examples/settling (one glass sphere of 1 mm in still water, dx 2 mm, fix sph/couple, every 2), 700 steps
     (0.02 s), the box raised to z = 0.1074 m (empty space above the open tank) so that its middle, z = 0.0497 m,
-    lies 0.3 mm below the sphere's release point (it passes there near step 450): at processors 1 1 2 and 2 1 2 the sphere settles across that
-    horizontal cut (it changes rank with its coupling state; the grain search and the fluid around it are ghosts
-    on the other rank before and after); at 2 1 2 the sphere also sits on the vertical cut x = 0.015 m (the tank
-    axis, where fluid lattice points lie too). Bound 1e-9 relative (the module doc)."""
+    lies 0.3 mm below the sphere's release point (it passes there near step 450): at processors 1 1 2 and 2 1 2
+    the sphere settles across that horizontal cut (it changes rank with its coupling state; the grain search and
+    the fluid around it are ghosts on the other rank before and after); at 2 1 2 the sphere also sits on the
+    vertical cut x = 0.015 m (the tank axis, where fluid lattice points lie too). Bound 1e-9 relative (the module doc)."""
     steps = 700
     st = shorten(example(examples, "settling"), steps, "moving", steps, "x y z vx vy vz f_water[1]", engine)
     st = st.replace("-0.008 0.09 units box", "-0.008 0.1074 units box")
@@ -271,7 +271,8 @@ def test_options(exe, engine, mpirun, examples):
     op = op.replace("variable nres   index 40", "variable nres   index 20")
     op = op.replace("variable clamp  index no", "variable clamp  index yes")
     op = op.replace("variable iso    index 0 ", "variable iso    index 0.5 ")
-    op = op.replace("visc artificial 0.02 wall walls", "visc artificial 0.02 tensile 0.01 xsph 0.3 delta 0.1 wall walls")
+    op = op.replace("visc artificial 0.02 wall walls",
+                    "visc artificial 0.02 tensile 0.01 xsph 0.3 delta 0.1 wall walls")
     op = op.replace("sync 20", "sync 7")
     for want in ("wall_clamp ${clamp}", "index yes", "index 0.5", "xsph 0.3", "sync 7"):
         if want not in op:
@@ -330,8 +331,8 @@ def test_tworuns(exe, engine, mpirun):
     wd = "ranks_%s/tworuns" % engine
     et.must_run([exe], wd + "/np1", base + "run %d\n" % steps)
     sub = wd + "/np2_211"
-    rc, out = et.run(mpirun_cmd(mpirun, 2, exe), sub, add_processors(base + "run %d\nrun %d\n" % (steps // 2, steps // 2),
-                                                                    "2 1 1"), timeout=40)
+    script = add_processors(base + "run %d\nrun %d\n" % (steps // 2, steps // 2), "2 1 1")
+    rc, out = et.run(mpirun_cmd(mpirun, 2, exe), sub, script, timeout=40)
     if rc != 0 or "ERROR" in out:
         print("FAIL %s: run 100 + run 100 on 2 ranks exited %d%s" % (sub, rc, " (hung: stopped after 40 s)"
                                                                        if rc == 124 else ""))
@@ -390,7 +391,8 @@ def test_drum(exe, engine, mpirun, examples):
               "group         gextra region gtop"),
              ("sin(id*12.9898)", "sin((x*3719+y*1511+z*2903)*12.9898)"),
              ("sin(id*78.233)", "sin((x*2897+y*1723+z*3331)*78.233)"),
-             ("group         dwall type 2\n", "group         dwall type 2\n" + write_start(engine, "grains", "startg.txt")),
+             ("group         dwall type 2\n",
+              "group         dwall type 2\n" + write_start(engine, "grains", "startg.txt")),
              ('print         "drum: $(count(fluid)) fluid particles"\n',
               'print         "drum: $(count(fluid)) fluid particles"\n' + write_start(engine, "fluid", "startf.txt"))]
     for a, b in edits:
