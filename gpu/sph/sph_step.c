@@ -4,17 +4,27 @@
 
 #define TRY(expr) do { int rc_ = (expr); if (rc_ != SPHDEM_OK) return rc_; } while (0)
 
+/* The first half kick of a step and the second alternate on every context, also on one that holds no particle (a
+ * rank without fluid): particles that arrive there between the two (exchange, new ghosts) find the phase of the
+ * step, and the rates evaluated then predict rho and v by the half step like everywhere else. */
+static void toggle_half_kick(sphdem_ctx c, double dth) {
+  c->half_kicked = !c->half_kicked;
+  c->D.pred_dth = c->half_kicked ? dth : 0.0;
+}
+
 int sphdem_kick(sphdem_ctx c, double dth) {
   if (!c) return SPHDEM_ERR_ARG;
-  if (c->D.nf == 0) return SPHDEM_OK;
+  if (c->D.nf == 0) {
+    toggle_half_kick(c, dth);
+    return SPHDEM_OK;
+  }
   if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "kick before the rates were computed (call sphdem_compute_rates first)");
   double t0 = rt_now();
   TRY(c->ops->kick(c, dth));
   TRY(rt_sync(&c->rt));
   c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
   /* first half kick of a step: the next rates predict rho and v by dth; second one closes the step */
-  c->half_kicked = !c->half_kicked;
-  c->D.pred_dth = c->half_kicked ? dth : 0.0;
+  toggle_half_kick(c, dth);
   return SPHDEM_OK;
 }
 
