@@ -366,36 +366,10 @@ static void set_layers(sphdem_dev *D) {
 static int exchange_grains(struct sphdem_ctx_s *c) {
   if (!c->xfn) return SPHDEM_OK;
   sphdem_dev *D = &c->D;
-  const int64_t n = D->couple.ng, n0 = c->couple.ngown < n ? c->couple.ngown : n, ng = n - n0;
-  double *own = sphdem_xbuf(c, 9 * (n + 1));
-  if (!own) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate %lld host values", (long long)n);
-  double *ghost = own + 4 * (size_t)n0, *h = ghost + 4 * (size_t)ng; /* h: 4 n values of the device layout */
-  int64_t *tag = (int64_t *)(h + 4 * (size_t)n);                      /* n tags in the last n doubles */
-  if (n > 0) {
-    TRYC(rt_sync(&c->rt));
-    TRYC(rt_d2h(&c->rt, tag, D->couple.gtag, 8 * (size_t)n));
-    TRYC(rt_d2h(&c->rt, h, D->couple.gf, 24 * (size_t)n));
-    TRYC(rt_d2h(&c->rt, h + 3 * (size_t)n, D->couple.grain_shepard, 8 * (size_t)n));
-    for (int64_t s = 0; s < n; s++) {
-      const int64_t k = tag[s] - 1;
-      if (k >= n0) continue;
-      for (int d = 0; d < 3; d++) own[4 * k + d] = h[3 * s + d];
-      own[4 * k + 3] = h[3 * n + s];
-    }
-  }
-  if (c->xfn(c->xuser, SPHDEM_XCHG_GRAIN, 4, (int)n0, (int)ng, own, ghost) != 0)
-    return sphdem_fail(c, SPHDEM_ERR_STATE, "couple: the owners' grain forces did not reach the ghost grains");
-  if (ng > 0) {
-    for (int64_t s = 0; s < n; s++) {
-      const int64_t g = tag[s] - 1 - n0;
-      if (g < 0) continue;
-      for (int d = 0; d < 3; d++) h[3 * s + d] = ghost[4 * g + d];
-      h[3 * n + s] = ghost[4 * g + 3];
-    }
-    TRYC(rt_h2d(&c->rt, D->couple.gf, h, 24 * (size_t)n));
-    TRYC(rt_h2d(&c->rt, D->couple.grain_shepard, h + 3 * (size_t)n, 8 * (size_t)n));
-  }
-  return SPHDEM_OK;
+  double *const arr[2] = {D->couple.gf, D->couple.grain_shepard};
+  const int nc[2] = {3, 1};
+  const int64_t n = D->couple.ng, n0 = c->couple.ngown < n ? c->couple.ngown : n;
+  return sphdem_exchange_slots(c, SPHDEM_XCHG_GRAIN, n, n0, NULL, D->couple.gtag, arr, nc, 2, "grain forces");
 }
 
 static int couple_prepare(struct sphdem_ctx_s *c) {

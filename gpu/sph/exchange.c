@@ -30,8 +30,9 @@ double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n) {
  * caller order, the ghosts' values back into their slots. The CPU backend's arrays are host memory and are read
  * and written in place; the GPU's travel whole through the staging (the ghosts are spread over the sorted slots).
  * Collective: every rank calls it at the same points, with or without elements. */
-static int exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
-                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr, const char *what_name) {
+int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
+                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr,
+                          const char *what_name) {
   int ncomp = 0;
   for (int k = 0; k < narr; k++) ncomp += nc[k];
   const int64_t ng = n - n0;
@@ -86,8 +87,8 @@ int sphdem_exchange_walls(struct sphdem_ctx_s *c) {
   double *const arr[4] = {D->wp, D->wrho, D->wvx, D->couple.wall_porosity};
   const int nc[4] = {1, 1, 3, 1};
   const int64_t n0 = D->nwown < D->nw ? D->nwown : D->nw;
-  return exchange_slots(c, SPHDEM_XCHG_WALL, D->nw, n0, NULL, D->wtag, arr, nc, D->couple.wall_porosity ? 4 : 3,
-                        "wall state");
+  return sphdem_exchange_slots(c, SPHDEM_XCHG_WALL, D->nw, n0, NULL, D->wtag, arr, nc,
+                               D->couple.wall_porosity ? 4 : 3, "wall state");
 }
 
 /* The fluid's fields: drho and a after the rate pass, the porosity after the coupling's porosity pass, a after
@@ -106,5 +107,5 @@ int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what) {
     case SPHDEM_XCHG_EPS: arr[0] = D->couple.eps, nc[0] = 1; break;
     default: return sphdem_fail(c, SPHDEM_ERR_ARG, "exchange: unknown fluid field %d", what);
   }
-  return exchange_slots(c, what, D->nf, D->nown, D->uidx, NULL, arr, nc, narr, "fluid values");
+  return sphdem_exchange_slots(c, what, D->nf, D->nown, D->uidx, NULL, arr, nc, narr, "fluid values");
 }

@@ -147,6 +147,11 @@ extern "C" {
 int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what);
 /* The plain fluid's wall state (SPHDEM_XCHG_WALL) likewise (exchange.c). */
 int sphdem_exchange_walls(struct sphdem_ctx_s *c);
+/* The general exchange of device arrays arr[0..narr) (nc[k] values per element) of n elements in sorted slots,
+ * slot s holding caller index uidx_dev[s] (or tag_dev[s] - 1 when uidx_dev is NULL), owned below n0 (exchange.c;
+ * the grains' exchange in couple.c uses it). Collective. */
+int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
+                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr, const char *what_name);
 /* Host staging of n doubles for the exchanges (exchange.c). */
 double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n);
 /* Set the context error message (printf-style); returns code. */
