@@ -76,7 +76,9 @@ int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n
       }
       if (!direct) TRY(rt_h2d(&c->rt, arr[k], h, 8 * (size_t)nc[k] * (size_t)n));
     }
-  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
+  const double dt = rt_now() - t0;
+  c->timers[SPHDEM_T_TRANSFER] += dt;
+  c->xtime += dt;
   return SPHDEM_OK;
 }
 

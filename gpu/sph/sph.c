@@ -674,11 +674,15 @@ static int feature_hooks(struct sphdem_ctx_s *c, int which, double *tx) {
                                                                     : (*f)->finish;
     if (!h || !(*f)->on(c)) continue;
     double t = rt_now();
+    const double x0 = c->xtime; /* a hook's exchanges are booked as transfer, not in its own timer */
     TRY(h(c));
+    const double dx = c->xtime - x0;
+    t = rt_now() - t;
     if ((*f)->timer != SPHDEM_T_RATES) {
-      t = rt_now() - t;
-      c->timers[(*f)->timer] += t;
+      c->timers[(*f)->timer] += t - dx;
       *tx += t;
+    } else {
+      *tx += dx;
     }
   }
   return SPHDEM_OK;
@@ -710,7 +714,7 @@ int sphdem_compute_rates(sphdem_ctx c) {
   if (!empty && D->nw > 0) { TRY(c->ops->wall_state(c)); TRY(rt_sync(&c->rt)); }
   double tw = rt_now();
   if (D->xwall) TRY(sphdem_exchange_walls(c));
-  tx += rt_now() - tw; /* booked as transfer */
+  const double twx = rt_now() - tw; /* booked as transfer */
   double t2 = rt_now();
   TRY(feature_hooks(c, HOOK_PREPARE_RATES, &tx)); /* delta-plus: renormalisation, viscosity, shifting */
   if (!empty) { TRY(c->ops->rates(c)); TRY(rt_sync(&c->rt)); }
@@ -719,7 +723,7 @@ int sphdem_compute_rates(sphdem_ctx c) {
   tx += rt_now() - tq;                              /* booked as transfer */
   TRY(feature_hooks(c, HOOK_FINISH, &tx)); /* coupling: grain forces, reaction on the fluid */
   double t3 = rt_now();
-  c->timers[SPHDEM_T_WALL] += t2 - t1;
+  c->timers[SPHDEM_T_WALL] += t2 - t1 - twx;
   c->timers[SPHDEM_T_RATES] += (t1 - t0) + (t3 - t2) - tx;
   c->have_rates = 1;
   return SPHDEM_OK;

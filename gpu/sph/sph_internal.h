@@ -129,6 +129,7 @@ struct sphdem_ctx_s {
   int64_t hmap_len;
   sphdem_exchange_fn xfn;       /* many ranks: the owners' values to the ghosts (sphdem_set_exchange) */
   int rk_stepping;              /* inside step_rk4: the rates' exchange carries the XSPH / shift velocity too */
+  double xtime;                 /* seconds of all exchanges so far (booked as transfer; the hooks' timers leave it out) */
   void *xuser;
   double *xbuf;                 /* its host staging */
   int64_t xbuf_cap;
