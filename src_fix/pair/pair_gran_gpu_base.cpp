@@ -3,12 +3,15 @@
 #include "pair_gran_gpu_base.h"
 
 #include <algorithm>
+#include <cstring>
 #include <unordered_map>
 
 #include "atom.h"
 #include "comm.h"
 #include "domain.h"
+#include "fix.h"
 #include "memory.h"
+#include "modify.h"
 #include "neighbor.h"
 #include "output.h"
 #include "sphdem_compat.h"
@@ -67,6 +70,15 @@ bool PairGranGPUBase::common_keyword(const std::string &kw, const std::string &v
     return false;
   }
   return true;
+}
+
+void PairGranGPUBase::scan_rigid_freeze() {
+  freeze_group_bit_ = 0;
+  for (int i = 0; i < modify->nfix; i++) {
+    Fix *f = modify->fix[i];
+    if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
+    if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
+  }
 }
 
 void PairGranGPUBase::check_atoms(const char *atom_styles) {

@@ -76,6 +76,9 @@ class PairGranGPUBase : public Pair {
   bool read_head(FILE *fp, void *p, size_t size, size_t n);
   /* the checks of init_style common to both engines; atom_styles names the styles that fit */
   void check_atoms(const char *atom_styles);
+  /* rigid bodies refused (fix rigid*: the pair styles keep no body bookkeeping); the group of fix freeze kept in
+   * freeze_group_bit_ (its grains feel no force, as with the stock styles) */
+  void scan_rigid_freeze();
   /* the largest radius per type of the local grains (frozen ones apart) added to dyn/frz (nt + 1 each,
    * the inserting fixes already in dyn), reduced over the ranks into maxrad_dynamic_/maxrad_frozen_ */
   void reduce_maxrad(std::vector<double> &dyn, std::vector<double> &frz);

@@ -80,12 +80,7 @@ void PairGranHookeHistoryGPU::coeff(int narg, char **arg) {
 
 void PairGranHookeHistoryGPU::init_style() {
   check_atoms("atom_style sphere");
-  freeze_group_bit_ = 0;
-  for (int i = 0; i < modify->nfix; i++) {
-    Fix *f = modify->fix[i];
-    if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
-    if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
-  }
+  scan_rigid_freeze();
   /* the cutoff of the stock style (PairGranHookeHistory::init_style/init_one): per type the largest
    * radius of the grains, frozen ones apart, and of the particles fix pour / fix deposit will insert */
   const int nt = atom->ntypes;

@@ -236,12 +236,7 @@ void PairGranularGPU::coeff(int narg, char **arg) {
 void PairGranularGPU::init_style() {
   check_atoms("atom_style sphere");
   if (!comm->ghost_velocity) fail("requires ghost atoms store velocity: comm_modify vel yes (as the stock pair_style granular)");
-  freeze_group_bit_ = 0;
-  for (int i = 0; i < modify->nfix; i++) {
-    Fix *f = modify->fix[i];
-    if (f->rigid_flag) fail(std::string("rigid bodies (fix ") + f->id + ") are not supported");
-    if (std::strcmp(f->style, "freeze") == 0) freeze_group_bit_ = f->groupbit;
-  }
+  scan_rigid_freeze();
   /* the stock style evaluates the tangential law of every pair through its history branch when any pair keeps
    * a tangential history: a linear_nohistory pair then divides by k_t = 0 */
   const int nt = atom->ntypes;
