@@ -1106,15 +1106,22 @@ int FixSPHFluid::exchange(int what, int ncomp, int nown, int nghost, const doubl
   else if (what == SPHDEM_XCHG_ACC && ncomp == 3) slot[0] = G_A, slot[1] = G_A + 1, slot[2] = G_A + 2;
   else if (what == SPHDEM_XCHG_EPS && ncomp == 1) slot[0] = G_EPS;
   const bool ok = slot[0] >= 0 && (size_t)nown == nfown_ && (size_t)nghost == fidx_.size() - nfown_;
+  return exchange_slots(fidx_, nfown_, slot, ok, ncomp, own, ghost);
+}
+
+/* The values of the atoms idx[0..nown) into their slots of the forward-communication buffer, the engine's forward
+ * communication, the ghosts' (idx[nown..]) back; ok false: the communication only (it is collective), and 1. */
+int FixSPHFluid::exchange_slots(const std::vector<int> &idx, size_t nown, const int *slot, bool ok, int ncomp,
+                                const double *own, double *ghost) {
   const size_t nall = (size_t)(atom->nlocal + atom->nghost);
   if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
   if (ok)
-    for (size_t k = 0; k < nfown_; k++)
-      for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * fidx_[k] + slot[c]] = own[(size_t)ncomp * k + c];
+    for (size_t k = 0; k < nown; k++)
+      for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * idx[k] + slot[c]] = own[(size_t)ncomp * k + c];
   comm->forward_comm_fix(this);
   if (!ok) return 1;
-  for (size_t j = 0; j < (size_t)nghost; j++)
-    for (int c = 0; c < ncomp; c++) ghost[(size_t)ncomp * j + c] = gcomm_[(size_t)GCOMM * fidx_[nfown_ + j] + slot[c]];
+  for (size_t j = 0; nown + j < idx.size(); j++)
+    for (int c = 0; c < ncomp; c++) ghost[(size_t)ncomp * j + c] = gcomm_[(size_t)GCOMM * idx[nown + j] + slot[c]];
   return 0;
 }
 
@@ -1124,16 +1131,7 @@ int FixSPHFluid::exchange_walls(int ncomp, int nown, int nghost, const double *o
   if (!wall_groupbit_) return nown == 0 && nghost == 0 ? 0 : 1;
   static const int slot[6] = {G_DRHO, G_RHO, G_V, G_V + 1, G_V + 2, G_EPS};
   const bool ok = (ncomp == 5 || ncomp == 6) && (size_t)nown == nwown_ && (size_t)nghost == widx_.size() - nwown_;
-  const size_t nall = (size_t)(atom->nlocal + atom->nghost);
-  if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
-  if (ok)
-    for (size_t k = 0; k < nwown_; k++)
-      for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * widx_[k] + slot[c]] = own[(size_t)ncomp * k + c];
-  comm->forward_comm_fix(this);
-  if (!ok) return 1;
-  for (size_t j = 0; j < (size_t)nghost; j++)
-    for (int c = 0; c < ncomp; c++) ghost[(size_t)ncomp * j + c] = gcomm_[(size_t)GCOMM * widx_[nwown_ + j] + slot[c]];
-  return 0;
+  return exchange_slots(widx_, nwown_, slot, ok, ncomp, own, ghost);
 }
 
 /* Many ranks: the ghost fluid and walls reach cut_need_ = levels 2h + skin beyond each subdomain, enough while no

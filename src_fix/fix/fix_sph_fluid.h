@@ -147,6 +147,8 @@ class FixSPHFluid : public Fix {
   static int exchange_cb(void *user, int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
   int exchange(int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
   int exchange_walls(int ncomp, int nown, int nghost, const double *own, double *ghost);
+  int exchange_slots(const std::vector<int> &idx, size_t nown, const int *slot, bool ok, int ncomp, const double *own,
+                     double *ghost);
   void check_displacement();
   void fail_any(bool bad, const std::string &msg); /* collective: every rank stops with the first message */
 
