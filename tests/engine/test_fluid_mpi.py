@@ -14,7 +14,7 @@
                  their owners), 300 steps, processors 1 2 1 (the cut runs parallel to the lid)
       coupled    fix sph/couple: the tiny dam break with 6 grains (torque yes), 400 steps, processors 1 3 1, 4 1 1,
                  2 2 1 (grains and fluid on both sides of the cuts)
-      thin       the tiny dam break on 8 ranks (8 1 1): subdomains thinner than the ghost band
+      thin       the tiny dam break with isolated 0.5 on 8 ranks (8 1 1): subdomains thinner than the ghost band
       probe      compute sph/probe on the hydrostatic start (points on both sides of the cut), processors 1 2 1
   dambreak3d EXE ENGINE MPIRUN EXAMPLES  examples/dambreak3d at dx 20 mm, 700 steps: the front crosses x = 0.295
                  (processors 2 1 1, 4 1 1, 2 2 1); the ranks right of the column hold no fluid until it arrives
@@ -185,9 +185,9 @@ def test_ranks(exe, engine, mpirun, examples):
     cp = re.sub(r"(?m)^run\s+\S+", dump_lines(engine, "moving", 400, "x y vx vy f_water[1]") + "run 400", cp)
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/coupled" % engine, cp, [(3, "1 3 1"), (4, "4 1 1"),
                         (4, "2 2 1")], 400, ["x", "y", "vx", "vy", "rho"], moved_col=3)
-    # subdomains thinner than the ghost band (8 ranks across the tiny dam break: 0.05 m < 4h + skin = 0.057 m):
-    # the engine gathers the ghosts across several subdomains
-    thin = et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="") + et.THERMO + \
+    # subdomains thinner than the ghost band (8 ranks across the tiny dam break; isolated's kernel sums add a
+    # level: 0.05 m < 4h + skin = 0.057 m): the engine gathers the ghosts across several subdomains
+    thin = et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="isolated 0.5") + et.THERMO + \
         dump_lines(engine, "fluid", et.STEPS, "x y vx vy f_water[1]") + "run %d\n" % et.STEPS
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/thin" % engine, thin, [(8, "8 1 1")], et.STEPS,
                         ["x", "y", "vx", "vy", "rho"], moved_col=3)
