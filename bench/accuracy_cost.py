@@ -22,8 +22,12 @@ Cases (each runs the committed example input; only the resolution variable chang
 
 Cost: the engine's "Loop time" (set-up excluded) divided by the simulated time, with OMP_NUM_THREADS=1.
 
+Precision: --precisions double mixed single runs the settling and dambreak2d cases once per precision of fix
+sph/fluid (-var precision P of the examples), one series each in the table and the chart.
+
 Usage: /usr/bin/python3 bench/accuracy_cost.py [--exe build/src_fix/lmp_sphdem] [--cases settling dambreak2d
-           particles] [--work /tmp/sphdem_acc] [--ref DIR] [--reuse] [--out bench/results_accuracy]
+           particles] [--precisions double mixed single] [--work /tmp/sphdem_acc] [--ref DIR] [--reuse]
+           [--out bench/results_accuracy]
 --reuse analyses existing run directories under --work without running them again.
 Writes accuracy_cost.csv, accuracy_cost.md and accuracy_cost.png in --out and prints the table.
 """
@@ -80,11 +84,24 @@ def loop_time(log):
     return sum(float(l[0]) for l in loops)
 
 
+def prec_runs(args):
+    """(precision, workdir suffix, series suffix) of each --precisions entry; double keeps the earlier names"""
+    return [(p, "" if p == "double" else "_" + p, "" if p == "double" else " (%s)" % p) for p in args.precisions]
+
+
 def settling(args):
     rows = []
+    for prec, wsuf, ssuf in prec_runs(args):
+        rows += settling_prec(args, prec, wsuf, ssuf)
+    return rows
+
+
+def settling_prec(args, prec, wsuf, ssuf):
+    rows = []
     for dx in (0.003, 0.002, 0.0015):
-        wd = os.path.join(args.work, "settling_dx%g" % (dx * 1e3))
-        loop = run(args.exe, os.path.join(EX, "settling", "in.settling"), wd, [("dx", dx)], args.reuse)
+        wd = os.path.join(args.work, "settling_dx%g%s" % (dx * 1e3, wsuf))
+        loop = run(args.exe, os.path.join(EX, "settling", "in.settling"), wd, [("dx", dx), ("precision", prec)],
+                   args.reuse)
         a = np.loadtxt(os.path.join(wd, "settling.dat"), comments="#", ndmin=2)
         t, v = a[:, 1], -a[:, 3]
         t_ode, v_ode = settling_plot.ode(0.001, 2500.0, 1000.0, 8.9e-4, 9.81, t[-1])
@@ -92,7 +109,7 @@ def settling(args):
         for name, sel in (("acceleration, 0.01-0.07 s", (t >= 0.01) & (t <= 0.07)),
                           ("terminal, 0.125-0.25 s", t >= 0.125)):
             err = 100 * np.mean(np.abs(v[sel] - ve_all[sel]) / ve_all[sel])
-            rows.append(dict(case="settling", series=name, res="dx = %g mm" % (dx * 1e3),
+            rows.append(dict(case="settling", series=name + ssuf, res="dx = %g mm" % (dx * 1e3),
                              tsim=t[-1], loop_s=loop, cost=loop / t[-1], err=err))
     return rows
 
@@ -105,13 +122,14 @@ def dambreak2d(args):
         Zr += list(Z[T <= 3.0])
     Tr, Zr = np.array(Tr), np.array(Zr)
     rows = []
-    for nres in (20, 40, 80):
-        wd = os.path.join(args.work, "dambreak2d_n%d" % nres)
-        loop = run(args.exe, os.path.join(EX, "dambreak2d", "in.dambreak2d"), wd, [("nres", nres)], args.reuse)
+    for (prec, wsuf, ssuf), nres in [(pr, n) for pr in prec_runs(args) for n in (20, 40, 80)]:
+        wd = os.path.join(args.work, "dambreak2d_n%d%s" % (nres, wsuf))
+        loop = run(args.exe, os.path.join(EX, "dambreak2d", "in.dambreak2d"), wd, [("nres", nres), ("precision", prec)],
+                   args.reuse)
         T, Z = dambreak2d_plot.read_front(os.path.join(wd, "front.dat"))
         err = 100 * np.mean(np.abs(np.interp(Tr, T, Z) - Zr) / Zr)
         a = np.loadtxt(os.path.join(wd, "front.dat"), comments="#", ndmin=2)
-        rows.append(dict(case="dambreak2d", series="front vs Martin & Moyce", res="a/dx = %d" % nres,
+        rows.append(dict(case="dambreak2d", series="front vs Martin & Moyce" + ssuf, res="a/dx = %d" % nres,
                          tsim=a[-1, 1], loop_s=loop, cost=loop / a[-1, 1], err=err))
     return rows
 
@@ -155,6 +173,8 @@ def main():
     ap.add_argument("--ref", help="an existing dx = 3 mm run of in.dambreak_particles (front.csv, log.lammps)")
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--reference", default=REF_MM)
+    ap.add_argument("--precisions", nargs="*", default=["double"], choices=["double", "mixed", "single"],
+                    help="fix sph/fluid precision of the settling and dambreak2d runs (one series each; default double)")
     ap.add_argument("--out", default=os.path.join(HERE, "results_accuracy"))
     args = ap.parse_args()
     args.exe = os.path.abspath(args.exe)

@@ -34,9 +34,11 @@ static void usage(const char *prog) {
           "usage: %s [--n NFLUID | --res R] [--steps S] [--warmup W] [--device cpu|gpu|auto]\n"
           "          [--threads T] [--dim 2|3] [--width W/a] [--skin S/h] [--tensile EPS]\n"
           "          [--alpha A] [--write-liggghts FILE [--liggghts-split 1]] [--mp 0|1|2]\n"
+          "          [--precision double|mixed|single]\n"
           "  --n        target fluid particle count (res chosen so that nfluid ~ NFLUID), default 1e4\n"
           "  --res      particles across the column width a (overrides --n)\n"
           "  --steps    timed steps (default 100); --warmup untimed steps before (default 5)\n"
+          "  --precision the fluid's pair arithmetic (sphdem_params.precision), default double\n"
           "  --threads  OpenMP threads (omp_set_num_threads), default: OpenMP's default\n"
           "  --dim 3    3D box of width W*a (default W = 1)\n"
           "  --skin     resort skin in units of h (default 0.25, as LIGGGHTS' sph tutorials)\n"
@@ -84,18 +86,25 @@ int main(int argc, char **argv) {
   double ntarget = 1e4, width = 1.0, skin_h = 0.25, tensile = 0.01, alpha = 0.02;
   int res = 0, steps = 100, warmup = 5, threads = 0, dim = 2;
   int lig_split = 0, mpmode = 0;
-  const char *devname = "cpu", *lig = NULL;
+  const char *devname = "cpu", *lig = NULL, *precname = "double";
   const bench_opt opts[] = {{"--n", 'd', &ntarget}, {"--res", 'i', &res}, {"--steps", 'i', &steps},
                             {"--warmup", 'i', &warmup}, {"--device", 's', &devname}, {"--threads", 'i', &threads},
                             {"--dim", 'i', &dim}, {"--width", 'd', &width}, {"--skin", 'd', &skin_h},
                             {"--tensile", 'd', &tensile}, {"--alpha", 'd', &alpha}, {"--write-liggghts", 's', &lig},
-                            {"--liggghts-split", 'i', &lig_split}, {"--mp", 'i', &mpmode}};
+                            {"--liggghts-split", 'i', &lig_split}, {"--mp", 'i', &mpmode},
+                            {"--precision", 's', &precname}};
   int parsed = bench_parse(argc, argv, opts, (int)(sizeof opts / sizeof opts[0]));
   if (parsed) { usage(argv[0]); return parsed == 1 ? 0 : 2; }
   sphdem_device dev;
   if (bench_device(devname, &dev)) { usage(argv[0]); return 2; }
   if ((dim != 2 && dim != 3) || steps < 1 || warmup < 0 || width <= 0) { usage(argv[0]); return 2; }
   threads = bench_threads(threads);
+  int prec = !strcmp(precname, "double") ? SPHDEM_PREC_DOUBLE : !strcmp(precname, "mixed") ? SPHDEM_PREC_MIXED
+             : !strcmp(precname, "single") ? SPHDEM_PREC_SINGLE : -1;
+  if (prec < 0) {
+    fprintf(stderr, "bench_dambreak: --precision must be double, mixed or single (got %s)\n", precname);
+    return 2;
+  }
 
   /* fluid count: 2D res * 2res, 3D res * (width res) * 2res */
   if (res <= 0) res = dim == 2 ? (int)lround(sqrt(ntarget / 2.0)) : (int)lround(cbrt(ntarget / (2.0 * width)));
@@ -118,6 +127,7 @@ int main(int argc, char **argv) {
   p.tensile_eps = tensile;
   p.tensile_n = 4.0;
   p.skin = skin_h * p.h;
+  p.precision = prec;
   const double dt = 0.2 * p.h / (1.2 * p.c0);
 
   scene s;
@@ -198,11 +208,11 @@ int main(int argc, char **argv) {
     front /= a;
   }
   double psteps = (double)s.nf * done / wall_s;
-  printf("BENCH code=sphdem mp=%d backend=%s dim=%d threads=%d res=%d nfluid=%d nwall=%d steps=%d warmup=%d "
+  printf("BENCH code=sphdem mp=%d precision=%s backend=%s dim=%d threads=%d res=%d nfluid=%d nwall=%d steps=%d warmup=%d "
          "dt=%.6e wall_s=%.6f psteps_per_s=%.6e t_sort=%.6f t_wall=%.6f t_rates=%.6f t_integrate=%.6f "
          "t_transfer=%.6f t_reduce=%.6f bytes_per_particle=%.1f nsorts=%lld setup_s=%.3f "
-         "vmax=%.4g ke=%.6g front=%.5f rho_err=%.4g status=%s\n",
-         mpmode, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", dim, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? 0 : threads,
+         "vmax=%.4g ke=%.12g front=%.7f rho_err=%.4g status=%s\n",
+         mpmode, precname, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? "gpu" : "cpu", dim, sphdem_backend(c) == SPHDEM_DEVICE_GPU ? 0 : threads,
          res, s.nf, s.nw, done, warmup, dt, wall_s, psteps, tm[SPHDEM_T_SORT], tm[SPHDEM_T_WALL], tm[SPHDEM_T_RATES],
          tm[SPHDEM_T_INTEGRATE], tm[SPHDEM_T_TRANSFER], tm[SPHDEM_T_REDUCE],
          (double)sphdem_device_bytes(c) / (double)s.nf, (long long)(sphdem_nsorts(c) - sorts0), t_setup, st.vmax, st.ke, front,

@@ -33,6 +33,7 @@ enum sphdem_status {
 };
 
 typedef enum { SPHDEM_DEVICE_AUTO = 0, SPHDEM_DEVICE_CPU = 1, SPHDEM_DEVICE_GPU = 2 } sphdem_device;
+typedef enum { SPHDEM_PREC_DOUBLE = 0, SPHDEM_PREC_MIXED = 1, SPHDEM_PREC_SINGLE = 2 } sphdem_precision;
 typedef enum { SPHDEM_VISC_NONE = 0, SPHDEM_VISC_MORRIS = 1, SPHDEM_VISC_ARTIFICIAL = 2 } sphdem_visc;
 
 /* Many MPI ranks: the engine's reductions, given to a context by the shim (sphdem_set_comm,
@@ -77,6 +78,10 @@ typedef struct {
   double rho_err_max;   /* blow-up bound on max |rho/rho0 - 1| (0.2) */
   double boxlo[3], boxhi[3];
   int periodic[3];
+  int precision;        /* sphdem_precision: the fluid's pair arithmetic (rates pass, fluid and wall pairs) in double
+                           (default), mixed (float pair terms from double positions, sums and state in double) or
+                           single (as mixed, with the positions rounded to float in the pair terms and the state
+                           x, v, rho and its rates kept at float precision, stored in the double arrays) */
 } sphdem_params;
 
 /* Global statistics, reduced on the device. */

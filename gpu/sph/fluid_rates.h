@@ -52,10 +52,10 @@ SPHDEM_HD void rates_walls(const sphdem_dev *D, int64_t a, rates_acc *R, const i
 
 /* a's rates; the delta-plus fluid moves with v + XSPH + its shift velocity. */
 SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
-  D->drho[a] = R->drho;
+  D->drho[a] = state_round(D, R->drho);
   for (int d = 0; d < 3; d++) {
-    D->a[3 * a + d] = R->acc[d];
-    D->u[3 * a + d] = D->mp.on ? R->u[d] + R->dua[d] : R->u[d];
+    D->a[3 * a + d] = state_round(D, R->acc[d]);
+    D->u[3 * a + d] = state_round(D, D->mp.on ? R->u[d] + R->dua[d] : R->u[d]);
   }
 }
 

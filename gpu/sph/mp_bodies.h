@@ -359,7 +359,8 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
     for (int d = 0; d < 3; d++)
       P->A[d] += Vb * F * (D->ve[3 * b + d] * dub_r + va[d] * dua_r) - va[d] * Vb * F * (dub_r - dua_r);
   }
-  double k2 = mb * xsph_weight(D, rhoa, rhob, W); /* XSPH (He 2018 eq 12) */
+  const pair_consts K = pair_consts_of(D);
+  double k2 = mb * xsph_weight(&K, pair_opts(D), rhoa, rhob, W); /* XSPH (He 2018 eq 12) */
   for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
   return 1;
 }
@@ -381,7 +382,8 @@ SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double muw = D->ghost.on ? D->ghost.wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
   double kv = mub * (R->Va2 + Vw * Vw) * F * r2 * ie / ma;
   for (int d = 0; d < 3; d++) R->acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
-  wall_repulsion(D, rr, r2, r, R->acc);
+  const pair_consts K = pair_consts_of(D);
+  wall_repulsion(&K, pair_opts(D), rr, r2, r, R->acc);
 }
 
 #endif

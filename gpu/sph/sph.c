@@ -76,6 +76,8 @@ int sphdem_params_check(const sphdem_params *p, char *msg, size_t msglen) {
   CHECK(p->tensile_eps == 0 || p->tensile_n > 0, "tensile exponent n must be > 0 (got %g)", p->tensile_n);
   CHECK(p->xsph_eps >= 0 && p->xsph_eps <= 1, "xsph eps must be in [0, 1] (got %g)", p->xsph_eps);
   CHECK(p->delta >= 0 && p->delta <= 1, "delta (density diffusion) must be in [0, 1] (got %g)", p->delta);
+  CHECK(p->precision >= SPHDEM_PREC_DOUBLE && p->precision <= SPHDEM_PREC_SINGLE,
+        "precision must be double (0), mixed (1) or single (2) (got %d)", p->precision);
   CHECK(p->wall_clamp == 0 || p->wall_clamp == 1, "wall_clamp must be 0 or 1 (got %d)", p->wall_clamp);
   CHECK(p->isolated >= 0 && p->isolated < 1, "isolated (kernel-sum threshold) must be in [0, 1) (got %g)",
         p->isolated);
@@ -455,11 +457,35 @@ static int32_t *match_resident(sphdem_ctx c, int64_t n, const int64_t *tag) {
 }
 
 /* Positions are checked for finite values before they are binned; the index (and tag) of the first bad one. */
+/* Precision single keeps positions in float: at |x| its spacing (ulp) is 2^(e - 23), |x| in [2^e, 2^(e+1)). Slow
+ * particles then move in float steps (v dt ~ 0.2 (v / c0) dx at CFL 0.2): still water's bottom pressure is 0.1 %
+ * off at a spacing of 5e-5 dx and 0.5 % at 1e-4 dx (verify_precision tank_scan), where single is refused. */
+#define SPHDEM_SINGLE_ULP_MAX 1e-4
+
+/* The float spacing at |x| (precision single). */
+static double sphdem_float_ulp(double x) {
+  float f = (float)fabs(x);
+  return (double)(nextafterf(f, INFINITY) - f);
+}
+
 static int check_positions(sphdem_ctx c, const char *what, int64_t n, const int64_t *tag, const double *x) {
-  for (int64_t i = 0; i < n; i++)
+  double xmax = 0.0;
+  for (int64_t i = 0; i < n; i++) {
     if (!isfinite(x[3 * i]) || !isfinite(x[3 * i + 1]) || !isfinite(x[3 * i + 2]))
       return sphdem_fail(c, SPHDEM_ERR_ARG, "%s: particle %lld (tag %lld) has a non-finite position (%g, %g, %g)",
                          what, (long long)i, (long long)(tag ? tag[i] : i + 1), x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+    for (int d = 0; d < c->D.P.dim; d++) xmax = fmax(xmax, fabs(x[3 * i + d]));
+  }
+  if (c->D.P.precision == SPHDEM_PREC_SINGLE) {
+    const double ulp = sphdem_float_ulp(xmax);
+    if (ulp > SPHDEM_SINGLE_ULP_MAX * c->D.P.dx)
+      return sphdem_fail(c, SPHDEM_ERR_ARG, "precision single: %s positions up to |x| = %g have a float spacing of "
+                         "%.3g, %.2g dx (dx %g; the limit is %g dx, where still water's pressure is already 0.5 %% off: slow "
+                         "particles move in float steps); use precision mixed (double positions) or put the origin "
+                         "nearer the fluid",
+                         !strcmp(what, "set_walls") ? "wall" : "fluid", xmax, ulp, ulp / c->D.P.dx, c->D.P.dx,
+                         SPHDEM_SINGLE_ULP_MAX);
+  }
   return SPHDEM_OK;
 }
 

@@ -18,19 +18,66 @@ SPHDEM_HD double wendland_alpha(int dim, double h) {
   return dim == 2 ? 7.0 / (4.0 * M_PI * h * h) : 21.0 / (16.0 * M_PI * h * h * h);
 }
 
-/* W(q) (eq 5). */
-SPHDEM_HD double wendland_w(double alphaD, double q) {
-  if (q >= 2.0) return 0.0;
-  double t = 1.0 - 0.5 * q, t2 = t * t;
-  return alphaD * t2 * t2 * (1.0 + 2.0 * q);
+/* The terms of a pair that are on (pair_real.h reads them here, not in the parameters, so that a caller can
+ * pass them as constants): tensile correction (tensile4: n = 4), viscosity (sphdem_visc), density diffusion
+ * (0 off, 1 plain, 2 of the coupled fluid's intrinsic density), its hydrostatic part, the coupling's volume
+ * pressure form, XSPH, porous wall particles (coupled), the Monaghan wall repulsion. */
+typedef struct {
+  int tensile, tensile4, visc, delta, hydro, vol, xsph, porous_walls, rep;
+} sphdem_pair_opts;
+
+SPHDEM_HD sphdem_pair_opts pair_opts(const sphdem_dev *D) {
+  sphdem_pair_opts O;
+  O.tensile = D->P.tensile_eps > 0.0;
+  O.tensile4 = D->tensile_n_is_4;
+  O.visc = D->P.visc;
+  O.delta = D->P.delta > 0.0 ? (D->couple.eos ? 2 : 1) : 0;
+  O.hydro = D->P.delta_hydro;
+  O.vol = D->couple.pressure_volume_form;
+  O.xsph = D->P.xsph_eps > 0.0;
+  O.porous_walls = D->couple.wall_porosity != NULL;
+  O.rep = D->P.rep_D > 0.0;
+  return O;
 }
 
-/* F(q) such that grad_a W_ab = F * r_ab (r_ab = r_a - r_b): F = dW/dr / r = -5 alpha_D (1-q/2)^3 / h^2. */
-SPHDEM_HD double wendland_grad_factor(double alphaD, double inv_h, double q) {
-  if (q >= 2.0) return 0.0;
-  double t = 1.0 - 0.5 * q;
-  return -5.0 * alphaD * t * t * t * inv_h * inv_h;
-}
+#ifdef __CUDACC__
+#define SPHDEM_RINLINE __host__ __device__ static __forceinline__
+#else
+#define SPHDEM_RINLINE static inline __attribute__((always_inline))
+#endif
+
+/* The three components of a vector statement, written out (the float pair loop vectorises across pairs only
+ * when no inner loop is left in its body). */
+#define SPHDEM_FOR3(d, ...) \
+  { const int d = 0; __VA_ARGS__ } { const int d = 1; __VA_ARGS__ } { const int d = 2; __VA_ARGS__ }
+
+/* The pair arithmetic in double (the names as written) and in float (suffix _f, precisions mixed and single). */
+#define SPHDEM_REAL double
+#define SPHDEM_RNAME(name) name
+#define SPHDEM_RSQRT sqrt
+#define SPHDEM_RFABS fabs
+#define SPHDEM_RPOW pow
+#define SPHDEM_RFLOAT 0
+#include "pair_real.h"
+#undef SPHDEM_REAL
+#undef SPHDEM_RNAME
+#undef SPHDEM_RSQRT
+#undef SPHDEM_RFABS
+#undef SPHDEM_RPOW
+#undef SPHDEM_RFLOAT
+#define SPHDEM_REAL float
+#define SPHDEM_RNAME(name) name##_f
+#define SPHDEM_RSQRT sqrtf
+#define SPHDEM_RFABS fabsf
+#define SPHDEM_RPOW powf
+#define SPHDEM_RFLOAT 1
+#include "pair_real.h"
+#undef SPHDEM_REAL
+#undef SPHDEM_RNAME
+#undef SPHDEM_RSQRT
+#undef SPHDEM_RFABS
+#undef SPHDEM_RPOW
+#undef SPHDEM_RFLOAT
 
 /* ---- equation of state ----------------------------------------------------------------- */
 
@@ -286,65 +333,6 @@ SPHDEM_HD void wall_state_body(const sphdem_dev *D, int64_t w) {
   wall_state_finish(D, w, &A);
 }
 
-/* Pairwise momentum terms shared by fluid-fluid and fluid-wall pairs: pressure (eq 9) with the
- * tensile correction (eq 11) and the viscous term (eq 10 Morris, or Monaghan artificial).
- * pra/prb are P/rho^2 of a and b, ie = 1/(r^2 + 0.01 h^2), vab the velocity difference seen by
- * viscosity. Adds to acc. */
-SPHDEM_HD void pair_momentum(const sphdem_dev *D, double mb, double pra, double rhoa, double prb,
-                             double rhob, double W, double F, const double *r, double r2, double ie,
-                             const double *vab, double *acc) {
-  double pterm = pra + prb;
-  if (D->P.tensile_eps > 0.0) {
-    /* eq 11, with |P| so that the correction is repulsive for negative pressures too */
-    double f = W * D->w_dx_inv, fn;
-    if (D->tensile_n_is_4) { fn = f * f; fn *= fn; } else fn = pow(f, D->P.tensile_n);
-    pterm += D->P.tensile_eps * (fabs(pra) + fabs(prb)) * fn;
-  }
-  double s = -mb * pterm * F; /* -m_b (...) grad W, grad W = F r */
-  if (D->P.visc == SPHDEM_VISC_MORRIS) {
-    /* eq 10: m_b (mu_a + mu_b) r.gradW / (rho_a rho_b (r^2 + 0.01 h^2)) v_ab */
-    double k = mb * 2.0 * D->P.mu * F * r2 * ie / (rhoa * rhob);
-    for (int d = 0; d < 3; d++) acc[d] += k * vab[d];
-  } else if (D->P.visc == SPHDEM_VISC_ARTIFICIAL) {
-    double vr = 0.0;
-    for (int d = 0; d < 3; d++) vr += vab[d] * r[d];
-    if (vr < 0.0) {
-      double muab = D->h * vr * ie;
-      s += mb * D->P.alpha * D->P.c0 * muab * F * 2.0 / (rhoa + rhob); /* -m_b Pi_ab grad W */
-    }
-  }
-  for (int d = 0; d < 3; d++) acc[d] += s * r[d];
-}
-
-/* Keyword pressure_form of the coupling: the pair (a, b) in volume form, force on a from b -V_a V_b (P_a + P_b) grad W
- * and continuity rho_a sum_b V_b v_ab.grad W (V = m / rho), is the mass form's pair with P_a/rho_a^2 scaled by
- * *ka = rho_a/rho_b, P_b/rho_b^2 by *kb = rho_b/rho_a and a's continuity term by ka. Both 1 in the mass form (eq 9). */
-SPHDEM_HD void pair_form_factors(const sphdem_dev *D, double rhoa, double rhob, double *ka, double *kb) {
-  *ka = D->couple.pressure_volume_form ? rhoa / rhob : 1.0;
-  *kb = D->couple.pressure_volume_form ? rhob / rhoa : 1.0;
-}
-
-/* delta-SPH density diffusion between fluid particles a and b (Molteni & Colagrossi 2009):
- * delta h c0 sum_b psi_ab . grad_a W V_b, psi_ab = 2 (rho_b - rho_a - rho^H_ab) r_ba / (r^2 + 0.01 h^2);
- * returned per unit mass of b (V_b = m_b / rho_b: the caller multiplies by m_b).
- * rho^H_ab is the hydrostatic part of rho_b - rho_a (Fourtakas et al. 2019), linearised in the
- * Tait law: rho^H_ab = -rho0 g.r_ab / c0^2 (relative error O(rho0 g dz / B)). */
-SPHDEM_HD double density_diffusion(const sphdem_dev *D, double rhoa, double rhob, double F,
-                                   const double *r, double r2, double ie) {
-  double drh = rhob - rhoa;
-  if (D->P.delta_hydro) {
-    double gr = 0.0;
-    for (int d = 0; d < D->P.dim; d++) gr += D->P.gravity[d] * r[d];
-    drh += D->P.rho0 * gr / (D->P.c0 * D->P.c0);
-  }
-  return -2.0 * D->P.delta * D->h * D->P.c0 * drh * F * r2 * ie / rhob;
-}
-
-/* XSPH (He 2018 eq 12): a moves with v_a + sum_b m_b xsph_weight (v_a - v_b); 0 with xsph off. */
-SPHDEM_HD double xsph_weight(const sphdem_dev *D, double rhoa, double rhob, double W) {
-  return D->P.xsph_eps > 0.0 ? -D->P.xsph_eps / (0.5 * (rhoa + rhob)) * W : 0.0;
-}
-
 /* Accumulators of one fluid particle's rates (the one fluid rate pass, fluid_rates.h). */
 typedef struct {
   const double *xa, *va;
@@ -357,76 +345,97 @@ typedef struct {
   int pha;
 } rates_acc;
 
-/* The record of one fluid pair (a, b), for every fluid model. Plain fluid (fluid_pair_terms): per unit mass
- * of the partner; every term is symmetric or antisymmetric in a and b, so one evaluation serves both: a
- * gains m_b (cont + dda) density rate, m_b A acceleration and m_b U XSPH velocity; b gains m_a (cont + ddb),
- * -m_a A and -m_a U (the CPU's half-list pass). Delta-plus fluid (dplus_pair_terms): a's own rates, weight
- * 1 (its shifting terms are not antisymmetric). */
-typedef struct {
-  double cont, dda, ddb, A[3], U[3];
-} fluid_pair_rec;
+/* The precision (sphdem_params.precision) decides how a pair is evaluated: in double, or the pair terms in float (pair_real.h, suffix _f) from the double separation (mixed) or from float positions (single);
+ * the sums stay double. */
+SPHDEM_HD int pair_in_float(const sphdem_dev *D) { return D->P.precision != SPHDEM_PREC_DOUBLE; }
 
-/* Continuity (eq 6), delta-SPH, momentum (eqs 9-11) and XSPH (eq 12) of the pair; 0 if out of reach. */
-SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
-                               double pra, double epsa, int32_t b, fluid_pair_rec *P) {
-  double r[3], vab[3];
-  double r2 = separation(D, xa, D->x + 3 * b, r);
-  if (r2 >= D->support2 || r2 == 0.0) return 0;
-  double q = sqrt(r2) * D->inv_h;
-  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-  double rhob = D->rhop[b], vdotr = 0.0, ie = 1.0 / (r2 + D->eta2);
-  for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; vdotr += vab[d] * r[d]; P->A[d] = 0.0; }
-  P->cont = vdotr * F;                                                 /* eq 6 */
-  P->dda = P->ddb = 0.0;
-  if (D->P.delta > 0.0 && D->couple.eos) {
-    /* coupled, superficial density rho = eps rho_f: diffuse the intrinsic density rho_f (the EOS variable),
-     * not the porosity structure of rho; each side's rate scaled back by its eps (He 2018 eq 7 context) */
-    double epsb = fluid_eps(D, b), dd = density_diffusion(D, rhoa / epsa, rhob / epsb, F, r, r2, ie);
-    P->dda = epsa * dd * (rhob / epsb) / rhob;  /* density_diffusion divides by rho_f,b; V_b = m_b / rho_b */
-    P->ddb = -epsb * dd * (rhob / epsb) / rhoa;
-  } else if (D->P.delta > 0.0) {
-    P->dda = density_diffusion(D, rhoa, rhob, F, r, r2, ie);
-    P->ddb = -P->dda * rhob / rhoa;
+/* The separation r_ab = x_a - x_b in float (minimum image on periodic axes) of the two positions rounded to
+ * float (precision single) or of their double difference (mixed); returns |r_ab|^2 in float, or -1 when the
+ * pair is out of reach (r >= 2h) or coincident. */
+SPHDEM_HD float separation_f(const sphdem_dev *D, const double *xa, const double *xb, float *r) {
+  if (D->P.precision == SPHDEM_PREC_SINGLE) {
+    float r2 = 0.0f;
+    for (int d = 0; d < 3; d++) {
+      if (d >= D->P.dim) { r[d] = 0.0f; continue; }
+      float s = (float)xa[d] - (float)xb[d];
+      if (D->P.periodic[d]) { float L = (float)D->L[d]; s -= L * rintf(s / L); }
+      r[d] = s;
+      r2 += s * s;
+    }
+    return r2 >= (float)D->support2 || r2 == 0.0f ? -1.0f : r2;
   }
-  /* pressure_form volume: the extra continuity part rides on dda/ddb, so one record still serves both sides */
-  double ka, kb;
-  pair_form_factors(D, rhoa, rhob, &ka, &kb);
-  if (D->couple.pressure_volume_form) { P->dda += P->cont * (ka - 1.0); P->ddb += P->cont * (kb - 1.0); }
-  pair_momentum(D, 1.0, pra * ka, rhoa, D->pr2[b] * kb, rhob, W, F, r, r2, ie, vab, P->A);
-  double k2 = xsph_weight(D, rhoa, rhob, W); /* eq 12 */
-  for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
+  double rd[3], r2 = separation(D, xa, xb, rd);
+  if (r2 >= D->support2 || r2 == 0.0) return -1.0f;
+  for (int d = 0; d < 3; d++) r[d] = (float)rd[d];
+  return (float)r2;
+}
+
+/* Plain-fluid pair (a, b): continuity (eq 6), delta-SPH, momentum (eqs 9-11) and XSPH (eq 12) per unit mass of
+ * the partner (fluid_pair_core of pair_real.h); 0 if out of reach. In double, and in float (the precisions
+ * mixed and single; fluid_pair_terms picks by the precision). */
+SPHDEM_RINLINE int fluid_pair_terms_double(const sphdem_dev *D, const pair_consts *K, sphdem_pair_opts O,
+                                           const double *xa, const double *va, double rhoa, double pra, double epsa,
+                                           int32_t b, fluid_pair_rec *P) {
+  double r[3], vab[3];
+  const double r2 = separation(D, xa, D->x + 3 * b, r);
+  if (r2 >= D->support2 || r2 == 0.0) return 0;
+  for (int d = 0; d < 3; d++) vab[d] = va[d] - D->ve[3 * b + d];
+  const double epsb = O.delta == 2 ? fluid_eps(D, b) : 1.0;
+  fluid_pair_core(K, O, r, r2, vab, rhoa, pra, epsa, D->rhop[b], D->pr2[b], epsb, P);
   return 1;
 }
 
-/* Monaghan 1994 wall repulsion: D [(r0/r)^12 - (r0/r)^4] r_ab / r^2 within r0. */
-SPHDEM_HD void wall_repulsion(const sphdem_dev *D, double rr, double r2, const double *r, double *acc) {
-  if (!(D->P.rep_D > 0.0) || rr >= D->P.rep_r0) return;
-  double s = D->P.rep_r0 / rr, s2 = s * s, s4 = s2 * s2, s12 = s4 * s4 * s4;
-  double k3 = D->P.rep_D * (s12 - s4) / r2;
-  for (int d = 0; d < 3; d++) acc[d] += k3 * r[d];
+SPHDEM_HD int fluid_pair_terms_float(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
+                                     double pra, double epsa, int32_t b, fluid_pair_rec *P) {
+  float r[3], vab[3];
+  const float r2 = separation_f(D, xa, D->x + 3 * b, r);
+  if (r2 < 0.0f) return 0;
+  for (int d = 0; d < 3; d++) vab[d] = (float)(va[d] - D->ve[3 * b + d]);
+  const double epsb = D->P.delta > 0.0 && D->couple.eos ? fluid_eps(D, b) : 1.0;
+  fluid_pair_rec_f Q;
+  const pair_consts_f K = pair_consts_of_f(D);
+  fluid_pair_core_f(&K, pair_opts(D), r, r2, vab, (float)rhoa, (float)pra, (float)epsa, (float)D->rhop[b], (float)D->pr2[b],
+                    (float)epsb, &Q);
+  P->cont = Q.cont; P->dda = Q.dda; P->ddb = Q.ddb;
+  for (int d = 0; d < 3; d++) { P->A[d] = Q.A[d]; P->U[d] = Q.U[d]; }
+  return 1;
+}
+
+SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
+                               double pra, double epsa, int32_t b, fluid_pair_rec *P) {
+  if (pair_in_float(D)) return fluid_pair_terms_float(D, xa, va, rhoa, pra, epsa, b, P);
+  const pair_consts K = pair_consts_of(D);
+  return fluid_pair_terms_double(D, &K, pair_opts(D), xa, va, rhoa, pra, epsa, b, P);
 }
 
 /* Wall neighbour w of a, plain fluid: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan
- * repulsion. */
-SPHDEM_HD void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
-  double r[3], vv[3];
-  double r2 = separation(D, R->xa, D->wx + 3 * w, r);
-  if (r2 >= D->support2 || r2 == 0.0) return;
-  double rr = sqrt(r2), q = rr * D->inv_h;
-  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-  /* wall particles keep their volume V_w = m_w / rho0 (Adami 2012); their density follows eq 15 */
-  double mb = D->wmass[w] * D->wrho[w] / D->P.rho0, vdotr = 0.0, rw = D->wrho[w];
-  if (D->couple.wall_porosity) { mb *= D->couple.wall_porosity[w]; rw *= D->couple.wall_porosity[w]; } /* coupled: superficial wall density eps_w rho_w */
-  for (int d = 0; d < 3; d++) {
-    vdotr += (R->va[d] - D->wv[3 * w + d]) * r[d];   /* prescribed wall velocity: no penetration */
-    vv[d] = R->va[d] - D->wvx[3 * w + d];            /* eq 13: extrapolated, no slip */
+ * repulsion (wall_pair_core of pair_real.h, in the precision's real type). */
+SPHDEM_RINLINE void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
+  const double ew = D->couple.wall_porosity ? D->couple.wall_porosity[w] : 1.0;
+  if (pair_in_float(D)) {
+    float r[3], vw[3], vv[3], drho = 0.0f, acc[3] = {0.0f, 0.0f, 0.0f};
+    const float r2 = separation_f(D, R->xa, D->wx + 3 * w, r);
+    if (r2 < 0.0f) return;
+    for (int d = 0; d < 3; d++) {
+      vw[d] = (float)(R->va[d] - D->wv[3 * w + d]);
+      vv[d] = (float)(R->va[d] - D->wvx[3 * w + d]);
+    }
+    const pair_consts_f K = pair_consts_of_f(D);
+    wall_pair_core_f(&K, pair_opts(D), r, r2, vw, vv, (float)R->rhoa, (float)R->pra, (float)D->wmass[w], (float)D->wrho[w],
+                     (float)D->wp[w], (float)ew, &drho, acc);
+    R->drho += drho;
+    for (int d = 0; d < 3; d++) R->acc[d] += acc[d];
+    return;
   }
-  double ka, kb; /* pressure_form (V_w = mb / rw) */
-  pair_form_factors(D, R->rhoa, rw, &ka, &kb);
-  R->drho += mb * ka * vdotr * F;
-  pair_momentum(D, mb, R->pra * ka, R->rhoa, D->wp[w] / (rw * rw) * kb, rw, W, F, r, r2, 1.0 / (r2 + D->eta2), vv,
-                R->acc);
-  wall_repulsion(D, rr, r2, r, R->acc);
+  double r[3], vw[3], vv[3];
+  const double r2 = separation(D, R->xa, D->wx + 3 * w, r);
+  if (r2 >= D->support2 || r2 == 0.0) return;
+  for (int d = 0; d < 3; d++) {
+    vw[d] = R->va[d] - D->wv[3 * w + d];   /* prescribed wall velocity: no penetration */
+    vv[d] = R->va[d] - D->wvx[3 * w + d];  /* eq 13: extrapolated, no slip */
+  }
+  const pair_consts K = pair_consts_of(D);
+  wall_pair_core(&K, pair_opts(D), r, r2, vw, vv, R->rhoa, R->pra, D->wmass[w], D->wrho[w], D->wp[w], ew, &R->drho, R->acc);
 }
 
 /* Kernel interpolation at probe point k (He 2018 eq 4, Shepard-normalised). */
@@ -472,9 +481,15 @@ SPHDEM_HD int32_t list_body(const sphdem_dev *D, int64_t a, int set, int half, i
   return n;
 }
 
+/* Precision single: the state (x, v, rho) and its rates are kept at float precision, rounded after each update
+ * (the arrays stay double); the other precisions keep them in double. */
+SPHDEM_HD double state_round(const sphdem_dev *D, double v) {
+  return D->P.precision == SPHDEM_PREC_SINGLE ? (double)(float)v : v;
+}
+
 SPHDEM_HD void kick_body(const sphdem_dev *D, int64_t i, double dth) {
-  for (int d = 0; d < D->P.dim; d++) D->v[3 * i + d] += dth * D->a[3 * i + d];
-  D->rho[i] = isolated_floor(D, i, D->rho[i] + dth * D->drho[i]);
+  for (int d = 0; d < D->P.dim; d++) D->v[3 * i + d] = state_round(D, D->v[3 * i + d] + dth * D->a[3 * i + d]);
+  D->rho[i] = state_round(D, isolated_floor(D, i, D->rho[i] + dth * D->drho[i]));
 }
 
 SPHDEM_HD void drift_body(const sphdem_dev *D, int64_t i, double dt) {
@@ -484,7 +499,7 @@ SPHDEM_HD void drift_body(const sphdem_dev *D, int64_t i, double dt) {
       double lo = D->P.boxlo[d], L = D->L[d];
       if (x < lo) x += L; else if (x >= lo + L) x -= L;
     }
-    D->x[3 * i + d] = x;
+    D->x[3 * i + d] = state_round(D, x);
   }
 }
 
@@ -511,11 +526,11 @@ SPHDEM_HD void rk_stage_body(const sphdem_dev *D, int64_t i, int mode, double wk
       double lo = D->P.boxlo[d], L = D->L[d];
       if (x < lo) x += L; else if (x >= lo + L) x -= L;
     }
-    D->x[3 * i + d] = x;
-    D->v[3 * i + d] = D->rk.v0[3 * i + d] + (mode == 2 ? D->rk.dv[3 * i + d] : cst * kv);
+    D->x[3 * i + d] = state_round(D, x);
+    D->v[3 * i + d] = state_round(D, D->rk.v0[3 * i + d] + (mode == 2 ? D->rk.dv[3 * i + d] : cst * kv));
   }
   D->rk.drho[i] += wk * D->drho[i];
-  D->rho[i] = D->rk.rho0[i] + (mode == 2 ? D->rk.drho[i] : cst * D->drho[i]);
+  D->rho[i] = state_round(D, D->rk.rho0[i] + (mode == 2 ? D->rk.drho[i] : cst * D->drho[i]));
 }
 
 /* ---- reductions ---------------------------------------------------------------------------- */

@@ -170,12 +170,41 @@ int sphdem_cpu_wall_state(struct sphdem_ctx_s *c) {
   return SPHDEM_OK;
 }
 
+/* The float pair loop of the precisions mixed and single (sph_cpu_float.c): the AVX2 + FMA build where the CPU
+ * has both (and the compiler could build it), else the baseline one; SPHDEM_CPU_FLOAT=generic forces the latter. */
+typedef void (*pairs_float_fn)(const sphdem_dev *D, int64_t a, double *B, double *sums);
+void sphdem_cpu_pairs_float_generic(const sphdem_dev *D, int64_t a, double *B, double *sums);
+#ifdef SPHDEM_CPU_FLOAT_AVX2
+void sphdem_cpu_pairs_float_avx2(const sphdem_dev *D, int64_t a, double *B, double *sums);
+#endif
+
+static pairs_float_fn cpu_pairs_float(void) {
+  const char *e = getenv("SPHDEM_CPU_FLOAT");
+  if (e && !strcmp(e, "generic")) return sphdem_cpu_pairs_float_generic;
+#ifdef SPHDEM_CPU_FLOAT_AVX2
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return sphdem_cpu_pairs_float_avx2;
+#endif
+  return sphdem_cpu_pairs_float_generic;
+}
+
+/* Name of the float pair loop the precisions mixed and single use on this CPU ("avx2" or "generic"). */
+const char *sphdem_cpu_float_isa(void) {
+#ifdef SPHDEM_CPU_FLOAT_AVX2
+  if (cpu_pairs_float() == sphdem_cpu_pairs_float_avx2) return "avx2";
+#endif
+  return "generic";
+}
+
 /* Fluid pairs evaluated once from the half lists: a's share is summed in registers, b's share goes
  * to the thread's own accumulator array; then each particle adds the thread arrays (in thread
  * order, static schedule: deterministic for a given thread count) and its wall neighbours. */
 static int cpu_rates_sym(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
   int64_t n = D->nf;
+  const pairs_float_fn pairs_float = pair_in_float(D) ? cpu_pairs_float() : NULL;
+  const pair_consts K = pair_consts_of(D);  /* the double pairs' constants and terms, once */
+  const sphdem_pair_opts O = pair_opts(D);
   int nt = 1;
 #ifdef _OPENMP
   nt = omp_get_max_threads();
@@ -191,6 +220,11 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
     double *B = buf + (size_t)t * (size_t)n * 7;
     memset(B, 0, sizeof(double) * 7 * (size_t)n);
 #pragma omp barrier
+    if (pairs_float) {
+      /* mixed, single: the float pair loop (sph_cpu_float.c); a's sums straight into its own row */
+#pragma omp for schedule(static)
+      for (int64_t a = 0; a < n; a++) pairs_float(D, a, B, B + 7 * (size_t)a);
+    } else {
 #pragma omp for schedule(static)
     for (int64_t a = 0; a < n; a++) {
       const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
@@ -199,7 +233,7 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
       for (int64_t k = D->nl_start[a]; k < D->nl_start[a + 1]; k++) { /* (two ghosts: not in the half list) */
         int32_t b = D->nl[k];
         fluid_pair_rec P;
-        if (!fluid_pair_terms(D, xa, va, rhoa, pra, epsa, b, &P)) continue;
+        if (!fluid_pair_terms_double(D, &K, O, xa, va, rhoa, pra, epsa, b, &P)) continue;
         double mb = D->mass[b], *Bb = B + 7 * (size_t)b;
         da += mb * (P.cont + P.dda);
         Bb[0] += ma * (P.cont + P.ddb);
@@ -211,6 +245,7 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
       double *Ba = B + 7 * (size_t)a;
       Ba[0] += da;
       for (int d = 0; d < 3; d++) { Ba[1 + d] += aa[d]; Ba[4 + d] += ua[d]; }
+    }
     }
 #pragma omp for schedule(static)
     for (int64_t a = 0; a < n; a++) {

@@ -33,11 +33,11 @@ const char *const SYNTAX =
     "[wall GROUP-ID] [wall_clamp yes|no] [isolated KSUM] [skin V] [cfl V] [rho_err_max V] [device auto|cpu|gpu] "
     "[sync N] [check N] "
     "[hydrostatic ZSURF|auto] [every N] [phase TYPE RHO0 newtonian MU|hb TAU_Y K N GDOT_CUT [c0 C] ...] [eos tait|linear] "
-    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] "
+    "[p0 P0] [diffusion none|molteni|renorm [DELTA]] [shifting yes|no] [les CS] [integrator verlet|rk4] [precision double|mixed|single] "
     "[ghost mirror XLO XHI YLO YHI [ZLO ZHI]] [failure_dump yes|no|FILE]";
 const char *const KEYWORDS =
     "rho0, h, c0, dx, gamma, gravity, visc, tensile, xsph, delta, repulsion, wall, wall_clamp, isolated, skin, cfl, "
-    "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, ghost, "
+    "rho_err_max, device, sync, check, hydrostatic, every, phase, eos, p0, diffusion, shifting, les, integrator, precision, ghost, "
     "failure_dump";
 
 /* x rounded down to 3 significant digits: a suggested time step that is below x as printed */
@@ -274,6 +274,13 @@ void FixSPHFluid::parse_args(int narg, char **arg) {
       }
       ghost_ = true;
       iarg += 2 + nv;
+    } else if (kw == "precision") {
+      if (iarg + 1 >= narg) fail("precision must be double, mixed or single");
+      const std::string v = arg[iarg + 1];
+      if (v != "double" && v != "mixed" && v != "single")
+        fail("precision must be double, mixed or single (got '" + v + "')");
+      prm_.precision = v == "double" ? SPHDEM_PREC_DOUBLE : v == "mixed" ? SPHDEM_PREC_MIXED : SPHDEM_PREC_SINGLE;
+      iarg += 2;
     } else if (kw == "integrator") {
       if (iarg + 1 >= narg) fail("integrator must be verlet or rk4");
       const std::string v = arg[iarg + 1];
@@ -802,6 +809,9 @@ std::string FixSPHFluid::terms_line() const {
   if (prm_.isolated > 0) snprintf(b, sizeof b, "isolated %g", prm_.isolated), add(b);
   add(coupler_ ? "coupling on (fix sph/couple)" : "coupling off");
   snprintf(b, sizeof b, "integrator %s; every %ld", rk4_ ? "rk4" : "verlet", every_);
+  add(b);
+  snprintf(b, sizeof b, "precision %s", prm_.precision == SPHDEM_PREC_MIXED ? "mixed"
+                                        : prm_.precision == SPHDEM_PREC_SINGLE ? "single" : "double");
   add(b);
   return t;
 }

@@ -83,6 +83,13 @@ def fluid_restart_read(engine):
     return ("read_restart bad.restart\ntimestep 1e-4\n" + E.NEIGH + E.FIX.format(extra="") + "run 1\n")
 
 
+def shift_x(script, x0):
+    """the scene moved by x0 along x: every region's x bounds (the dam break far from the origin)"""
+    import re
+    return re.sub(r"(region \w+ block) (\S+) (\S+) ",
+                  lambda m: "%s %.17g %.17g " % (m.group(1), float(m.group(2)) + x0, float(m.group(3)) + x0), script)
+
+
 FLUID = [
     V("missing c0", R("c0 15 ", ""), ["missing required keyword(s): c0"]),
     V("rho0 nan", R("rho0 1000", "rho0 nan"), ["rho0 expects a number, got 'nan'"]),
@@ -117,6 +124,10 @@ FLUID = [
     V("visc morris negative", R("visc artificial 0.05", "visc morris -1e-3"), ["visc morris", "mu > 0"]),
     V("every zero", lambda s: s.replace("wall walls", "every 0 wall walls"),
       ["every expects an integer N >= 1, got '0'"]),
+    V("precision unknown", lambda s: s.replace("wall walls", "precision half wall walls"),
+      ["precision must be double, mixed or single", "half"]),
+    V("precision single far from the origin", lambda s: shift_x(s, 1e4).replace("wall walls", "precision single wall walls"),
+      ["precision single", "float spacing", "precision mixed"]),
     V("failure_dump bad value", lambda s: s.replace("wall walls", "failure_dump maybe wall walls"),
       ["failure_dump must be yes, no or a file name", "maybe"]),
     V("corrupted restart record", lambda s: s, ["restart record of atom", "18"], base=fluid_restart_read,
