@@ -203,8 +203,6 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
   const sphdem_dev *D = &c->D;
   int64_t n = D->nf;
   const pairs_float_fn pairs_float = pair_in_float(D) ? cpu_pairs_float() : NULL;
-  const pair_consts K = pair_consts_of(D);  /* the double pairs' constants and terms, once */
-  const sphdem_pair_opts O = pair_opts(D);
   int nt = 1;
 #ifdef _OPENMP
   nt = omp_get_max_threads();
@@ -217,6 +215,8 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
 #ifdef _OPENMP
     t = omp_get_thread_num();
 #endif
+    const pair_consts K = pair_consts_of(D);  /* the double pairs' constants and terms, once per thread */
+    const sphdem_pair_opts O = pair_opts(D);
     double *B = buf + (size_t)t * (size_t)n * 7;
     memset(B, 0, sizeof(double) * 7 * (size_t)n);
 #pragma omp barrier
