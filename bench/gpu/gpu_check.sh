@@ -62,6 +62,12 @@ for part in $PARTS; do
     for n in $SIZES; do
       step "bench3d_gpu_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20
       grep BENCH "$OUT/bench3d_gpu_$n.log"
+      # the float pair terms (fix sph/fluid precision mixed / single) beside double
+      for prec in mixed single; do
+        step "bench3d_gpu_${prec}_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 200 --warmup 20 \
+          --precision $prec
+        grep BENCH "$OUT/bench3d_gpu_${prec}_$n.log"
+      done
       # multiphase: two phases without (mp 1) and with (mp 2) the delta-plus terms
       for mp in 1 2; do
         step "bench3d_gpu_mp${mp}_$n" 300 "$BIN/bench_dambreak" --dim 3 --device gpu --n "$n" --steps 100 --warmup 10 --mp $mp

@@ -300,7 +300,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap); free(c->xbuf);
-  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); free(c->nl_ghost); }
+  if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); free(c->f8buf); free(c->nl_ghost); }
   free(c);
   *pc = NULL;
   return SPHDEM_OK;

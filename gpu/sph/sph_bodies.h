@@ -556,14 +556,19 @@ SPHDEM_HD void red_combine(sphdem_red *r, const sphdem_red *o) {
   r->numax = fmax(r->numax, o->numax);
 }
 
+/* max and min of the reductions as fmax / fmin for a NaN in b (a is kept), inline on the CPU too (libm's fmax is a
+ * call; the reduction runs over every particle each step) */
+SPHDEM_HD double red_max(double a, double b) { return b > a ? b : a; }
+SPHDEM_HD double red_min(double a, double b) { return b < a ? b : a; }
+
 /* Adds particle i of the set to r: fluid stats, displacement since the last sort, bounding box. */
 SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) {
   const double *x = set == SPHDEM_SET_FLUID ? D->x + 3 * i : D->wx + 3 * i;
-  for (int d = 0; d < D->P.dim; d++) { r->lo[d] = fmin(r->lo[d], x[d]); r->hi[d] = fmax(r->hi[d], x[d]); }
+  for (int d = 0; d < D->P.dim; d++) { r->lo[d] = red_min(r->lo[d], x[d]); r->hi[d] = red_max(r->hi[d], x[d]); }
   if (set != SPHDEM_SET_FLUID) return;
   double v2 = 0.0, a2 = 0.0, s2 = 0.0, rr[3];
   if (D->uidx[i] >= D->nown) { /* a ghost copy: its displacement decides a resort, its state is its owner's */
-    if (isfinite(x[0] + x[1] + x[2])) r->disp2max = fmax(r->disp2max, separation(D, x, D->x0 + 3 * i, rr));
+    if (isfinite(x[0] + x[1] + x[2])) r->disp2max = red_max(r->disp2max, separation(D, x, D->x0 + 3 * i, rr));
     else r->disp2max = 1e300;
     return;
   }
@@ -575,15 +580,15 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
     if (!D->P.periodic[d] && (x[d] < D->P.boxlo[d] || x[d] > D->P.boxhi[d])) lost = 1;
   }
   s2 = separation(D, x, D->x0 + 3 * i, rr);
-  r->v2max = fmax(r->v2max, v2);
-  r->a2max = fmax(r->a2max, a2);
-  r->rhoerr = fmax(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / fluid_rho0(D, i) - 1.0)); /* intrinsic when coupled */
+  r->v2max = red_max(r->v2max, v2);
+  r->a2max = red_max(r->a2max, a2);
+  r->rhoerr = red_max(r->rhoerr, fabs(eos_density(D, i, D->rho[i]) / fluid_rho0(D, i) - 1.0)); /* intrinsic when coupled */
   if (D->mp.on) {
     int k = D->mp.ph[i];
-    r->v2ph[k] = fmax(r->v2ph[k], v2);
-    if (D->mp.mu_p) r->numax = fmax(r->numax, D->mp.mu_p[i] / D->rho[i]);
+    r->v2ph[k] = red_max(r->v2ph[k], v2);
+    if (D->mp.mu_p) r->numax = red_max(r->numax, D->mp.mu_p[i] / D->rho[i]);
   }
-  r->disp2max = fmax(r->disp2max, s2);
+  r->disp2max = red_max(r->disp2max, s2);
   r->ke += 0.5 * D->mass[i] * v2;
   r->nnan += bad;
   r->nlost += lost;

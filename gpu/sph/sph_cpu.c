@@ -172,10 +172,10 @@ int sphdem_cpu_wall_state(struct sphdem_ctx_s *c) {
 
 /* The float pair loop of the precisions mixed and single (sph_cpu_float.c): the AVX2 + FMA build where the CPU
  * has both (and the compiler could build it), else the baseline one; SPHDEM_CPU_FLOAT=generic forces the latter. */
-typedef void (*pairs_float_fn)(const sphdem_dev *D, int64_t a, double *B, double *sums);
-void sphdem_cpu_pairs_float_generic(const sphdem_dev *D, int64_t a, double *B, double *sums);
+typedef void (*pairs_float_fn)(const sphdem_dev *D, const float *F8, int64_t a, double *B, double *sums);
+void sphdem_cpu_pairs_float_generic(const sphdem_dev *D, const float *F8, int64_t a, double *B, double *sums);
 #ifdef SPHDEM_CPU_FLOAT_AVX2
-void sphdem_cpu_pairs_float_avx2(const sphdem_dev *D, int64_t a, double *B, double *sums);
+void sphdem_cpu_pairs_float_avx2(const sphdem_dev *D, const float *F8, int64_t a, double *B, double *sums);
 #endif
 
 static pairs_float_fn cpu_pairs_float(void) {
@@ -209,6 +209,19 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
 #endif
   TRY_CPU(grow(c, (void **)&c->symbuf, &c->symbuf_cap, (int64_t)nt * n * 7, sizeof(double)));
   double *buf = c->symbuf;
+  float *F8 = NULL;
+  if (pairs_float) {
+    /* each particle's float record for the float pair loop: velocity at the force time, rho, P/rho^2, mass, eps */
+    TRY_CPU(grow(c, (void **)&c->f8buf, &c->f8buf_cap, 8 * n, sizeof(float)));
+    F8 = c->f8buf;
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < n; i++) {
+      float *f = F8 + 8 * (size_t)i;
+      f[0] = (float)D->ve[3 * i]; f[1] = (float)D->ve[3 * i + 1]; f[2] = (float)D->ve[3 * i + 2];
+      f[3] = (float)D->rhop[i]; f[4] = (float)D->pr2[i]; f[5] = (float)D->mass[i]; f[6] = (float)fluid_eps(D, i);
+      f[7] = 0.0f;
+    }
+  }
 #pragma omp parallel num_threads(nt)
   {
     int t = 0;
@@ -223,7 +236,7 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
     if (pairs_float) {
       /* mixed, single: the float pair loop (sph_cpu_float.c); a's sums straight into its own row */
 #pragma omp for schedule(static)
-      for (int64_t a = 0; a < n; a++) pairs_float(D, a, B, B + 7 * (size_t)a);
+      for (int64_t a = 0; a < n; a++) pairs_float(D, F8, a, B, B + 7 * (size_t)a);
     } else {
 #pragma omp for schedule(static)
     for (int64_t a = 0; a < n; a++) {

@@ -1,6 +1,7 @@
 /* sph_cpu_float.c - the CPU backend's half-list fluid pairs in float (precisions mixed and single): the
  * neighbours of fluid particle a in blocks of SPHDEM_FBLK are gathered into float arrays (structure of arrays:
- * separation, velocity difference, density, P/rho^2, porosity, mass), their pair terms are evaluated in one SIMD
+ * separation, velocity difference, density, P/rho^2, porosity, mass; all but the separation from the float record
+ * of each particle, F8, filled once per rate pass by sph_cpu.c), their pair terms are evaluated in one SIMD
  * loop by the shared float body (fluid_pair_core_f, pair_real.h), and a's sums and the partners' shares are then
  * accumulated in double. Built twice: for the baseline instruction set (sphdem_cpu_pairs_float_generic) and,
  * where the compiler can, for AVX2 + FMA (sph_cpu_float_avx2.c); sph_cpu.c picks one at run time. */
@@ -17,16 +18,17 @@
 /* The pairs (a, b) of a's half list: a's density rate, acceleration and XSPH velocity are added to sums[0..7)
  * (drho, a[3], u[3]), b's shares (m_a times the record, fluid_pair_rec) to the accumulator row B + 7 b. */
 static inline __attribute__((always_inline)) void pairs_float(const sphdem_dev *D, const sphdem_pair_opts O,
-                                                              int64_t a, double *B, double *sums) {
-  const double *xa = D->x + 3 * a, *va = D->ve + 3 * a;
+                                                              const float *F8, int64_t a, double *B, double *sums) {
+  const double *xa = D->x + 3 * a;
   const float rhoa = (float)D->rhop[a], pra = (float)D->pr2[a], epsa = (float)fluid_eps(D, a);
   const double ma = D->mass[a];
-  const int single = D->P.precision == SPHDEM_PREC_SINGLE, need_epsb = O.delta == 2;
+  const int single = D->P.precision == SPHDEM_PREC_SINGLE;
   const int periodic = D->P.periodic[0] || D->P.periodic[1] || (D->P.dim == 3 && D->P.periodic[2]);
   const float support2 = (float)D->support2;
   const int64_t k0 = D->nl_start[a], k1 = D->nl_start[a + 1];
   const pair_consts_f K = pair_consts_of_f(D);
   const float xaf[3] = {(float)xa[0], (float)xa[1], (float)xa[2]};
+  const float vaf[3] = {F8[8 * (size_t)a], F8[8 * (size_t)a + 1], F8[8 * (size_t)a + 2]};
   /* the lanes past a block's end keep finite values (masked by j < m) */
   float rx[SPHDEM_FBLK], ry[SPHDEM_FBLK], rz[SPHDEM_FBLK], vx[SPHDEM_FBLK], vy[SPHDEM_FBLK], vz[SPHDEM_FBLK];
   float rb[SPHDEM_FBLK], pb[SPHDEM_FBLK], eb[SPHDEM_FBLK], mf[SPHDEM_FBLK];
@@ -47,17 +49,17 @@ static inline __attribute__((always_inline)) void pairs_float(const sphdem_dev *
     }
     for (int j = 0; j < m; j++) {
       const int32_t b = nb[j];
-      const double *xb = D->x + 3 * b, *vb = D->ve + 3 * b;
+      const double *xb = D->x + 3 * b;
+      const float *fb = F8 + 8 * (size_t)b; /* b's float record: v (force time), rho, P/rho^2, m, eps */
       if (!periodic && single) {
         rx[j] = xaf[0] - (float)xb[0]; ry[j] = xaf[1] - (float)xb[1]; rz[j] = xaf[2] - (float)xb[2];
       } else if (!periodic) {
         rx[j] = (float)(xa[0] - xb[0]); ry[j] = (float)(xa[1] - xb[1]); rz[j] = (float)(xa[2] - xb[2]);
       }
-      vx[j] = (float)(va[0] - vb[0]); vy[j] = (float)(va[1] - vb[1]); vz[j] = (float)(va[2] - vb[2]);
-      rb[j] = (float)D->rhop[b]; pb[j] = (float)D->pr2[b]; mf[j] = (float)D->mass[b];
+      vx[j] = vaf[0] - fb[0]; vy[j] = vaf[1] - fb[1]; vz[j] = vaf[2] - fb[2];
+      rb[j] = fb[3]; pb[j] = fb[4]; mf[j] = fb[5]; eb[j] = fb[6];
     }
     if (D->P.dim == 2) for (int j = 0; j < m; j++) rz[j] = 0.0f; /* (z kept at its input value in 2D) */
-    if (need_epsb) for (int j = 0; j < m; j++) eb[j] = (float)fluid_eps(D, nb[j]);
     /* the pair terms, vectorised by the compiler across the block (-O3; not omp simd, whose per-lane copies of
      * the small arrays block it); a's block sums in float, then in double */
     float ob[SPHDEM_FBLK], oA[3][SPHDEM_FBLK], oU[3][SPHDEM_FBLK];
@@ -93,20 +95,21 @@ static inline __attribute__((always_inline)) void pairs_float(const sphdem_dev *
   case ((visc_) * 12 + (tens_) * 6 + (delta_) * 2 + (xsph_)): {                                              \
     sphdem_pair_opts K = O;                                                                                  \
     K.visc = (visc_); K.tensile = (tens_); K.tensile4 = 1; K.delta = (delta_); K.xsph = (xsph_);             \
-    pairs_float(D, K, a, B, sums);                                                                           \
+    pairs_float(D, K, F8, a, B, sums);                                                                           \
     return;                                                                                                  \
   }
 #define SPHDEM_FV_X(v, t, d) SPHDEM_FV(v, t, d, 0) SPHDEM_FV(v, t, d, 1)
 #define SPHDEM_FV_D(v, t) SPHDEM_FV_X(v, t, 0) SPHDEM_FV_X(v, t, 1) SPHDEM_FV_X(v, t, 2)
 #define SPHDEM_FV_T(v) SPHDEM_FV_D(v, 0) SPHDEM_FV_D(v, 1)
 
-void SPHDEM_FCAT(sphdem_cpu_pairs_float, SPHDEM_FLOAT_ISA)(const sphdem_dev *D, int64_t a, double *B, double *sums) {
+void SPHDEM_FCAT(sphdem_cpu_pairs_float, SPHDEM_FLOAT_ISA)(const sphdem_dev *D, const float *F8, int64_t a, double *B,
+                                                          double *sums) {
   const sphdem_pair_opts O = pair_opts(D);
-  if (O.tensile && !O.tensile4) { pairs_float(D, O, a, B, sums); return; }
+  if (O.tensile && !O.tensile4) { pairs_float(D, O, F8, a, B, sums); return; }
   switch (O.visc * 12 + O.tensile * 6 + O.delta * 2 + O.xsph) {
     SPHDEM_FV_T(SPHDEM_VISC_NONE)
     SPHDEM_FV_T(SPHDEM_VISC_MORRIS)
     SPHDEM_FV_T(SPHDEM_VISC_ARTIFICIAL)
-    default: pairs_float(D, O, a, B, sums); return;
+    default: pairs_float(D, O, F8, a, B, sums); return;
   }
 }

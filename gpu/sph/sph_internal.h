@@ -112,6 +112,8 @@ struct sphdem_ctx_s {
   int cpu_sym;                  /* CPU: fluid pairs once from half lists (1) or gathered like the GPU (0) */
   double *symbuf;               /* CPU symmetric pass: per-thread rate accumulators */
   int64_t symbuf_cap;
+  float *f8buf;                 /* CPU float pair loop (precisions mixed, single): 8 floats per fluid particle */
+  int64_t f8buf_cap;
   int64_t nl_cap, wl_cap, nls_cap, wls_cap, wfl_cap, wfls_cap;
   double timers[SPHDEM_NTIMERS];
   /* scratch device buffers used by sorts/gathers (capacity max(cap_f, cap_w)) */
