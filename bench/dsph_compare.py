@@ -246,7 +246,7 @@ def main():
     dsph = check_peer(args.dsph_bin, "DualSPHysics CPU binary", "--dsph-bin")
     writer = check_peer(args.case_writer, "DualSPHysics case writer", "--case-writer")
     bench = find_bench(args.bench_exe)
-    sizes = [float(s) for s in args.sizes.split(",")]
+    sizes = [float(s) for s in args.sizes.split(",") if s.strip()]
     steps_l = [int(s) for s in args.steps.split(",")]
     steps_l += [steps_l[-1]] * (len(sizes) - len(steps_l))
     threads = [int(t) for t in args.threads.split(",")]
