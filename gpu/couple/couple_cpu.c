@@ -3,12 +3,17 @@
  *
  * The three passes of a coupling step visit the same fluid-grain pairs (porosity: fluid -> grains, grain
  * forces: grain -> fluid, reaction: fluid -> grains). On the CPU the porosity pass walks the grain cells once
- * and records each fluid particle's grains within 2 hc (in the walk's order); the list is transposed to each
- * grain's fluid particles (ascending fluid index, the order of the grain pass's cell walk where no cell wraps
- * periodically), and the other two passes read the lists instead of walking cells. The per-pair terms are
- * the shared ones (couple_*_add / _finish), so the sums are those of the cell walks, term for term.
+ * and records each fluid particle's grains within 2 hc with the pair's kernel value W (in the walk's order);
+ * the list is transposed to each grain's fluid particles (ascending fluid index, the order of the grain pass's
+ * cell walk where no cell wraps periodically), and the other two passes read the lists and the kernel values
+ * instead of walking cells and evaluating the kernel again. The walk skips the cells that lie wholly beyond
+ * 2 hc of the fluid particle on the axes that are not periodic (about a third of the box of a 5^3-cell walk);
+ * it visits the others in the order of walk_grains_around, so the pairs and their order are those of the cell
+ * walk. The per-pair terms are the shared ones (couple_*_add_w / _finish, with W from couple_kernel), so the
+ * sums are those of the cell walks, term for term.
  * The GPU-like gather mode (SPHDEM_CPU_GATHER) walks the cells like the CUDA kernels: the twin self-test
  * (twin_cpu_selftest) compares the two. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -36,17 +41,112 @@ static int grow32(int32_t **p, int64_t *cap, int64_t n) {
   return 0;
 }
 
+/* Per-thread pair buffer: grain indices and kernel values, one capacity. */
+static int grow_pairs(int32_t **pj, double **pw, int64_t *cap, int64_t n) {
+  if (n <= *cap) return 0;
+  int64_t m = n + n / 4 + 16;
+  int32_t *q = (int32_t *)realloc(*pj, 4 * (size_t)m);
+  if (!q) return 1;
+  *pj = q;
+  double *w = (double *)realloc(*pw, 8 * (size_t)m);
+  if (!w) return 1;
+  *pw = w;
+  *cap = m;
+  return 0;
+}
+
+static int growd(double **p, int64_t *cap, int64_t n) {
+  if (n <= *cap) return 0;
+  int64_t m = n + n / 4 + 16;
+  double *q = (double *)realloc(*p, 8 * (size_t)m);
+  if (!q) return 1;
+  *p = q; *cap = m;
+  return 0;
+}
+
+/* Distance from x to cell i of a grain-grid axis (lower edge lo, cell size cs, n cells), 0 inside; the edge
+ * cells extend outward without bound (positions beyond the grid are binned into them). Shortened by a margin
+ * far above the rounding of the binning, so that a skipped cell never holds a grain within reach. */
+static inline double grain_cell_gap(double x, double lo, double cs, int n, int i) {
+  double b0 = lo + i * cs, b1 = b0 + cs, g = 0.0;
+  if (i > 0 && x < b0) g = b0 - x;
+  else if (i < n - 1 && x > b1) g = x - b1;
+  g -= 1e-9 * (cs + fabs(lo) + fabs(x));
+  return g > 0.0 ? g * g : 0.0;
+}
+
+/* Thread t's pair buffer (grain index, kernel value) and its fill n: grain j appended when within 2 hc of xa,
+ * its porosity term added to *s. */
+typedef struct {
+  int32_t **pj;
+  double **pw;
+  int64_t *cap, n;
+  int err;
+} pair_sink;
+
+static inline void porosity_cell(const sphdem_dev *D, const double *xa, int64_t cc, double *s, pair_sink *k) {
+  double r[3];
+  for (int32_t j = D->couple.gcstart[cc]; j < D->couple.gcend[cc]; j++) {
+    double r2 = separation(D, xa, D->couple.gx + 3 * j, r);
+    if (r2 >= D->couple.support2c) continue;
+    double W = couple_kernel(D, r2);
+    couple_porosity_add_w(D, j, W, s);
+    if (!k->err && grow_pairs(k->pj, k->pw, k->cap, k->n + 1)) k->err = 1;
+    if (!k->err) { (*k->pj)[k->n] = j; (*k->pw)[k->n] = W; }
+    k->n++;
+  }
+}
+
+/* Fluid particle a's grains within 2 hc (porosity sum and pairs): the cells of walk_grains_around in its order,
+ * without those wholly beyond 2 hc where no axis is periodic (periodic grids take the plain walk). */
+static inline double porosity_pairs(const sphdem_dev *D, const double *xa, pair_sink *k) {
+  double s = 0.0;
+  const int dim = D->P.dim;
+  int periodic = 0;
+  for (int d = 0; d < dim; d++) periodic |= D->P.periodic[d];
+  if (periodic) {
+    cell_walk w;
+    int64_t cc;
+    walk_grains_around(D, xa, &w);
+    while (walk_next(&w, &cc)) porosity_cell(D, xa, cc, &s, k);
+    return s;
+  }
+  const int *n = D->couple.gnc, *L = D->couple.glay;
+  const double *lo = D->couple.gglo, *cs = D->couple.gcs, R2 = D->couple.support2c;
+  int b0[3] = {0, 0, 0}, b1[3] = {0, 0, 0};
+  for (int d = 0; d < dim; d++) {
+    int c = grain_grid_coord(D, d, xa[d]);
+    b0[d] = c - L[d] < 0 ? 0 : c - L[d];
+    b1[d] = c + L[d] > n[d] - 1 ? n[d] - 1 : c + L[d];
+  }
+  for (int z = b0[2]; z <= b1[2]; z++) {
+    double gz = dim == 3 ? grain_cell_gap(xa[2], lo[2], cs[2], n[2], z) : 0.0;
+    if (gz >= R2) continue;
+    for (int y = b0[1]; y <= b1[1]; y++) {
+      double gyz = gz + grain_cell_gap(xa[1], lo[1], cs[1], n[1], y);
+      if (gyz >= R2) continue;
+      int64_t row = ((int64_t)z * n[1] + y) * n[0];
+      for (int x = b0[0]; x <= b1[0]; x++)
+        if (gyz + grain_cell_gap(xa[0], lo[0], cs[0], n[0], x) < R2) porosity_cell(D, xa, row + x, &s, k);
+    }
+  }
+  return s;
+}
+
 /* the cell-walk loops of the listed passes (sph_passes.h): the gather mode, and the fallback when the pair
  * lists could not be built */
 SPHDEM_COUPLE_PASSES(SPHDEM_PASS_CPU_LOOP)
 
 void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c) {
   free(c->couple.cpl_fs); free(c->couple.cpl_gs); free(c->couple.cpl_f); free(c->couple.cpl_g);
-  for (int t = 0; t < c->couple.cpl_nt; t++) free(c->couple.cpl_tb[t]);
-  free(c->couple.cpl_tb); free(c->couple.cpl_tcap); free(c->couple.cpl_tn);
+  free(c->couple.cpl_fw); free(c->couple.cpl_gw);
+  for (int t = 0; t < c->couple.cpl_nt; t++) { free(c->couple.cpl_tb[t]); free(c->couple.cpl_tw[t]); }
+  free(c->couple.cpl_tb); free(c->couple.cpl_tw); free(c->couple.cpl_tcap); free(c->couple.cpl_tn);
   c->couple.cpl_fs = c->couple.cpl_gs = NULL; c->couple.cpl_f = c->couple.cpl_g = NULL;
-  c->couple.cpl_tb = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
+  c->couple.cpl_fw = c->couple.cpl_gw = NULL;
+  c->couple.cpl_tb = NULL; c->couple.cpl_tw = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
   c->couple.cap_cplfs = c->couple.cap_cplgs = c->couple.cap_cplf = c->couple.cap_cplg = 0;
+  c->couple.cap_cplfw = c->couple.cap_cplgw = 0;
   c->couple.cpl_nt = 0; c->couple.cpl_valid = 0;
 }
 
@@ -66,8 +166,12 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
     if (tc) c->couple.cpl_tcap = tc;
     int64_t *tn = tc ? (int64_t *)realloc(c->couple.cpl_tn, 8 * (size_t)nt) : NULL;
     if (tn) c->couple.cpl_tn = tn;
-    if (!tn) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate the pair-list buffers");
-    for (int t = c->couple.cpl_nt; t < nt; t++) { c->couple.cpl_tb[t] = NULL; c->couple.cpl_tcap[t] = 0; }
+    double **tw = tn ? (double **)realloc(c->couple.cpl_tw, sizeof(double *) * (size_t)nt) : NULL;
+    if (tw) c->couple.cpl_tw = tw;
+    if (!tw) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "couple: cannot allocate the pair-list buffers");
+    for (int t = c->couple.cpl_nt; t < nt; t++) {
+      c->couple.cpl_tb[t] = NULL; c->couple.cpl_tw[t] = NULL; c->couple.cpl_tcap[t] = 0;
+    }
     c->couple.cpl_nt = nt;
   }
   if (grow64(&c->couple.cpl_fs, &c->couple.cap_cplfs, nf + 1) ||
@@ -81,46 +185,46 @@ int sphdem_cpu_couple_porosity(struct sphdem_ctx_s *c) {
 #ifdef _OPENMP
     t = omp_get_thread_num();
 #endif
-    int64_t n = 0;
+    pair_sink k = {&c->couple.cpl_tb[t], &c->couple.cpl_tw[t], &c->couple.cpl_tcap[t], 0, 0};
     /* static schedule: each thread takes one contiguous block of a, in thread order */
 #pragma omp for schedule(static)
     for (int64_t a = 0; a < nf; a++) {
-      const double *xa = D->x + 3 * a;
-      double s = 0.0;
-      int64_t n0 = n;
-      cell_walk w;
-      int64_t cc;
-      walk_grains_around(D, xa, &w);
-      while (walk_next(&w, &cc))
-        for (int32_t j = D->couple.gcstart[cc]; j < D->couple.gcend[cc]; j++)
-          if (couple_porosity_add(D, xa, j, &s)) {
-            if (!err && grow32(&c->couple.cpl_tb[t], &c->couple.cpl_tcap[t], n + 1)) err = 1;
-            if (!err) c->couple.cpl_tb[t][n] = j;
-            n++;
-          }
-      couple_porosity_finish(D, a, s);
-      fs[a + 1] = n - n0;
+      int64_t n0 = k.n;
+      couple_porosity_finish(D, a, porosity_pairs(D, D->x + 3 * a, &k));
+      fs[a + 1] = k.n - n0;
     }
-    c->couple.cpl_tn[t] = n;
+    c->couple.cpl_tn[t] = k.n;
+    err |= k.err;
   }
   if (err) return SPHDEM_OK; /* porosity is done; the other passes walk the cells (cpl_valid stays 0) */
   fs[0] = 0;
   for (int64_t a = 0; a < nf; a++) fs[a + 1] += fs[a];
   if (grow32(&c->couple.cpl_f, &c->couple.cap_cplf, fs[nf] + 1) ||
-      grow32(&c->couple.cpl_g, &c->couple.cap_cplg, fs[nf] + 1))
+      grow32(&c->couple.cpl_g, &c->couple.cap_cplg, fs[nf] + 1) ||
+      growd(&c->couple.cpl_fw, &c->couple.cap_cplfw, fs[nf] + 1) ||
+      growd(&c->couple.cpl_gw, &c->couple.cap_cplgw, fs[nf] + 1))
     return SPHDEM_OK;
   int64_t off = 0;
   for (int t = 0; t < nt; t++) {
-    if (c->couple.cpl_tn[t] > 0) memcpy(c->couple.cpl_f + off, c->couple.cpl_tb[t], 4 * (size_t)c->couple.cpl_tn[t]);
+    if (c->couple.cpl_tn[t] > 0) {
+      memcpy(c->couple.cpl_f + off, c->couple.cpl_tb[t], 4 * (size_t)c->couple.cpl_tn[t]);
+      memcpy(c->couple.cpl_fw + off, c->couple.cpl_tw[t], 8 * (size_t)c->couple.cpl_tn[t]);
+    }
     off += c->couple.cpl_tn[t];
   }
-  /* transpose: each grain's fluid particles in ascending fluid index */
+  /* transpose: each grain's fluid particles in ascending fluid index, with the kernel values */
   int64_t *gs = c->couple.cpl_gs;
+  const int32_t *fl = c->couple.cpl_f;
+  const double *fw = c->couple.cpl_fw;
   memset(gs, 0, 8 * (size_t)(ng + 1));
-  for (int64_t k = 0; k < fs[nf]; k++) gs[c->couple.cpl_f[k] + 1]++;
+  for (int64_t k = 0; k < fs[nf]; k++) gs[fl[k] + 1]++;
   for (int64_t j = 0; j < ng; j++) gs[j + 1] += gs[j];
   for (int64_t a = 0; a < nf; a++)
-    for (int64_t k = fs[a]; k < fs[a + 1]; k++) c->couple.cpl_g[gs[c->couple.cpl_f[k]]++] = (int32_t)a;
+    for (int64_t k = fs[a]; k < fs[a + 1]; k++) {
+      int64_t m = gs[fl[k]]++;
+      c->couple.cpl_g[m] = (int32_t)a;
+      c->couple.cpl_gw[m] = fw[k];
+    }
   for (int64_t j = ng; j > 0; j--) gs[j] = gs[j - 1]; /* the fill advanced each start to its end */
   gs[0] = 0;
   c->couple.cpl_valid = 1;
@@ -132,13 +236,17 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   if (!c->couple.cpl_valid) return sphdem_cpu_loop_couple_grains(c);
   const int64_t *gs = c->couple.cpl_gs;
   const int32_t *gl = c->couple.cpl_g;
+  const double *gw = c->couple.cpl_gw;
 #pragma omp parallel for schedule(dynamic, 16)
   for (int64_t j = 0; j < D->couple.ng; j++) {
     if (couple_grain_ghost(D, j)) continue; /* its owner's forces arrive by the exchange */
     const double *xj = D->couple.gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
     if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
-    for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
+    if (D->couple.torque) /* the torque needs the pair's separation: evaluated again */
+      for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
+    else
+      for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add_w(D, NULL, 0.0, gw[k], gl[k], &A);
     couple_grain_finish(D, j, &A);
   }
   return SPHDEM_OK;
@@ -149,11 +257,11 @@ int sphdem_cpu_couple_reaction(struct sphdem_ctx_s *c) {
   if (!c->couple.cpl_valid) return sphdem_cpu_loop_couple_reaction(c);
   const int64_t *fs = c->couple.cpl_fs;
   const int32_t *fl = c->couple.cpl_f;
+  const double *fw = c->couple.cpl_fw;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t a = 0; a < D->nf; a++) {
-    const double *xa = D->x + 3 * a;
     double s[3] = {0, 0, 0};
-    for (int64_t k = fs[a]; k < fs[a + 1]; k++) couple_reaction_add(D, xa, fl[k], s);
+    for (int64_t k = fs[a]; k < fs[a + 1]; k++) couple_reaction_add_w(D, fl[k], fw[k], s);
     couple_reaction_finish(D, a, s);
   }
   c->couple.cpl_valid = 0; /* one step's pairs */
