@@ -97,40 +97,73 @@ static inline void porosity_cell(const sphdem_dev *D, const double *xa, int64_t 
   }
 }
 
+/* A grid as the culled walk sees it: cell lower edge, size, its inverse, counts per axis. */
+typedef struct {
+  const double *lo, *cs, *inv;
+  const int *n;
+} grid_view;
+
+/* The box of cells of L layers around the cell of x (the cells of walk_init on a grid without periodic axes, in
+ * its order: x fastest), without the cells wholly at or beyond distance sqrt(reach2) of x; calls cell(cc) for
+ * the others. For grids with no periodic axis (the callers take walk_init otherwise). */
+#define CULLED_BOX_FOR(D, G, L, X, REACH2, CC, BODY)                                                            \
+  do {                                                                                                        \
+    const int dim_ = (D)->P.dim;                                                                              \
+    int b0_[3] = {0, 0, 0}, b1_[3] = {0, 0, 0};                                                               \
+    for (int d_ = 0; d_ < dim_; d_++) {                                                                       \
+      int c_ = axis_coord((X)[d_], (G).lo[d_], (G).inv[d_], (G).n[d_], 0);                                    \
+      b0_[d_] = c_ - (L)[d_] < 0 ? 0 : c_ - (L)[d_];                                                          \
+      b1_[d_] = c_ + (L)[d_] > (G).n[d_] - 1 ? (G).n[d_] - 1 : c_ + (L)[d_];                                  \
+    }                                                                                                         \
+    for (int z_ = b0_[2]; z_ <= b1_[2]; z_++) {                                                               \
+      double gz_ = dim_ == 3 ? grain_cell_gap((X)[2], (G).lo[2], (G).cs[2], (G).n[2], z_) : 0.0;             \
+      if (gz_ >= (REACH2)) continue;                                                                          \
+      for (int y_ = b0_[1]; y_ <= b1_[1]; y_++) {                                                             \
+        double gyz_ = gz_ + grain_cell_gap((X)[1], (G).lo[1], (G).cs[1], (G).n[1], y_);                      \
+        if (gyz_ >= (REACH2)) continue;                                                                       \
+        int64_t row_ = ((int64_t)z_ * (G).n[1] + y_) * (G).n[0];                                              \
+        for (int x_ = b0_[0]; x_ <= b1_[0]; x_++)                                                             \
+          if (gyz_ + grain_cell_gap((X)[0], (G).lo[0], (G).cs[0], (G).n[0], x_) < (REACH2)) {                 \
+            int64_t CC = row_ + x_;                                                                           \
+            BODY;                                                                                             \
+          }                                                                                                   \
+      }                                                                                                       \
+    }                                                                                                         \
+  } while (0)
+
+static inline int any_periodic(const sphdem_dev *D) {
+  int p = 0;
+  for (int d = 0; d < D->P.dim; d++) p |= D->P.periodic[d];
+  return p;
+}
+
 /* Fluid particle a's grains within 2 hc (porosity sum and pairs): the cells of walk_grains_around in its order,
- * without those wholly beyond 2 hc where no axis is periodic (periodic grids take the plain walk). */
+ * without those wholly beyond 2 hc where no axis is periodic (periodic grids take the plain walk). Grains are
+ * binned at every upload, so their cells hold them exactly. */
 static inline double porosity_pairs(const sphdem_dev *D, const double *xa, pair_sink *k) {
   double s = 0.0;
-  const int dim = D->P.dim;
-  int periodic = 0;
-  for (int d = 0; d < dim; d++) periodic |= D->P.periodic[d];
-  if (periodic) {
+  if (any_periodic(D)) {
     cell_walk w;
     int64_t cc;
     walk_grains_around(D, xa, &w);
     while (walk_next(&w, &cc)) porosity_cell(D, xa, cc, &s, k);
     return s;
   }
-  const int *n = D->couple.gnc, *L = D->couple.glay;
-  const double *lo = D->couple.gglo, *cs = D->couple.gcs, R2 = D->couple.support2c;
-  int b0[3] = {0, 0, 0}, b1[3] = {0, 0, 0};
-  for (int d = 0; d < dim; d++) {
-    int c = grain_grid_coord(D, d, xa[d]);
-    b0[d] = c - L[d] < 0 ? 0 : c - L[d];
-    b1[d] = c + L[d] > n[d] - 1 ? n[d] - 1 : c + L[d];
-  }
-  for (int z = b0[2]; z <= b1[2]; z++) {
-    double gz = dim == 3 ? grain_cell_gap(xa[2], lo[2], cs[2], n[2], z) : 0.0;
-    if (gz >= R2) continue;
-    for (int y = b0[1]; y <= b1[1]; y++) {
-      double gyz = gz + grain_cell_gap(xa[1], lo[1], cs[1], n[1], y);
-      if (gyz >= R2) continue;
-      int64_t row = ((int64_t)z * n[1] + y) * n[0];
-      for (int x = b0[0]; x <= b1[0]; x++)
-        if (gyz + grain_cell_gap(xa[0], lo[0], cs[0], n[0], x) < R2) porosity_cell(D, xa, row + x, &s, k);
-    }
-  }
+  grid_view g = {D->couple.gglo, D->couple.gcs, D->couple.gcs_inv, D->couple.gnc};
+  CULLED_BOX_FOR(D, g, D->couple.glay, xa, D->couple.support2c, cc, porosity_cell(D, xa, cc, &s, k));
   return s;
+}
+
+/* The wall volume sum around grain position xj (keyword immersion, couple_grain_wall_sum): the cells of
+ * walk_fluid_around in its order, without those wholly beyond 2 hc + skin/2 (the wall particles moved at most
+ * skin/2 since they were binned) where no axis is periodic. */
+static inline double grain_wall_sum(const sphdem_dev *D, const double *xj) {
+  if (any_periodic(D)) return couple_grain_wall_sum(D, xj);
+  double sigw = 0.0, reach = 2.0 * D->couple.hc + 0.5 * D->P.skin;
+  grid_view g = {D->glo, D->cs, D->cs_inv, D->nc};
+  CULLED_BOX_FOR(D, g, D->couple.flay, xj, reach * reach, cc,
+                 wall_volume_sum_cell(D, xj, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sigw));
+  return sigw;
 }
 
 /* the cell-walk loops of the listed passes (sph_passes.h): the gather mode, and the fallback when the pair
@@ -242,7 +275,7 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
     if (couple_grain_ghost(D, j)) continue; /* its owner's forces arrive by the exchange */
     const double *xj = D->couple.gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-    if (D->couple.immersion_s > 0.0) A.sigw = couple_grain_wall_sum(D, xj);
+    if (D->couple.immersion_s > 0.0) A.sigw = grain_wall_sum(D, xj);
     if (D->couple.torque) /* the torque needs the pair's separation: evaluated again */
       for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
     else
