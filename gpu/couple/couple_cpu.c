@@ -137,6 +137,31 @@ static inline int any_periodic(const sphdem_dev *D) {
   return p;
 }
 
+/* porosity_cell where no axis is periodic: the separation of separation() without its periodic branches (the
+ * same operations in the same order, so the same r2), the buffer grown once per cell. */
+static inline void porosity_cell_open(const sphdem_dev *D, const double *xa, int64_t cc, double *s, pair_sink *k) {
+  const int32_t j0 = D->couple.gcstart[cc], j1 = D->couple.gcend[cc];
+  if (j1 <= j0) return;
+  if (!k->err && grow_pairs(k->pj, k->pw, k->cap, k->n + (j1 - j0))) k->err = 1;
+  int32_t *pj = k->err ? NULL : *k->pj;
+  double *pw = k->err ? NULL : *k->pw;
+  const double *gx = D->couple.gx, R2 = D->couple.support2c, x0 = xa[0], x1 = xa[1], x2 = xa[2];
+  const int three = D->P.dim == 3;
+  int64_t n = k->n;
+  double acc = *s;
+  for (int32_t j = j0; j < j1; j++) {
+    double s0 = x0 - gx[3 * j], s1 = x1 - gx[3 * j + 1], r2 = s0 * s0 + s1 * s1;
+    if (three) { double s2 = x2 - gx[3 * j + 2]; r2 += s2 * s2; }
+    if (r2 >= R2) continue;
+    double W = couple_kernel(D, r2);
+    couple_porosity_add_w(D, j, W, &acc);
+    if (pj) { pj[n] = j; pw[n] = W; }
+    n++;
+  }
+  k->n = n;
+  *s = acc;
+}
+
 /* Fluid particle a's grains within 2 hc (porosity sum and pairs): the cells of walk_grains_around in its order,
  * without those wholly beyond 2 hc where no axis is periodic (periodic grids take the plain walk). Grains are
  * binned at every upload, so their cells hold them exactly. */
@@ -150,7 +175,7 @@ static inline double porosity_pairs(const sphdem_dev *D, const double *xa, pair_
     return s;
   }
   grid_view g = {D->couple.gglo, D->couple.gcs, D->couple.gcs_inv, D->couple.gnc};
-  CULLED_BOX_FOR(D, g, D->couple.glay, xa, D->couple.support2c, cc, porosity_cell(D, xa, cc, &s, k));
+  CULLED_BOX_FOR(D, g, D->couple.glay, xa, D->couple.support2c, cc, porosity_cell_open(D, xa, cc, &s, k));
   return s;
 }
 
