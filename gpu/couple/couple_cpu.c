@@ -179,88 +179,15 @@ static inline double porosity_pairs(const sphdem_dev *D, const double *xa, pair_
   return s;
 }
 
-/* The wall particles binned for the grains' immersion wall sums: cells of at least hc over the walls' bounding
- * box (the fluid grid's cells, 2h + skin, hold ~3.5x more walls than the support reaches), rebuilt from the
- * current positions at each grain pass (O(nw)). *W becomes a copy of the device state whose wall arrays are
- * these (positions and masses in cell order), so that the shared wall_volume_sum_cell sums them. Returns 0
- * when it cannot allocate (the caller then walks the fluid grid). */
-static int bin_walls(struct sphdem_ctx_s *c, sphdem_dev *W) {
-  const sphdem_dev *D = &c->D;
-  sphdem_couple_host *H = &c->couple;
-  const int64_t nw = D->nw;
-  const int dim = D->P.dim;
-  double blo[3] = {0, 0, 0}, bhi[3] = {0, 0, 0};
-  for (int64_t w = 0; w < nw; w++)
-    for (int d = 0; d < dim; d++) {
-      double x = D->wx[3 * w + d];
-      if (w == 0 || x < blo[d]) blo[d] = x;
-      if (w == 0 || x > bhi[d]) bhi[d] = x;
-    }
-  /* cells of hc (2 layers reach 2 hc), larger where the box would hold more cells than about 8 per wall */
-  double cs0 = D->couple.hc, scale = 1.0, total = 0.0;
-  for (int iter = 0; iter < 64; iter++, scale *= 1.26) {
-    total = 1.0;
-    for (int d = 0; d < 3; d++) {
-      if (d >= dim) { H->cwg_n[d] = 1; H->cwg_lo[d] = 0.0; H->cwg_cs[d] = H->cwg_inv[d] = 1.0; continue; }
-      double len = bhi[d] - blo[d], cs = cs0 * scale;
-      int n = (int)fmin(floor(len / cs), 1e9);
-      if (n < 1) n = 1;
-      if (len > 0) cs = fmax(cs, len / n);
-      H->cwg_n[d] = n; H->cwg_lo[d] = blo[d]; H->cwg_cs[d] = cs; H->cwg_inv[d] = 1.0 / cs;
-      total *= n;
-    }
-    if (total <= 8.0 * (double)nw + 64.0) break;
-  }
-  int64_t ncell = (int64_t)total;
-  for (int d = 0; d < 3; d++) {
-    double l = d < dim ? ceil(2.0 * D->couple.hc * H->cwg_inv[d]) : 0.0;
-    H->cwg_lay[d] = d >= dim ? 0 : l >= 1.0 ? (l < (double)H->cwg_n[d] ? (int)l : H->cwg_n[d]) : 1;
-  }
-  if (growd(&H->cwg_x, &H->cap_cwgx, 3 * nw) || growd(&H->cwg_m, &H->cap_cwgm, nw)) return 0;
-  if (ncell + 1 > H->cap_cwgcell) { /* the two cell-range arrays share one capacity */
-    int64_t m = ncell + 1 + (ncell + 1) / 4 + 16;
-    int32_t *a = (int32_t *)realloc(H->cwg_start, 4 * (size_t)m);
-    if (a) H->cwg_start = a;
-    int32_t *b = a ? (int32_t *)realloc(H->cwg_end, 4 * (size_t)m) : NULL;
-    if (b) H->cwg_end = b;
-    if (!b) return 0;
-    H->cap_cwgcell = m;
-  }
-  int32_t *st = H->cwg_start, *en = H->cwg_end;
-  int32_t *cellof = (int32_t *)malloc(4 * (size_t)(nw > 0 ? nw : 1));
-  if (!cellof) return 0;
-  memset(st, 0, 4 * (size_t)(ncell + 1));
-  for (int64_t w = 0; w < nw; w++) {
-    int64_t cc = 0;
-    for (int d = dim - 1; d >= 0; d--)
-      cc = cc * H->cwg_n[d] + axis_coord(D->wx[3 * w + d], H->cwg_lo[d], H->cwg_inv[d], H->cwg_n[d], 0);
-    cellof[w] = (int32_t)cc;
-    st[cc + 1]++;
-  }
-  for (int64_t k = 0; k < ncell; k++) st[k + 1] += st[k];
-  memcpy(en, st, 4 * (size_t)ncell); /* the fill pointer of each cell, its end when done */
-  for (int64_t w = 0; w < nw; w++) {
-    int64_t m = en[cellof[w]]++;
-    for (int d = 0; d < 3; d++) H->cwg_x[3 * m + d] = D->wx[3 * w + d];
-    H->cwg_m[m] = D->wmass[w];
-  }
-  free(cellof);
-  *W = *D;
-  W->wx = H->cwg_x;
-  W->wmass = H->cwg_m;
-  W->wcstart = st;
-  W->wcend = en;
-  return 1;
-}
-
-/* The wall volume sum around grain position xj (keyword immersion, the sum of couple_grain_wall_sum) over the
- * binned walls of W (bin_walls): the cells of 2 layers around xj without those wholly beyond 2 hc. The same
- * terms as the fluid-grid walk, summed in another order. */
-static inline double grain_wall_sum(const sphdem_dev *W, const sphdem_couple_host *H, const double *xj) {
-  double sigw = 0.0;
-  grid_view g = {H->cwg_lo, H->cwg_cs, H->cwg_inv, H->cwg_n};
-  CULLED_BOX_FOR(W, g, H->cwg_lay, xj, W->couple.support2c, cc,
-                 wall_volume_sum_cell(W, xj, cc, W->couple.alphaC, W->couple.inv_hc, W->couple.support2c, &sigw));
+/* The wall volume sum around grain position xj (keyword immersion, couple_grain_wall_sum): the cells of
+ * walk_fluid_around in its order, without those wholly beyond 2 hc + skin/2 (the wall particles moved at most
+ * skin/2 since they were binned) where no axis is periodic. */
+static inline double grain_wall_sum(const sphdem_dev *D, const double *xj) {
+  if (any_periodic(D)) return couple_grain_wall_sum(D, xj);
+  double sigw = 0.0, reach = 2.0 * D->couple.hc + 0.5 * D->P.skin;
+  grid_view g = {D->glo, D->cs, D->cs_inv, D->nc};
+  CULLED_BOX_FOR(D, g, D->couple.flay, xj, reach * reach, cc,
+                 wall_volume_sum_cell(D, xj, cc, D->couple.alphaC, D->couple.inv_hc, D->couple.support2c, &sigw));
   return sigw;
 }
 
@@ -278,9 +205,6 @@ void sphdem_cpu_couple_lists_free(struct sphdem_ctx_s *c) {
   c->couple.cpl_tb = NULL; c->couple.cpl_tw = NULL; c->couple.cpl_tcap = c->couple.cpl_tn = NULL;
   c->couple.cap_cplfs = c->couple.cap_cplgs = c->couple.cap_cplf = c->couple.cap_cplg = 0;
   c->couple.cap_cplfw = c->couple.cap_cplgw = 0;
-  free(c->couple.cwg_x); free(c->couple.cwg_m); free(c->couple.cwg_start); free(c->couple.cwg_end);
-  c->couple.cwg_x = c->couple.cwg_m = NULL; c->couple.cwg_start = c->couple.cwg_end = NULL;
-  c->couple.cap_cwgx = c->couple.cap_cwgm = c->couple.cap_cwgcell = 0;
   c->couple.cpl_nt = 0; c->couple.cpl_valid = 0;
 }
 
@@ -371,18 +295,12 @@ int sphdem_cpu_couple_grains(struct sphdem_ctx_s *c) {
   const int64_t *gs = c->couple.cpl_gs;
   const int32_t *gl = c->couple.cpl_g;
   const double *gw = c->couple.cpl_gw;
-  /* immersion: the wall sums over the walls binned on cells of hc (the fluid grid's walk where an axis is
-   * periodic, or when the binning cannot allocate) */
-  sphdem_dev Wd;
-  const int binned = D->couple.immersion_s > 0.0 && D->nw > 0 && !any_periodic(D) && bin_walls(c, &Wd);
-  const sphdem_dev *W = binned ? &Wd : D;
 #pragma omp parallel for schedule(dynamic, 16)
   for (int64_t j = 0; j < D->couple.ng; j++) {
     if (couple_grain_ghost(D, j)) continue; /* its owner's forces arrive by the exchange */
     const double *xj = D->couple.gx + 3 * j;
     couple_grain_acc A = {0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, 0.0};
-    if (D->couple.immersion_s > 0.0)
-      A.sigw = binned ? grain_wall_sum(W, &c->couple, xj) : D->nw > 0 ? couple_grain_wall_sum(D, xj) : 0.0;
+    if (D->couple.immersion_s > 0.0) A.sigw = grain_wall_sum(D, xj);
     if (D->couple.torque) /* the torque needs the pair's separation: evaluated again */
       for (int64_t k = gs[j]; k < gs[j + 1]; k++) couple_grain_add(D, xj, gl[k], &A);
     else

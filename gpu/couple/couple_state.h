@@ -61,13 +61,6 @@ typedef struct {
   double **cpl_tw;
   int64_t *cpl_tcap, *cpl_tn;
   int cpl_nt, cpl_valid, cpl_err;
-  /* CPU: the wall particles binned on cells of about hc for the immersion wall sums of the grains (couple_cpu.c),
-   * rebuilt at each grain pass: positions and masses in cell order, cell ranges, the grid */
-  double *cwg_x, *cwg_m;
-  int32_t *cwg_start, *cwg_end;
-  int64_t cap_cwgx, cap_cwgm, cap_cwgcell;
-  double cwg_lo[3], cwg_cs[3], cwg_inv[3];
-  int cwg_n[3], cwg_lay[3];
 } sphdem_couple_host;
 
 #endif
