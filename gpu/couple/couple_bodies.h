@@ -128,11 +128,22 @@ SPHDEM_HD double drag_coefficient(int law, double mu, double eps, double rhof, d
  * volume sum, V_w = m_w / rho0), floored at 0.1 (a corner of three walls leaves 1/8).
  * couple_porosity_add: grain j's term (returns 0 when j is outside the support); couple_porosity_finish:
  * the normalisation and the store. The CPU backend also records the pairs (couple_cpu.c). */
+/* The coupling kernel W(hc) of a pair at squared distance r2 < (2 hc)^2 (eq 5): the one weight of eqs 26, 28
+ * and 33. The CPU's pair lists keep it, so its grain-force and reaction passes do not evaluate it again. */
+SPHDEM_HD double couple_kernel(const sphdem_dev *D, double r2) {
+  return wendland_w(D->couple.alphaC, sqrt(r2) * D->couple.inv_hc);
+}
+
+/* Grain j's term of eq 26 with the pair's kernel value W. */
+SPHDEM_HD void couple_porosity_add_w(const sphdem_dev *D, int32_t j, double W, double *s) {
+  *s += grain_volume(D->P.dim, D->couple.grad[j]) * W;
+}
+
 SPHDEM_HD int couple_porosity_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
   double r[3];
   double r2 = separation(D, xa, D->couple.gx + 3 * j, r);
   if (r2 >= D->couple.support2c) return 0;
-  *s += grain_volume(D->P.dim, D->couple.grad[j]) * wendland_w(D->couple.alphaC, sqrt(r2) * D->couple.inv_hc);
+  couple_porosity_add_w(D, j, couple_kernel(D, r2), s);
   return 1;
 }
 
@@ -176,12 +187,10 @@ typedef struct {
   double sig, se, srf, su[3], sth[3], scr[3], sgr[3], sigw;
 } couple_grain_acc;
 
-/* Fluid particle b's terms of grain j's sums (nothing when b is outside the support). */
-SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b, couple_grain_acc *A) {
-  double r[3];
-  double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
-  if (r2 >= D->couple.support2c) return;
-  double q = sqrt(r2) * D->couple.inv_hc, W = wendland_w(D->couple.alphaC, q);
+/* Fluid particle b's terms of grain j's sums with the pair's kernel value W; r = x_j - x_b and q = |r| / hc are
+ * read only with the torque (the CPU's cached lists pass NULL and 0 without it). */
+SPHDEM_HD void couple_grain_add_w(const sphdem_dev *D, const double *r, double q, double W, int32_t b,
+                                  couple_grain_acc *A) {
   double mb = D->mass[b], rhob = D->rhop[b], Vb = mb / rhob, wv = Vb * W, eb = fluid_eps(D, b);
   const double *vb = D->ve + 3 * b, *ab = D->a + 3 * b;
   A->sig += wv;
@@ -198,6 +207,15 @@ SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b
     A->scr[2] += k * (r[0] * vb[1] - r[1] * vb[0]);
     for (int d = 0; d < 3; d++) A->sgr[d] += k * r[d];
   }
+}
+
+/* Fluid particle b's terms of grain j's sums (nothing when b is outside the support). */
+SPHDEM_HD void couple_grain_add(const sphdem_dev *D, const double *xj, int32_t b, couple_grain_acc *A) {
+  double r[3];
+  double r2 = separation(D, xj, D->x + 3 * b, r); /* r = x_j - x_b */
+  if (r2 >= D->couple.support2c) return;
+  double q = sqrt(r2) * D->couple.inv_hc;
+  couple_grain_add_w(D, r, q, wendland_w(D->couple.alphaC, q), b, A);
 }
 
 /* Grain j's forces from its sums (A->sigw: the wall volume sum, used with immersion only). */
@@ -275,12 +293,18 @@ SPHDEM_HD void couple_grain_body(const sphdem_dev *D, int64_t j) {
 /* Reaction on fluid particle a (eq 33): f_a = m_a S_a = -V_a sum_j F_j W_aj(hc) / sum_b V_b W_jb(hc).
  * Summed over a, the weights V_a W_aj / sum_b V_b W_jb give exactly 1 per grain: sum_a f_a = -sum_j F_j.
  * (The paper's prefactor m_a/rho_a with S_a an acceleration is read as this force, divided by m_a.) */
+/* Grain j's term of eq 33 with the pair's kernel value W. */
+SPHDEM_HD void couple_reaction_add_w(const sphdem_dev *D, int32_t j, double W, double *s) {
+  if (!(D->couple.grain_shepard[j] > 0.0)) return;
+  double k = W / D->couple.grain_shepard[j];
+  for (int d = 0; d < D->P.dim; d++) s[d] += k * D->couple.gf[3 * j + d];
+}
+
 SPHDEM_HD void couple_reaction_add(const sphdem_dev *D, const double *xa, int32_t j, double *s) {
   double r[3];
   double r2 = separation(D, xa, D->couple.gx + 3 * j, r);
-  if (r2 >= D->couple.support2c || !(D->couple.grain_shepard[j] > 0.0)) return;
-  double k = wendland_w(D->couple.alphaC, sqrt(r2) * D->couple.inv_hc) / D->couple.grain_shepard[j];
-  for (int d = 0; d < D->P.dim; d++) s[d] += k * D->couple.gf[3 * j + d];
+  if (r2 >= D->couple.support2c) return;
+  couple_reaction_add_w(D, j, couple_kernel(D, r2), s);
 }
 
 SPHDEM_HD void couple_reaction_finish(const sphdem_dev *D, int64_t a, const double *s) {

@@ -51,10 +51,14 @@ typedef struct {
   struct sphdem_grains_s *gstore; /* private store of sphdem_set_grains (a shim hands its own store) */
   sphdem_idx_buf gidx_buf;      /* device copy of the index list of sphdem_set_grains_store */
   /* CPU: the fluid-grain pairs of the current coupling step (couple_cpu.c): per fluid particle its grains
-   * (cpl_f, CSR cpl_fs), per grain its fluid particles (cpl_g, CSR cpl_gs), per-thread buffers */
+   * (cpl_f, CSR cpl_fs), per grain its fluid particles (cpl_g, CSR cpl_gs), the pairs' kernel values in both
+   * orders (cpl_fw, cpl_gw), per-thread buffers (grain index and kernel value) */
   int64_t *cpl_fs, *cpl_gs, cap_cplfs, cap_cplgs, cap_cplf, cap_cplg;
   int32_t *cpl_f, *cpl_g;
+  double *cpl_fw, *cpl_gw;
+  int64_t cap_cplfw, cap_cplgw;
   int32_t **cpl_tb;
+  double **cpl_tw;
   int64_t *cpl_tcap, *cpl_tn;
   int cpl_nt, cpl_valid, cpl_err;
 } sphdem_couple_host;
