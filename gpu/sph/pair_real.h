@@ -6,7 +6,8 @@
  * mixed, float positions in single) and rejects pairs out of reach. The terms that are on come in O
  * (sphdem_pair_opts, pair_opts of sph_bodies.h): the float pair loop of the CPU passes them as constants, so that
  * each variant of the loop has no branch per pair for a term that is off.
- * No include guard: the file is included once per real type. Not public. */
+ * The includer defines SPHDEM_REAL, SPHDEM_RNAME(name), SPHDEM_RSQRT, SPHDEM_RFABS, SPHDEM_RPOW and SPHDEM_RFLOAT
+ * (1 for float); the file undefines them at its end. No include guard: included once per real type. Not public. */
 
 #define R SPHDEM_REAL
 #define RN(name) SPHDEM_RNAME(name)
@@ -171,3 +172,10 @@ SPHDEM_RINLINE void RN(wall_pair_core)(const RN(pair_consts) *K, sphdem_pair_opt
 
 #undef R
 #undef RN
+/* the includer's configuration, for the next real type */
+#undef SPHDEM_REAL
+#undef SPHDEM_RNAME
+#undef SPHDEM_RSQRT
+#undef SPHDEM_RFABS
+#undef SPHDEM_RPOW
+#undef SPHDEM_RFLOAT

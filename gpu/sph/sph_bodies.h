@@ -59,12 +59,6 @@ SPHDEM_HD sphdem_pair_opts pair_opts(const sphdem_dev *D) {
 #define SPHDEM_RPOW pow
 #define SPHDEM_RFLOAT 0
 #include "pair_real.h"
-#undef SPHDEM_REAL
-#undef SPHDEM_RNAME
-#undef SPHDEM_RSQRT
-#undef SPHDEM_RFABS
-#undef SPHDEM_RPOW
-#undef SPHDEM_RFLOAT
 #define SPHDEM_REAL float
 #define SPHDEM_RNAME(name) name##_f
 #define SPHDEM_RSQRT sqrtf
@@ -72,12 +66,6 @@ SPHDEM_HD sphdem_pair_opts pair_opts(const sphdem_dev *D) {
 #define SPHDEM_RPOW powf
 #define SPHDEM_RFLOAT 1
 #include "pair_real.h"
-#undef SPHDEM_REAL
-#undef SPHDEM_RNAME
-#undef SPHDEM_RSQRT
-#undef SPHDEM_RFABS
-#undef SPHDEM_RPOW
-#undef SPHDEM_RFLOAT
 
 /* ---- equation of state ----------------------------------------------------------------- */
 
