@@ -55,7 +55,7 @@ SPHDEM_HD void rates_store(const sphdem_dev *D, int64_t a, const rates_acc *R) {
   D->drho[a] = state_round(D, R->drho);
   for (int d = 0; d < 3; d++) {
     D->a[3 * a + d] = state_round(D, R->acc[d]);
-    D->u[3 * a + d] = state_round(D, D->mp.on ? R->u[d] + R->dua[d] : R->u[d]);
+    D->u[3 * a + d] = state_round(D, D->mp.on ? R->u[d] + R->A.dua[d] : R->u[d]);
   }
 }
 

@@ -289,10 +289,6 @@ SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
   for (int d = 0; d < 3; d++) du[d] = s[d];
 }
 
-/* Eqs 16 and 24 divide by r_ij^2 with no regularisation; (eta h)^2 with eta = 0.01 (Morris et al. 1997)
- * only guards coincident particles. He 2018's 0.01 h^2 (eta = 0.1) under-estimates the viscous term by
- * ~1.5 % independently of the resolution (the two-layer Poiseuille test then stops converging at 1.5 %). */
-#define MP_ETA2 1e-4
 
 /* ---- the delta-plus terms of the one fluid rate pass (fluid_rates.h) ----------------------------------- */
 
@@ -300,90 +296,95 @@ SPHDEM_HD void mp_shift_body(const sphdem_dev *D, int64_t a) {
  * particle's sound speed): P is continuous across an interface, so is delta rho measured in a's units;
  * delta_d h c_a D_a. */
 SPHDEM_HD void dplus_init(const sphdem_dev *D, int64_t a, rates_acc *R) {
+  dplus_side *A = &R->A;
   R->pha = D->mp.ph[a];
-  R->ma = D->mass[a];
-  R->Va = R->ma / R->rhoa;
   R->pa = D->p[a];
   R->mua = D->mp.mu_p[a];
-  for (int d = 0; d < 3; d++) R->dua[d] = D->mp.M.shifting ? D->mp.dus[3 * a + d] : 0.0;
-  double ca = D->mp.ck[R->pha];
-  R->ic2 = 1.0 / (ca * ca);
-  R->kdiff = D->mp.M.delta * D->h * ca;
-  R->paV = R->pa * R->Va * R->Va / R->ma;
-  R->Va2 = R->Va * R->Va;
-  R->ga = D->mp.gdr + 3 * a;
+  A->rhoa = R->rhoa;
+  A->ma = D->mass[a];
+  const double Va = A->ma / R->rhoa, ca = D->mp.ck[R->pha];
+  A->ic2 = 1.0 / (ca * ca);
+  A->kdiff = D->mp.M.delta * D->h * ca;
+  A->paV = R->pa * Va * Va / A->ma;
+  A->Va2 = Va * Va;
+  for (int d = 0; d < 3; d++) {
+    A->va[d] = R->va[d];
+    A->dua[d] = D->mp.M.shifting ? D->mp.dus[3 * a + d] : 0.0;
+    A->ga[d] = D->mp.gdr[3 * a + d];
+  }
+  if (pair_in_float(D)) {
+    dplus_side_f *B = &R->Af;
+    B->rhoa = (float)A->rhoa; B->ma = (float)A->ma; B->Va2 = (float)A->Va2; B->paV = (float)A->paV;
+    B->ic2 = (float)A->ic2; B->kdiff = (float)A->kdiff;
+    for (int d = 0; d < 3; d++) { B->va[d] = (float)A->va[d]; B->dua[d] = (float)A->dua[d]; B->ga[d] = (float)A->ga[d]; }
+  }
 }
 
-/* Fluid pair (a, b), delta-plus: continuity with shifting (eq 15) and diffusion (eqs 16-18), pressure
- * (eq 20), viscosity (eq 24), the shifting terms of momentum (eq 3), XSPH; a's rates, weight 1 (fluid_pair_rec).
- * 0 if out of reach. */
+/* The harmonic mean of two viscosities (eq 24); 0 when both are 0. */
+SPHDEM_HD double harmonic_mu(double mua, double mub) { return mua + mub > 0.0 ? 2.0 * mua * mub / (mua + mub) : 0.0; }
+
+/* Fluid pair (a, b), delta-plus (dplus_pair_core of pair_real.h, in the precision's real type); a's rates,
+ * weight 1 (fluid_pair_rec). 0 if out of reach. */
 SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t b, fluid_pair_rec *P) {
-  const double *xa = R->xa, *va = R->va, *dua = R->dua;
-  const int shift = D->mp.M.shifting, diff = D->mp.M.diffusion;
-  double r[3], vab[3];
-  double r2 = separation(D, xa, D->x + 3 * b, r);
-  if (r2 >= D->support2 || r2 == 0.0) return 0;
-  double q = sqrt(r2) * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
-  double W = wendland_w(D->alphaD, q), F = wendland_grad_factor(D->alphaD, D->inv_h, q);
-  double rhoa = R->rhoa, rhob = D->rhop[b], mb = D->mass[b], Vb = mb / rhob, pb = D->p[b], mub = D->mp.mu_p[b];
-  int same = D->mp.ph[b] == R->pha;
-  double dub[3] = {0, 0, 0}, s1 = 0.0;
-  if (shift) for (int d = 0; d < 3; d++) dub[d] = D->mp.dus[3 * b + d];
-  for (int d = 0; d < 3; d++) { vab[d] = va[d] - D->ve[3 * b + d]; s1 += (vab[d] + dua[d] - dub[d]) * r[d]; }
-  double cont = rhoa * Vb * F * s1;                                      /* eq 15, first term */
-  if (shift && same) {
-    double t = 0.0;
-    for (int d = 0; d < 3; d++) t += (rhob * dub[d] + rhoa * dua[d]) * r[d];
-    cont += Vb * F * t;                                                   /* eq 15, div(rho du) */
-  }
-  if (diff) {
-    double psi = 2.0 * (pb - R->pa);                                      /* eq 17, times c_a^2 */
-    if (diff == SPHDEM_DIFF_RENORM) {
-      const double *ga = R->ga, *gb = D->mp.gdr + 3 * b;
-      for (int d = 0; d < 3; d++) psi += (ga[d] + gb[d]) * r[d];         /* -(<>_i + <>_j).(x_j - x_i) */
+  const int shift = D->mp.M.shifting, diff = D->mp.M.diffusion, same = D->mp.ph[b] == R->pha;
+  const double *vb = D->ve + 3 * b, *gb = D->mp.gdr + 3 * b, rhob = D->rhop[b], mb = D->mass[b], pb = D->p[b];
+  const double mubar = harmonic_mu(R->mua, D->mp.mu_p[b]);
+  if (pair_in_float(D)) {
+    float r[3], vab[3], vbf[3], dub[3], gbf[3];
+    const float r2 = separation_f(D, R->xa, D->x + 3 * b, r);
+    if (r2 < 0.0f) return 0;
+    for (int d = 0; d < 3; d++) {
+      vab[d] = (float)(R->va[d] - vb[d]);
+      vbf[d] = (float)vb[d];
+      dub[d] = shift ? (float)D->mp.dus[3 * b + d] : 0.0f;
+      gbf[d] = (float)gb[d];
     }
-    psi *= R->ic2;
-    cont += R->kdiff * psi * (-F) * r2 * ie * Vb;                         /* eq 16: (x_j - x_i).grad W / r^2 */
+    fluid_pair_rec_f Q;
+    dplus_pair_core_f(&D->Kf, pair_opts(D), shift, diff, same, &R->Af, r, r2, vab, vbf, dub, gbf, (float)rhob, (float)mb,
+                      (float)pb, (float)(pb - R->pa), (float)mubar, &Q);
+    P->cont = Q.cont; P->dda = Q.dda; P->ddb = Q.ddb;
+    for (int d = 0; d < 3; d++) { P->A[d] = Q.A[d]; P->U[d] = Q.U[d]; }
+    return 1;
   }
-  P->cont = cont;
-  P->dda = P->ddb = 0.0;
-  double ma = R->ma, mua = R->mua;
-  double kp = -(R->paV + pb * Vb * Vb / ma) * F;                          /* eq 20 */
-  double mubar = mua + mub > 0.0 ? 2.0 * mua * mub / (mua + mub) : 0.0;
-  double kv = mubar * (R->Va2 + Vb * Vb) * F * r2 * ie / ma;              /* eq 24 */
-  for (int d = 0; d < 3; d++) P->A[d] = kp * r[d] + kv * vab[d];
-  if (shift && same) {
-    /* eq 3: div(u (x) du) - u div(du), Sun et al. 2019 discretisation */
-    double dub_r = 0.0, dua_r = 0.0;
-    for (int d = 0; d < 3; d++) { dub_r += dub[d] * r[d]; dua_r += dua[d] * r[d]; }
-    for (int d = 0; d < 3; d++)
-      P->A[d] += Vb * F * (D->ve[3 * b + d] * dub_r + va[d] * dua_r) - va[d] * Vb * F * (dub_r - dua_r);
+  double r[3], vab[3], dub[3] = {0, 0, 0};
+  const double r2 = separation(D, R->xa, D->x + 3 * b, r);
+  if (r2 >= D->support2 || r2 == 0.0) return 0;
+  for (int d = 0; d < 3; d++) {
+    vab[d] = R->va[d] - vb[d];
+    if (shift) dub[d] = D->mp.dus[3 * b + d];
   }
-  const pair_consts K = pair_consts_of(D);
-  double k2 = mb * xsph_weight(&K, pair_opts(D), rhoa, rhob, W); /* XSPH (He 2018 eq 12) */
-  for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
+  dplus_pair_core(&D->K, pair_opts(D), shift, diff, same, &R->A, r, r2, vab, vb, dub, gb, rhob, mb, pb, pb - R->pa, mubar,
+                  P);
   return 1;
 }
 
 /* Wall neighbour w of a, delta-plus: the wall's volume m_w / rho0 in continuity, pressure and viscosity
  * (Adami walls take the fluid particle's viscosity, MLS ghosts their own, §3.4, harmonic mean as eq 24),
- * Monaghan repulsion. */
+ * Monaghan repulsion (dplus_wall_core of pair_real.h, in the precision's real type). */
 SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
-  const double *va = R->va;
-  double r[3];
-  double r2 = separation(D, R->xa, D->wx + 3 * w, r);
+  const double Vw = wall_volume(D, w), pw = D->wp[w];
+  const double mubar = harmonic_mu(R->mua, D->ghost.on ? D->ghost.wmu[w] : R->mua);
+  if (pair_in_float(D)) {
+    float r[3], vs[3], vv[3], drho = 0.0f, acc[3] = {0.0f, 0.0f, 0.0f};
+    const float r2 = separation_f(D, R->xa, D->wx + 3 * w, r);
+    if (r2 < 0.0f) return;
+    for (int d = 0; d < 3; d++) {
+      vs[d] = (float)(R->va[d] + R->A.dua[d] - D->wv[3 * w + d]); /* prescribed wall velocity */
+      vv[d] = (float)(R->va[d] - D->wvx[3 * w + d]);              /* extrapolated (eq 13) */
+    }
+    dplus_wall_core_f(&D->Kf, pair_opts(D), &R->Af, r, r2, vs, vv, (float)Vw, (float)pw, (float)mubar, &drho, acc);
+    R->drho += drho;
+    for (int d = 0; d < 3; d++) R->acc[d] += acc[d];
+    return;
+  }
+  double r[3], vs[3], vv[3];
+  const double r2 = separation(D, R->xa, D->wx + 3 * w, r);
   if (r2 >= D->support2 || r2 == 0.0) return;
-  double rr = sqrt(r2), q = rr * D->inv_h, ie = 1.0 / (r2 + MP_ETA2 * D->h * D->h);
-  double F = wendland_grad_factor(D->alphaD, D->inv_h, q), Vw = wall_volume(D, w), s1 = 0.0;
-  for (int d = 0; d < 3; d++) s1 += (va[d] + R->dua[d] - D->wv[3 * w + d]) * r[d]; /* prescribed wall velocity */
-  R->drho += R->rhoa * Vw * F * s1;
-  double ma = R->ma, mua = R->mua;
-  double kp = -(R->paV + D->wp[w] * Vw * Vw / ma) * F;
-  double muw = D->ghost.on ? D->ghost.wmu[w] : mua, mub = mua + muw > 0.0 ? 2.0 * mua * muw / (mua + muw) : 0.0;
-  double kv = mub * (R->Va2 + Vw * Vw) * F * r2 * ie / ma;
-  for (int d = 0; d < 3; d++) R->acc[d] += kp * r[d] + kv * (va[d] - D->wvx[3 * w + d]);
-  const pair_consts K = pair_consts_of(D);
-  wall_repulsion(&K, pair_opts(D), rr, r2, r, R->acc);
+  for (int d = 0; d < 3; d++) {
+    vs[d] = R->va[d] + R->A.dua[d] - D->wv[3 * w + d];
+    vv[d] = R->va[d] - D->wvx[3 * w + d];
+  }
+  dplus_wall_core(&D->K, pair_opts(D), &R->A, r, r2, vs, vv, Vw, pw, mubar, &R->drho, R->acc);
 }
 
 #endif

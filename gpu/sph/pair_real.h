@@ -1,5 +1,6 @@
-/* pair_real.h - the plain fluid's pair arithmetic (He 2018 §2.1: kernel eq 5, continuity eq 6, momentum
- * eqs 9-11, XSPH eq 12, the Adami wall pair, delta-SPH) in one real type, written once and included once per
+/* pair_real.h - the fluid's pair arithmetic (the plain fluid of He 2018 §2.1: kernel eq 5, continuity eq 6,
+ * momentum eqs 9-11, XSPH eq 12, the Adami wall pair, delta-SPH; the delta-plus fluid's pair terms of Shi & Huang
+ * 2022 eqs 3, 15-20, 24) in one real type, written once and included once per
  * precision by sph_bodies.h: SPHDEM_REAL double with names as written (the precision double, and every other
  * user of these functions), SPHDEM_REAL float with the suffix _f (the precisions mixed and single: the pair
  * terms in float, the caller's sums in double). The caller computes the separation r_ab (double positions in
@@ -12,19 +13,15 @@
 #define R SPHDEM_REAL
 #define RN(name) SPHDEM_RNAME(name)
 
-/* The parameters the pair terms read, in the real type (converted once, outside the pair loops). */
-typedef struct {
-  R inv_h, alphaD, eta2, h, w_dx_inv, tensile_eps, tensile_n, mu, alpha, c0, delta, rho0, g[3], xsph_eps, rep_D, rep_r0;
-} RN(pair_consts);
-
-SPHDEM_RINLINE RN(pair_consts) RN(pair_consts_of)(const sphdem_dev *D) {
-  RN(pair_consts) K;
-  K.inv_h = (R)D->inv_h; K.alphaD = (R)D->alphaD; K.eta2 = (R)D->eta2; K.h = (R)D->h; K.w_dx_inv = (R)D->w_dx_inv;
-  K.tensile_eps = (R)D->P.tensile_eps; K.tensile_n = (R)D->P.tensile_n; K.mu = (R)D->P.mu; K.alpha = (R)D->P.alpha;
-  K.c0 = (R)D->P.c0; K.delta = (R)D->P.delta; K.rho0 = (R)D->P.rho0;
-  SPHDEM_FOR3(d, K.g[d] = (R)D->P.gravity[d];)
-  K.xsph_eps = (R)D->P.xsph_eps; K.rep_D = (R)D->P.rep_D; K.rep_r0 = (R)D->P.rep_r0;
-  return K;
+/* The constants the pair terms read (RN(pair_consts) of sph_internal.h), converted to the real type; derived once
+ * per change of the parameters (sph_ctx.c): D->K, D->Kf. */
+SPHDEM_RINLINE void RN(pair_consts_set)(const sphdem_dev *D, RN(pair_consts) *K) {
+  K->inv_h = (R)D->inv_h; K->alphaD = (R)D->alphaD; K->eta2 = (R)D->eta2; K->mp_eta2 = (R)(SPHDEM_MP_ETA2 * D->h * D->h);
+  K->h = (R)D->h; K->w_dx_inv = (R)D->w_dx_inv;
+  K->tensile_eps = (R)D->P.tensile_eps; K->tensile_n = (R)D->P.tensile_n; K->mu = (R)D->P.mu; K->alpha = (R)D->P.alpha;
+  K->c0 = (R)D->P.c0; K->delta = (R)D->P.delta; K->rho0 = (R)D->P.rho0;
+  SPHDEM_FOR3(d, K->g[d] = (R)D->P.gravity[d];)
+  K->xsph_eps = (R)D->P.xsph_eps; K->rep_D = (R)D->P.rep_D; K->rep_r0 = (R)D->P.rep_r0;
 }
 
 /* W(q) (eq 5). */
@@ -167,6 +164,74 @@ SPHDEM_RINLINE void RN(wall_pair_core)(const RN(pair_consts) *K, sphdem_pair_opt
   RN(pair_form_factors)(O, rhoa, rw, &ka, &kb);
   *drho += mb * ka * vdotr * F;
   RN(pair_momentum)(K, O, mb, pra * ka, rhoa, pw / (rw * rw) * kb, rw, W, F, r, r2, (R)1 / (r2 + K->eta2), vv, acc);
+  RN(wall_repulsion)(K, O, rr, r2, r, acc);
+}
+
+/* ---- the delta-plus fluid (Shi & Huang 2022; mp_bodies.h calls these) ---------------------------------- */
+
+/* Fluid particle a's side of the delta-plus pair terms (mp_bodies.h, dplus_init): density, mass, V_a^2, P_a V_a^2 /
+ * m_a, viscosity, 1/c_a^2, delta_d h c_a, velocity (force time), shift velocity, <grad P>^L. */
+typedef struct {
+  R rhoa, ma, Va2, paV, ic2, kdiff, va[3], dua[3], ga[3];
+} RN(dplus_side);
+
+/* Fluid pair (a, b) within reach, delta-plus: continuity with shifting (eq 15) and diffusion (eqs 16-18),
+ * pressure (eq 20), viscosity (eq 24), the shifting terms of momentum (eq 3), XSPH (He 2018 eq 12); a's rates,
+ * weight 1 (fluid_pair_rec). shift, diff: the model's switches (diff: SPHDEM_DIFF_*); same: b is in a's phase;
+ * vab = v_a - v_b, vb b's velocity (force time), dub its shift velocity (0 without shifting), gb its <grad P>^L
+ * (read with diff SPHDEM_DIFF_RENORM only); dp = P_b - P_a; mubar the harmonic mean of the viscosities (eq 24). */
+SPHDEM_RINLINE void RN(dplus_pair_core)(const RN(pair_consts) *K, sphdem_pair_opts O, int shift, int diff, int same,
+                                        const RN(dplus_side) *A, const R *r, R r2, const R *vab, const R *vb,
+                                        const R *dub, const R *gb, R rhob, R mb, R pb, R dp, R mubar,
+                                        RN(fluid_pair_rec) *P) {
+  R q = SPHDEM_RSQRT(r2) * K->inv_h, ie = (R)1 / (r2 + K->mp_eta2);
+  R W = RN(wendland_w)(K->alphaD, q), F = RN(wendland_grad_factor)(K->alphaD, K->inv_h, q);
+  R rhoa = A->rhoa, Vb = mb / rhob, s1 = (R)0;
+  for (int d = 0; d < 3; d++) s1 += (vab[d] + A->dua[d] - dub[d]) * r[d];
+  R cont = rhoa * Vb * F * s1;                                              /* eq 15, first term */
+  if (shift && same) {
+    R t = (R)0;
+    for (int d = 0; d < 3; d++) t += (rhob * dub[d] + rhoa * A->dua[d]) * r[d];
+    cont += Vb * F * t;                                                       /* eq 15, div(rho du) */
+  }
+  if (diff) {
+    R psi = (R)2 * dp;                                                        /* eq 17, times c_a^2 */
+    if (diff == SPHDEM_DIFF_RENORM)
+      for (int d = 0; d < 3; d++) psi += (A->ga[d] + gb[d]) * r[d];           /* -(<>_i + <>_j).(x_j - x_i) */
+    psi *= A->ic2;
+    cont += A->kdiff * psi * (-F) * r2 * ie * Vb;                             /* eq 16: (x_j - x_i).grad W / r^2 */
+  }
+  P->cont = cont;
+  P->dda = P->ddb = (R)0;
+  R ma = A->ma;
+  R kp = -(A->paV + pb * Vb * Vb / ma) * F;                                   /* eq 20 */
+  R kv = mubar * (A->Va2 + Vb * Vb) * F * r2 * ie / ma;                       /* eq 24 */
+  for (int d = 0; d < 3; d++) P->A[d] = kp * r[d] + kv * vab[d];
+  if (shift && same) {
+    /* eq 3: div(u (x) du) - u div(du), Sun et al. 2019 discretisation */
+    R dub_r = (R)0, dua_r = (R)0;
+    for (int d = 0; d < 3; d++) { dub_r += dub[d] * r[d]; dua_r += A->dua[d] * r[d]; }
+    for (int d = 0; d < 3; d++)
+      P->A[d] += Vb * F * (vb[d] * dub_r + A->va[d] * dua_r) - A->va[d] * Vb * F * (dub_r - dua_r);
+  }
+  R k2 = mb * RN(xsph_weight)(K, O, rhoa, rhob, W);                          /* XSPH (He 2018 eq 12) */
+  for (int d = 0; d < 3; d++) P->U[d] = k2 * vab[d];
+}
+
+/* Wall neighbour w of fluid particle a within reach, delta-plus: the wall's volume Vw in continuity, pressure
+ * (its pressure pw) and viscosity (mubar, eq 24), Monaghan repulsion. vs = v_a + du_a - (prescribed wall
+ * velocity), vv = v_a - (extrapolated wall velocity, eq 13). Adds to *drho and acc. */
+SPHDEM_RINLINE void RN(dplus_wall_core)(const RN(pair_consts) *K, sphdem_pair_opts O, const RN(dplus_side) *A,
+                                        const R *r, R r2, const R *vs, const R *vv, R Vw, R pw, R mubar, R *drho,
+                                        R *acc) {
+  R rr = SPHDEM_RSQRT(r2), q = rr * K->inv_h, ie = (R)1 / (r2 + K->mp_eta2);
+  R F = RN(wendland_grad_factor)(K->alphaD, K->inv_h, q), s1 = (R)0;
+  for (int d = 0; d < 3; d++) s1 += vs[d] * r[d];
+  *drho += A->rhoa * Vw * F * s1;
+  R ma = A->ma;
+  R kp = -(A->paV + pw * Vw * Vw / ma) * F;
+  R kv = mubar * (A->Va2 + Vw * Vw) * F * r2 * ie / ma;
+  for (int d = 0; d < 3; d++) acc[d] += kp * r[d] + kv * vv[d];
   RN(wall_repulsion)(K, O, rr, r2, r, acc);
 }
 

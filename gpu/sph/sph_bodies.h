@@ -326,10 +326,11 @@ typedef struct {
   const double *xa, *va;
   double rhoa, pra, drho, acc[3], u[3];
   double epsa;          /* porosity of a (1 without coupling) */
-  /* delta-plus fluid only (D->mp.on; dplus_init in mp_bodies.h): shift velocity, volume, pressure, viscosity,
-   * diffusion constants and <grad P>^L of a, its phase */
-  double dua[3], ma, Va, Va2, pa, paV, mua, ic2, kdiff;
-  const double *ga;
+  /* delta-plus fluid only (D->mp.on; dplus_init in mp_bodies.h): a's side of the pair terms in double and, in the
+   * precisions mixed and single, in float (pair_real.h); its pressure, viscosity and phase */
+  dplus_side A;
+  dplus_side_f Af;
+  double pa, mua;
   int pha;
 } rates_acc;
 
@@ -381,8 +382,7 @@ SPHDEM_HD int fluid_pair_terms_float(const sphdem_dev *D, const double *xa, cons
   for (int d = 0; d < 3; d++) vab[d] = (float)(va[d] - D->ve[3 * b + d]);
   const double epsb = D->P.delta > 0.0 && D->couple.eos ? fluid_eps(D, b) : 1.0;
   fluid_pair_rec_f Q;
-  const pair_consts_f K = pair_consts_of_f(D);
-  fluid_pair_core_f(&K, pair_opts(D), r, r2, vab, (float)rhoa, (float)pra, (float)epsa, (float)D->rhop[b], (float)D->pr2[b],
+  fluid_pair_core_f(&D->Kf, pair_opts(D), r, r2, vab, (float)rhoa, (float)pra, (float)epsa, (float)D->rhop[b], (float)D->pr2[b],
                     (float)epsb, &Q);
   P->cont = Q.cont; P->dda = Q.dda; P->ddb = Q.ddb;
   for (int d = 0; d < 3; d++) { P->A[d] = Q.A[d]; P->U[d] = Q.U[d]; }
@@ -392,8 +392,7 @@ SPHDEM_HD int fluid_pair_terms_float(const sphdem_dev *D, const double *xa, cons
 SPHDEM_HD int fluid_pair_terms(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
                                double pra, double epsa, int32_t b, fluid_pair_rec *P) {
   if (pair_in_float(D)) return fluid_pair_terms_float(D, xa, va, rhoa, pra, epsa, b, P);
-  const pair_consts K = pair_consts_of(D);
-  return fluid_pair_terms_double(D, &K, pair_opts(D), xa, va, rhoa, pra, epsa, b, P);
+  return fluid_pair_terms_double(D, &D->K, pair_opts(D), xa, va, rhoa, pra, epsa, b, P);
 }
 
 /* Wall neighbour w of a, plain fluid: Adami wall state (eqs 13-15) in continuity and momentum, Monaghan
@@ -408,8 +407,7 @@ SPHDEM_RINLINE void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w
       vw[d] = (float)(R->va[d] - D->wv[3 * w + d]);
       vv[d] = (float)(R->va[d] - D->wvx[3 * w + d]);
     }
-    const pair_consts_f K = pair_consts_of_f(D);
-    wall_pair_core_f(&K, pair_opts(D), r, r2, vw, vv, (float)R->rhoa, (float)R->pra, (float)D->wmass[w], (float)D->wrho[w],
+    wall_pair_core_f(&D->Kf, pair_opts(D), r, r2, vw, vv, (float)R->rhoa, (float)R->pra, (float)D->wmass[w], (float)D->wrho[w],
                      (float)D->wp[w], (float)ew, &drho, acc);
     R->drho += drho;
     for (int d = 0; d < 3; d++) R->acc[d] += acc[d];
@@ -422,8 +420,7 @@ SPHDEM_RINLINE void plain_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w
     vw[d] = R->va[d] - D->wv[3 * w + d];   /* prescribed wall velocity: no penetration */
     vv[d] = R->va[d] - D->wvx[3 * w + d];  /* eq 13: extrapolated, no slip */
   }
-  const pair_consts K = pair_consts_of(D);
-  wall_pair_core(&K, pair_opts(D), r, r2, vw, vv, R->rhoa, R->pra, D->wmass[w], D->wrho[w], D->wp[w], ew, &R->drho, R->acc);
+  wall_pair_core(&D->K, pair_opts(D), r, r2, vw, vv, R->rhoa, R->pra, D->wmass[w], D->wrho[w], D->wp[w], ew, &R->drho, R->acc);
 }
 
 /* Kernel interpolation at probe point k (He 2018 eq 4, Shepard-normalised). */

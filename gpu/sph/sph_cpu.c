@@ -228,8 +228,8 @@ static int cpu_rates_sym(struct sphdem_ctx_s *c) {
 #ifdef _OPENMP
     t = omp_get_thread_num();
 #endif
-    const pair_consts K = pair_consts_of(D);  /* the double pairs' constants and terms, once per thread */
-    const sphdem_pair_opts O = pair_opts(D);
+    const pair_consts K = D->K;  /* the double pairs' constants and terms, once per thread (a local copy: the */
+    const sphdem_pair_opts O = pair_opts(D); /* stores to B cannot alias it) */
     double *B = buf + (size_t)t * (size_t)n * 7;
     memset(B, 0, sizeof(double) * 7 * (size_t)n);
 #pragma omp barrier

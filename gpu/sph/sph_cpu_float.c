@@ -26,7 +26,7 @@ static inline __attribute__((always_inline)) void pairs_float(const sphdem_dev *
   const int periodic = D->P.periodic[0] || D->P.periodic[1] || (D->P.dim == 3 && D->P.periodic[2]);
   const float support2 = (float)D->support2;
   const int64_t k0 = D->nl_start[a], k1 = D->nl_start[a + 1];
-  const pair_consts_f K = pair_consts_of_f(D);
+  const pair_consts_f K = D->Kf;
   const float xaf[3] = {(float)xa[0], (float)xa[1], (float)xa[2]};
   const float vaf[3] = {F8[8 * (size_t)a], F8[8 * (size_t)a + 1], F8[8 * (size_t)a + 2]};
   /* the lanes past a block's end keep finite values (masked by j < m) */

@@ -36,6 +36,8 @@ static void derive(sphdem_dev *D) {
     if (D->mp.on && k < D->mp.M.nphase) D->cmax = fmax(D->cmax, D->mp.ck[k]);
   }
   D->mp.wvol_inv_rho0 = 1.0 / p->rho0;
+  pair_consts_set(D, &D->K);
+  pair_consts_set_f(D, &D->Kf);
 }
 
 /* Derived constants (D->B, kernel constants, the multiphase constants) of D->P and D->mp.M. */

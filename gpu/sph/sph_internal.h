@@ -15,6 +15,21 @@
 /* Cap on the number of cells of the search grid; beyond it cells grow (still >= 2h + skin). */
 #define SPHDEM_MAX_CELLS (1 << 26)
 
+/* The delta-plus fluid (Shi & Huang 2022): eqs 16 and 24 divide by r_ij^2 with no regularisation; (eta h)^2 with eta = 0.01 (Morris et al. 1997)
+ * only guards coincident particles. He 2018's 0.01 h^2 (eta = 0.1) under-estimates the viscous term by
+ * ~1.5 % independently of the resolution (the two-layer Poiseuille test then stops converging at 1.5 %). */
+#define SPHDEM_MP_ETA2 1e-4
+
+/* The parameters the pair terms read (pair_real.h), in each real type: derived once from the parameters
+ * (sph_ctx.c, whenever they change), so that no pair converts them. mp_eta2: the delta-plus fluid's (eta h)^2. */
+#define SPHDEM_PAIR_CONSTS(R)                                                                                  \
+  struct {                                                                                                     \
+    R inv_h, alphaD, eta2, mp_eta2, h, w_dx_inv, tensile_eps, tensile_n, mu, alpha, c0, delta, rho0, g[3], xsph_eps, \
+        rep_D, rep_r0;                                                                                         \
+  }
+typedef SPHDEM_PAIR_CONSTS(double) pair_consts;
+typedef SPHDEM_PAIR_CONSTS(float) pair_consts_f;
+
 /* Everything a pass needs, passed by value to kernels and by pointer to CPU loops.
  * Arrays are in device (cell-sorted) order; vectors are interleaved xyz. */
 typedef struct {
@@ -25,6 +40,8 @@ typedef struct {
   double h, inv_h, support2, eta2; /* eta2 = 0.01 h^2 */
   double w_dx_inv;   /* 1 / W(dx) for eq 11 */
   int gamma_is_7, tensile_n_is_4;
+  pair_consts K;     /* the pair terms' constants in double (precision double) */
+  pair_consts_f Kf;  /* and in float (mixed, single) */
   /* search grid */
   double glo[3], cs[3], cs_inv[3], L[3];
   int nc[3];

@@ -11,7 +11,10 @@
  * Usage: verify_mp_poiseuille [newtonian|convergence|hb|hb_bingham|hb_power|rk4|all|accuracy] [TEND] [rk4|mls] (mls: fixed ghost
  * walls with MLS interpolation, Shi & Huang §3.4, instead of the Adami walls). accuracy (not in "all"):
  * the bench table mp_accuracy.csv (bench/mp_accuracy.py). rk4: mu_A/mu_B = 4 at res 20
- * with Runge-Kutta steps against velocity Verlet (same bound).  Writes mp_poiseuille.csv
+ * with Runge-Kutta steps against velocity Verlet (same bound). precision (not in "all"): mu_A/mu_B = 4 at res 20,
+ * the tests' terms (renormalised diffusion) and the delta-plus terms (with shifting), in the precisions mixed and
+ * single against double: the L2 difference of the velocity profiles within 0.1 % (mixed) and 1 % (single) of
+ * double's, each L2 against the exact profile within 2 %.  Writes mp_poiseuille.csv
  * (case, res, y, u_sim, u_exact, u_cutoff) and mp_poiseuille_MODE_summary.csv. */
 #include <math.h>
 #include "scene.h"
@@ -24,6 +27,9 @@ static int use_mls = 0; /* third argument mls: fixed ghost walls with MLS interp
 /* terms: -1 the tests' setting (renormalised diffusion, no shifting); 0 plain (neither); 1 delta-plus (both) */
 static int terms = -1;
 static double last_wall = 0; /* wall-clock seconds of the last run_case time loop */
+static int precision = SPHDEM_PREC_DOUBLE; /* sphdem_params.precision of run_case */
+static double *last_v = NULL;              /* the last run_case's final fluid velocities (3 per particle) */
+static int last_nf = 0;
 
 static double wall_now(void) {
   struct timespec ts;
@@ -99,6 +105,7 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
   p.dim = 2; p.dx = H / res; p.h = 1.5 * p.dx; p.rho0 = 1.0;
   p.c0 = 10.0 * fmax(umax, 0.1);
   p.gravity[0] = G; p.skin = 0.3 * p.dx;
+  p.precision = precision;
   int ncol = (int)ceil(3.0 * (2.0 * p.h + p.skin) / p.dx) + 1;
   double Lx = ncol * p.dx;
   p.periodic[0] = 1; p.boxlo[0] = 0; p.boxhi[0] = Lx; p.boxlo[1] = -0.5 * H; p.boxhi[1] = 1.5 * H;
@@ -150,7 +157,10 @@ static double run_case(const mp_case *cs, int res, double tend, FILE *out, doubl
          cs->name, res, (int)nstep, t, usim, umax, 100 * sqrt(e2 / n2), 100 * sqrt(c2 / n2c));
   if (err_cut) *err_cut = sqrt(c2 / n2c);
   if (umax_out) *umax_out = umax;
-  free(x); free(v); free(phase);
+  free(last_v);
+  last_v = v;
+  last_nf = s.nf;
+  free(x); free(phase);
   scene_free(&s);
   sphdem_destroy(&c);
   return sqrt(e2 / n2);
@@ -246,6 +256,36 @@ int main(int argc, char **argv) {
     use_rk4 = keep;
     TEST_ASSERT(ev < 0.02 && er < 0.02, "Verlet %.3f%%, RK4 %.3f%% < 2%%", 100 * ev, 100 * er);
     TEST_ASSERT(fabs(ev - er) < 0.002, "RK4 and Verlet agree at steady state (%.3f%% vs %.3f%%)", 100 * er, 100 * ev);
+  }
+  if (!strcmp(which, "precision")) {
+    printf("  mu_A/mu_B = 4, res 20: the precisions mixed and single against double (bounds: velocity difference\n"
+           "  L2 < 0.1 %% of double's (mixed), < 1 %% (single); every L2 against the exact profile < 2 %%)\n");
+    mp_case cs = {"prec_ratio4", {newtonian(1.0), newtonian(0.25)}};
+    for (int tm = -1; tm <= 1; tm += 2) {
+      terms = tm;
+      precision = SPHDEM_PREC_DOUBLE;
+      const double ed = run_case(&cs, 20, tend, NULL, NULL, NULL), wd = last_wall;
+      const int n = last_nf;
+      double *vd = (double *)malloc(24 * (size_t)n);
+      memcpy(vd, last_v, 24 * (size_t)n);
+      for (int pr = SPHDEM_PREC_MIXED; pr <= SPHDEM_PREC_SINGLE; pr++) {
+        precision = pr;
+        const double e = run_case(&cs, 20, tend, NULL, NULL, NULL);
+        double d2 = 0, n2 = 0;
+        for (int i = 0; i < 3 * n; i++) { d2 += (last_v[i] - vd[i]) * (last_v[i] - vd[i]); n2 += vd[i] * vd[i]; }
+        const double dv = sqrt(d2 / n2), bound = pr == SPHDEM_PREC_MIXED ? 1e-3 : 1e-2;
+        const char *pn = pr == SPHDEM_PREC_MIXED ? "mixed" : "single";
+        printf("    %s terms, %-6s: L2 vs exact %.3f%% (double %.3f%%), velocity difference from double %.2e; wall "
+               "time %.2f s (double %.2f s)\n", tm < 0 ? "tests'" : "delta-plus", pn, 100 * e, 100 * ed, dv, last_wall, wd);
+        fprintf(sum, "%s_%s_%s,20,%.6e,%.6e\n", cs.name, tm < 0 ? "tests" : "dplus", pn, e, dv);
+        TEST_ASSERT(dv < bound && dv > 0, "%s (%s terms): velocity difference from double %.2e in (0, %g)", pn,
+                    tm < 0 ? "the tests'" : "delta-plus", dv, bound);
+        TEST_ASSERT(e < 0.02, "%s: L2 against the exact profile %.3f%% < 2%%", pn, 100 * e);
+      }
+      free(vd);
+    }
+    precision = SPHDEM_PREC_DOUBLE;
+    terms = -1;
   }
   if (!strcmp(which, "accuracy")) {
     /* accuracy against cost (bench/mp_accuracy.py): mu_A/mu_B = 4, Verlet / RK4 x plain / delta-plus x res */
