@@ -22,17 +22,23 @@ Cases (each runs the committed example input; only the resolution variable chang
 
 Cost: the engine's "Loop time" (set-up excluded) divided by the simulated time, with OMP_NUM_THREADS=1.
 
-Precision: --precisions double mixed single runs the settling and dambreak2d cases once per precision of fix
-sph/fluid (-var precision P of the examples), one series each in the table and the chart.
+  hydrostatic  examples/hydrostatic/in.hydrostatic, dx = 5, 2.5, 1.25 mm, t = 0.6 s. Error: the bottom row's
+               pressure averaged over the last four dumps (t = 0.45-0.6 s) against rho0 g (H - z).
+  poiseuille2phase  examples/poiseuille2phase/in.poiseuille2phase (mu_A/mu_B = 4), res = 20, 40, 80, t = 5 s.
+               Error: L2 of the final velocity profile against the steady solution (Shi & Huang 2022 §5.2).
+
+Precision: --precisions double mixed single runs the settling, dambreak2d, hydrostatic and poiseuille2phase cases
+once per precision of fix sph/fluid (-var precision P of the examples), one series each in the table and the chart.
 
 Usage: /usr/bin/python3 bench/accuracy_cost.py [--exe build/src_fix/lmp_sphdem] [--cases settling dambreak2d
-           particles] [--precisions double mixed single] [--work /tmp/sphdem_acc] [--ref DIR] [--reuse]
+           particles hydrostatic poiseuille2phase] [--precisions double mixed single] [--work /tmp/sphdem_acc] [--ref DIR] [--reuse]
            [--out bench/results_accuracy]
 --reuse analyses existing run directories under --work without running them again.
 Writes accuracy_cost.csv, accuracy_cost.md and accuracy_cost.png in --out and prints the table.
 """
 import argparse
 import csv
+import glob
 import importlib.util
 import os
 import re
@@ -56,6 +62,8 @@ def load(path, name):
 
 settling_plot = load(os.path.join(EX, "settling", "plot.py"), "settling_plot")
 dambreak2d_plot = load(os.path.join(EX, "dambreak2d", "plot.py"), "dambreak2d_plot")
+hydrostatic_plot = load(os.path.join(EX, "hydrostatic", "plot.py"), "hydrostatic_plot")
+poiseuille_plot = load(os.path.join(EX, "poiseuille2phase", "plot.py"), "poiseuille_plot")
 
 
 def run(exe, inp, workdir, variables, reuse):
@@ -134,6 +142,39 @@ def dambreak2d(args):
     return rows
 
 
+def hydrostatic(args):
+    """still water: the bottom row's time-averaged pressure (last four dumps, t = 0.45-0.6 s) vs rho0 g (H - z)"""
+    rows = []
+    for (prec, wsuf, ssuf), dx in [(pr, d) for pr in prec_runs(args) for d in (0.005, 0.0025, 0.00125)]:
+        wd = os.path.join(args.work, "hydrostatic_dx%g%s" % (dx * 1e3, wsuf))
+        loop = run(args.exe, os.path.join(EX, "hydrostatic", "in.hydrostatic"), wd, [("dx", dx), ("precision", prec)],
+                   args.reuse)
+        files = sorted(glob.glob(os.path.join(wd, "dump.hydrostatic.*")), key=hydrostatic_plot.natural_key)[-4:]
+        z, p, _ = hydrostatic_plot.profile(files, dx, 0.2, "f_water[2]")
+        exact = 1000.0 * 9.81 * (0.2 - z[0])
+        rows.append(dict(case="hydrostatic", series="bottom pressure vs rho0 g (H - z)" + ssuf,
+                         res="dx = %g mm" % (dx * 1e3), tsim=0.6, loop_s=loop, cost=loop / 0.6,
+                         err=100 * abs(p[0] - exact) / exact))
+    return rows
+
+
+def poiseuille2phase(args):
+    """two-phase Poiseuille (mu_A/mu_B = 4, renormalised diffusion) to t = 5 s: L2 of the final profile vs the
+    steady solution"""
+    rows = []
+    fa, fb = poiseuille_plot.parse_model("newtonian 1.0"), poiseuille_plot.parse_model("newtonian 0.25")
+    ye, ue = poiseuille_plot.steady(fa, fb)
+    for (prec, wsuf, ssuf), res in [(pr, n) for pr in prec_runs(args) for n in (20, 40, 80)]:
+        wd = os.path.join(args.work, "poiseuille2phase_res%d%s" % (res, wsuf))
+        loop = run(args.exe, os.path.join(EX, "poiseuille2phase", "in.poiseuille2phase"), wd,
+                   [("res", res), ("precision", prec)], args.reuse)
+        y, u = poiseuille_plot.final_profile(wd)
+        ref = np.interp(y, ye, ue)
+        rows.append(dict(case="poiseuille2phase", series="L2 vs steady profile" + ssuf, res="res %d" % res, tsim=5.0,
+                         loop_s=loop, cost=loop / 5.0, err=100 * np.sqrt(np.sum((u - ref) ** 2) / np.sum(ref ** 2))))
+    return rows
+
+
 def read_fronts(path):
     a = np.genfromtxt(path, delimiter=",", names=True)
     return a["t"], a["x_water"], a["x_beads"]
@@ -180,7 +221,8 @@ def main():
     args.exe = os.path.abspath(args.exe)
     if args.ref:
         args.ref = os.path.abspath(args.ref)
-    funcs = dict(settling=settling, dambreak2d=dambreak2d, particles=particles)
+    funcs = dict(settling=settling, dambreak2d=dambreak2d, particles=particles, hydrostatic=hydrostatic,
+                 poiseuille2phase=poiseuille2phase)
     rows = []
     for c in args.cases:
         if c not in funcs:
@@ -208,9 +250,12 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    cases = [c for c in ("settling", "dambreak2d", "particles") if any(r["case"] == c for r in rows)]
+    order = ("settling", "dambreak2d", "hydrostatic", "poiseuille2phase", "particles")
+    cases = [c for c in order if any(r["case"] == c for r in rows)]
     titles = dict(settling="Settling sphere (1 mm, Re 169, engine example)\nmean error of v(t) vs Schiller-Naumann ODE",
                   dambreak2d="2D dam break (water)\nfront vs Martin & Moyce 1952, T <= 3",
+                  hydrostatic="Still water (0.2 m deep, 0.6 s)\nbottom-row pressure vs rho0 g (H - z)",
+                  poiseuille2phase="Two-phase Poiseuille (mu_A/mu_B = 4, 5 s)\nL2 vs the steady profile",
                   particles="Two-phase dam break (water + beads)\nfronts: difference to the dx = 3 mm run")
     fig, axes = plt.subplots(1, len(cases), figsize=(5 * len(cases), 4.2), squeeze=False)
     for ax, c in zip(axes[0], cases):

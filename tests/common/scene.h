@@ -45,6 +45,28 @@ static void scene_push_wall(scene *s, const double *x, double mass) {
   s->wmass[i] = mass;
 }
 
+/* The fluid of the still 2D tank of verify_hydrostatic (and verify_precision's tank): water H deep in a tank W wide,
+ * res particles across, h = 1.5 dx, c0 = 10 sqrt(g H), artificial viscosity 0.02 (the box is the caller's). */
+static inline void scene_params_still_tank(sphdem_params *p, double W, double H, int res) {
+  const double g = 9.81;
+  sphdem_params_default(p);
+  p->dim = 2; p->dx = W / res; p->h = 1.5 * p->dx;
+  p->rho0 = 1000; p->c0 = 10 * sqrt(g * H);
+  p->gravity[1] = -g; p->skin = 0.3 * p->dx;
+  p->visc = SPHDEM_VISC_ARTIFICIAL; p->alpha = 0.02;
+}
+
+/* The fluid and box of the 2D dam break of verify_dambreak2d (and verify_precision's): a column a wide and 2a high
+ * in a tank 5a long, res particles across the column, h = 1.3 dx, c0 = 10 sqrt(2 g a), artificial viscosity 0.02. */
+static inline void scene_params_dambreak2d(sphdem_params *p, double a, int res) {
+  const double g = 9.81;
+  sphdem_params_default(p);
+  p->dim = 2; p->dx = a / res; p->h = 1.3 * p->dx; p->rho0 = 1000; p->c0 = 10 * sqrt(2 * g * a);
+  p->gravity[1] = -g; p->skin = 0.3 * p->dx;
+  p->visc = SPHDEM_VISC_ARTIFICIAL; p->alpha = 0.02;
+  p->boxlo[0] = -0.05; p->boxhi[0] = 5 * a + 0.05; p->boxlo[1] = -0.05; p->boxhi[1] = 0.6;
+}
+
 /* Open-top tank [0,L] x [0,W] x [0,Ht] (2D: [0,L] x [0,Ht], vertical axis = last axis) with nl wall
  * layers, fluid block [0,fl] x [0,W] x [0,fh] at spacing dx, hydrostatic initial density and mass
  * rho dx^dim (so the SPH volume of each particle is its lattice volume). */

@@ -11,11 +11,7 @@ int main(int argc, char **argv) {
   double bound = argc > 2 ? atof(argv[2]) : 0.20; /* see the note in README: SPH leads this experiment */
   double a = 0.1, g = 9.81;
   sphdem_params p;
-  sphdem_params_default(&p);
-  p.dim = 2; p.dx = a / res; p.h = 1.3 * p.dx; p.rho0 = 1000; p.c0 = 10 * sqrt(2 * g * a);
-  p.gravity[1] = -g; p.skin = 0.3 * p.dx;
-  p.visc = SPHDEM_VISC_ARTIFICIAL; p.alpha = 0.02;
-  p.boxlo[0] = -0.05; p.boxhi[0] = 5 * a + 0.05; p.boxlo[1] = -0.05; p.boxhi[1] = 0.6;
+  scene_params_dambreak2d(&p, a, res);
   scene s;
   scene_tank(&s, &p, 5 * a, 0, 4 * a, a, 2 * a, 3);
   sphdem_ctx c = scene_start(&p, &s, test_device());

@@ -9,11 +9,7 @@ int main(int argc, char **argv) {
   double W = 0.1, H = 0.2, g = 9.81;
   int res = 40;
   sphdem_params p;
-  sphdem_params_default(&p);
-  p.dim = 2; p.dx = W / res; p.h = 1.5 * p.dx;
-  p.rho0 = 1000; p.c0 = 10 * sqrt(g * H);
-  p.gravity[1] = -g; p.skin = 0.3 * p.dx;
-  p.visc = SPHDEM_VISC_ARTIFICIAL; p.alpha = 0.02;
+  scene_params_still_tank(&p, W, H, res);
   p.delta = 0.0; p.delta_hydro = 1;
   p.boxlo[0] = -0.05; p.boxhi[0] = W + 0.05; p.boxlo[1] = -0.05; p.boxhi[1] = 2 * H;
   scene s;

@@ -118,14 +118,10 @@ static void test_rates(void) {
 /* Time-averaged bottom-row pressure of the still tank shifted by x0 along x, precision prec; *refused = 1 when the
  * core refused the fluid (its message printed). */
 static double tank_bottom(int prec, double x0, int *refused) {
-  const double W = 0.1, H = 0.2, g = 9.81;
+  const double W = 0.1, H = 0.2;
   const int res = 20;
   sphdem_params p;
-  sphdem_params_default(&p);
-  p.dim = 2; p.dx = W / res; p.h = 1.5 * p.dx;
-  p.rho0 = 1000; p.c0 = 10 * sqrt(g * H);
-  p.gravity[1] = -g; p.skin = 0.3 * p.dx;
-  p.visc = SPHDEM_VISC_ARTIFICIAL; p.alpha = 0.02;
+  scene_params_still_tank(&p, W, H, res);
   p.precision = prec;
   scene s;
   scene_tank(&s, &p, W, 0, 1.5 * H, W, H, 3);
@@ -203,11 +199,7 @@ static double dambreak_front(int prec) {
   const double a = 0.1, g = 9.81;
   const int res = 40;
   sphdem_params p;
-  sphdem_params_default(&p);
-  p.dim = 2; p.dx = a / res; p.h = 1.3 * p.dx; p.rho0 = 1000; p.c0 = 10 * sqrt(2 * g * a);
-  p.gravity[1] = -g; p.skin = 0.3 * p.dx;
-  p.visc = SPHDEM_VISC_ARTIFICIAL; p.alpha = 0.02;
-  p.boxlo[0] = -0.05; p.boxhi[0] = 5 * a + 0.05; p.boxlo[1] = -0.05; p.boxhi[1] = 0.6;
+  scene_params_dambreak2d(&p, a, res);
   p.precision = prec;
   scene s;
   scene_tank(&s, &p, 5 * a, 0, 4 * a, a, 2 * a, 3);
