@@ -35,6 +35,10 @@
   couple EXE ENGINE MPIRUN           fix sph/couple: the momentum balance at 3 and 4 ranks, a coupled restart 3 -> 1
   rk4 EXE ENGINE MPIRUN              integrator rk4 (the tiny dam break, plain and with the delta-plus terms) at
                                      2 ranks (1 2 1: the cut runs through the column) and 4 (2 2 1) against 1 rank, 300 steps
+  scenes EXE ENGINE MPIRUN EXAMPLES  examples/hydrostatic (dx 5 mm, 300 steps; processors 2 1 1, 1 2 1, 2 2 1),
+                 examples/poiseuille2phase (res 20, 300 steps; 1 2 1: the cut runs along the interface of the two
+                 phases; 2 1 1: across the periodic axis), examples/debris_flow (dx 40 mm, 200 steps: Bingham mud
+                 sliding into water, shifting; 2 1 1, 2 2 1)
   precision EXE ENGINE MPIRUN        precision mixed (the tiny dam break at 2 ranks, 1 2 1, and 4, 2 2 1; with the
                                      delta-plus terms at 2) and single (2 ranks) against 1 rank, 300 steps; bounds
                                      PREC_BOUND and SINGLE_BOUND (below)
@@ -562,6 +566,23 @@ def test_rk4(exe, engine, mpirun):
     # the delta-plus terms (shifting, diffusion: the shift velocity moves the ghosts too)
     dp = db.replace("visc artificial 0.05", "visc morris 1e-3 shifting yes diffusion renorm 0.1")
     fails += ranks_case(exe, engine, mpirun, "rk4_%s/dplus" % engine, dp, [(2, "1 2 1")], 300,
+                        ["x", "y", "vx", "vy", "rho"], moved_col=2)
+    return fails
+
+
+def test_scenes(exe, engine, mpirun, examples):
+    """the remaining fluid examples at 2 and 4 ranks against 1 (bound 1e-9, the module doc)"""
+    fails = 0
+    hs = shorten(example(examples, "hydrostatic"), 300, "fluid", 300, "x y vx vy f_water[1]", engine)
+    hs = hs.replace("variable dx     index 0.0025", "variable dx     index 0.005")
+    fails += ranks_case(exe, engine, mpirun, "scenes_%s/hydrostatic" % engine, hs, [(2, "2 1 1"), (2, "1 2 1"),
+                        (4, "2 2 1")], 300, ["x", "y", "vx", "vy", "rho"], moved_col=3)
+    po = shorten(example(examples, "poiseuille2phase"), 300, "fluid", 300, "x y vx vy f_chan[1]", engine)
+    fails += ranks_case(exe, engine, mpirun, "scenes_%s/poiseuille2phase" % engine, po, [(2, "1 2 1"), (2, "2 1 1")],
+                        300, ["x", "y", "vx", "vy", "rho"], periodic={0: 1.2}, moved_col=2)
+    df = shorten(example(examples, "debris_flow"), 200, "fluid", 200, "x y vx vy f_flow[1]", engine)
+    df = df.replace("variable dx     index 0.02", "variable dx     index 0.04")
+    fails += ranks_case(exe, engine, mpirun, "scenes_%s/debris_flow" % engine, df, [(2, "2 1 1"), (4, "2 2 1")], 200,
                         ["x", "y", "vx", "vy", "rho"], moved_col=2)
     return fails
 
