@@ -11,6 +11,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "force.h"
 #include "group.h"
 #include "memory.h"
 #include "modify.h"
@@ -910,10 +911,12 @@ void FixSPHFluid::build_map() {
       if (mask[i] & groupbit) fidx_.push_back(i);
       else if (mask[i] & wall_groupbit_) widx_.push_back(i);
     }
-    xhold_.resize(3 * (size_t)nlocal);
-    for (int i = 0; i < nlocal; i++)
-      for (int d = 0; d < 3; d++) xhold_[3 * (size_t)i + d] = atom->x[i][d];
   }
+  /* the positions of this neighbour build (the engine's pre_exchange download made the fluid's current), for
+   * check_displacement on one rank and on many alike */
+  xhold_.resize(3 * (size_t)nlocal);
+  for (int i = 0; i < nlocal; i++)
+    for (int d = 0; d < 3; d++) xhold_[3 * (size_t)i + d] = atom->x[i][d];
   mapping_dirty_ = false;
 }
 
@@ -1144,21 +1147,36 @@ int FixSPHFluid::exchange_walls(int ncomp, int nown, int nghost, const double *o
   return exchange_slots(widx_, nwown_, slot, ok, ncomp, own, ghost);
 }
 
-/* Many ranks: the ghost fluid and walls reach cut_need_ = levels 2h + skin beyond each subdomain, enough while no
- * owned atom has moved more than skin/2 since the last neighbour build; a larger move anywhere asks the engine
- * for a neighbour build on this step (collective). */
+/* After the drift of each fluid step: an owned atom that moved more than skin/2 since the last neighbour build asks
+ * the engine for a neighbour build on this step (collective). Many ranks: the ghost fluid and walls reach
+ * cut_need_ = levels 2h + skin beyond each subdomain, enough while no owned atom has moved that far. One rank:
+ * the same request, so that the engine reneighbours on the same steps as on many ranks. Without it the engine's
+ * own displacement check saw the fluid only when the host rows were refreshed (output steps: a step later, or
+ * never), and the build steps depended on the rank count; with LIGGGHTS' tangential history a pair that separated
+ * keeps its displacement until the next build, so a contact resumed before or after a build differed. */
 void FixSPHFluid::check_displacement() {
   double d2max = 0.0;
-  double **x = atom->x;
-  const int bits = groupbit | wall_groupbit_ | (coupler_ ? coupler_->couple_groupbit() : 0);
   const int n = std::min(atom->nlocal, (int)(xhold_.size() / 3));
-  for (int i = 0; i < n; i++) {
-    if (!(atom->mask[i] & bits)) continue;
+  auto take = [&](int i, const double *xi) {
     double d2 = 0.0;
-    for (int d = 0; d < 3; d++) d2 += (x[i][d] - xhold_[3 * (size_t)i + d]) * (x[i][d] - xhold_[3 * (size_t)i + d]);
+    for (int d = 0; d < 3; d++) d2 += (xi[d] - xhold_[3 * (size_t)i + d]) * (xi[d] - xhold_[3 * (size_t)i + d]);
     if (!(d2 <= d2max)) d2max = std::isfinite(d2) ? d2 : 1e300;
+  };
+  if (multi_) { /* the fluid was just downloaded: every owned atom from the engine's arrays */
+    double **x = atom->x;
+    const int bits = groupbit | wall_groupbit_ | (coupler_ ? coupler_->couple_groupbit() : 0);
+    for (int i = 0; i < n; i++)
+      if (atom->mask[i] & bits) take(i, x[i]);
+    sphdem_mpi::max(world, &d2max, 1);
+  } else { /* one rank: the host rows of the fluid are stale, its positions come from the core (the engine's own
+            * check sees the walls and grains, whose host rows are current). Without a pair style (a fluid without
+            * grains) the build steps change nothing: no download (on a GPU, a copy of every position per step) */
+    if (!force->pair) return;
+    xchk_.resize(3 * nfown_);
+    check(sphdem_get_fluid(ctx_, xchk_.data(), nullptr, nullptr, nullptr, nullptr), "get_fluid");
+    for (size_t k = 0; k < nfown_; k++)
+      if (fidx_[k] < n) take(fidx_[k], &xchk_[3 * k]);
   }
-  sphdem_mpi::max(world, &d2max, 1);
   if (d2max > 0.25 * neighbor->skin * neighbor->skin) next_reneighbor = update->ntimestep;
 }
 
@@ -1335,18 +1353,14 @@ void FixSPHFluid::initial_integrate(int) {
   if (rk4_) { /* the whole step here: four rate evaluations with the walls as they are now */
     if (walls_move_) upload_walls(true);
     check(sphdem_step_rk4(ctx_, dt_fluid_), "step_rk4");
-    if (multi_) { /* the engine's forward communication and exchange read the moved fluid */
-      download();
-      check_displacement();
-    }
+    if (multi_) download(); /* the engine's forward communication and exchange read the moved fluid */
+    check_displacement();
     return;
   }
   check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   check(sphdem_drift(ctx_, dt_fluid_), "drift");
-  if (multi_) { /* the engine's forward communication and exchange read the moved fluid */
-    download();
-    check_displacement();
-  }
+  if (multi_) download(); /* the engine's forward communication and exchange read the moved fluid */
+  check_displacement();
 }
 
 void FixSPHFluid::post_force(int) {

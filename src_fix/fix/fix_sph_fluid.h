@@ -137,7 +137,8 @@ class FixSPHFluid : public Fix {
   bool multi_ = false;
   size_t nfown_ = 0, nwown_ = 0; /* owned entries at the front of fidx_ / widx_ */
   std::vector<double> gcomm_; /* GCOMM values per local + ghost atom */
-  std::vector<double> xhold_; /* owned fluid and wall positions at the last neighbour build */
+  std::vector<double> xhold_; /* owned atoms' positions at the last neighbour build */
+  std::vector<double> xchk_;  /* one rank: the fluid's positions from the core for check_displacement */
   double cut_need_ = 0.0;     /* the communication cutoff the ghost fluid needs */
   sphdem_comm comm_;
   int ghost_levels() const;
