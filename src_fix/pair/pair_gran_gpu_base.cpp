@@ -204,6 +204,10 @@ void PairGranGPUBase::read_restart_tail(FILE *fp, bool head_read) {
       MPI_Bcast(pending_history_.keys.data(), (int)np, MPI_UINT64_T, 0, world);
       MPI_Bcast(pending_history_.hist.data(), (int)(np * SPHDEM_DEM_HIST_DOUBLES), MPI_DOUBLE, 0, world);
     }
+    int64_t nr = (int64_t)pending_history_.roll.size();
+    MPI_Bcast(&nr, 1, MPI_INT64_T, 0, world);
+    pending_history_.roll.resize((size_t)nr);
+    if (nr) MPI_Bcast(pending_history_.roll.data(), (int)nr, MPI_DOUBLE, 0, world);
   } else if (!ok) {
     fail(err);
   }

@@ -48,13 +48,28 @@ inline long long bytes_left(FILE *fp) {
  * xyz, touch flag, largest overlap of hooke/hysteresis). Files written before the values-per-pair field
  * have keys right after the count and 4 values per pair (no largest overlap: 0, no hysteresis then). */
 constexpr uint64_t SPHDEM_HIST_LEGACY_DOUBLES = 4;
-/* the core's whole pair list and its history; false when the core cannot give it */
-inline bool get_history(sphdem_dem dem, std::vector<uint64_t> &keys, std::vector<double> &hist) {
+/* With a rolling history (granular/gpu rolling sds: the rolling displacement; gran/gpu rolling_friction epsd,
+ * epsd2: the rolling spring torque) its 3 values follow each pair's SPHDEM_DEM_HIST_DOUBLES. */
+constexpr uint64_t SPHDEM_HIST_ROLL_DOUBLES = SPHDEM_DEM_HIST_DOUBLES + 3;
+/* the core's whole pair list, its history and (where the core keeps one, else empty) its rolling history; false
+ * when the core cannot give them */
+inline bool get_history(sphdem_dem dem, std::vector<uint64_t> &keys, std::vector<double> &hist,
+                        std::vector<double> *roll = nullptr) {
   int64_t np = dem ? sphdem_dem_get_history(dem, nullptr, nullptr, 0) : 0;
   if (np < 0) return false;
   keys.resize((size_t)np);
   hist.resize((size_t)np * SPHDEM_DEM_HIST_DOUBLES);
-  return np == 0 || sphdem_dem_get_history(dem, keys.data(), hist.data(), np) == np;
+  if (np > 0 && sphdem_dem_get_history(dem, keys.data(), hist.data(), np) != np) return false;
+  if (roll) {
+    roll->clear();
+    const int64_t nr = np > 0 ? sphdem_dem_get_rolling(dem, nullptr, 0) : 0;
+    if (nr < 0) return false;
+    if (nr == np && np > 0) {
+      roll->resize((size_t)np * 3);
+      if (sphdem_dem_get_rolling(dem, roll->data(), np) != np) return false;
+    }
+  }
+  return true;
 }
 /* a pair key whose second half is a wall code (sphdem_dem_get_history) */
 inline bool wall_key(uint64_t key) { return (key & 0xffffffffu) > 0xffffffffu - SPHDEM_DEM_MAX_WALL_CONTACTS; }
@@ -64,21 +79,30 @@ inline bool has_history(const double *h) {
     if (h[q] != 0.0) return true;
   return false;
 }
-inline void write_history(FILE *fp, const std::vector<uint64_t> &keys, const std::vector<double> &hist) {
+inline void write_history(FILE *fp, const std::vector<uint64_t> &keys, const std::vector<double> &hist,
+                          const std::vector<double> &roll = std::vector<double>()) {
   const int64_t np = (int64_t)keys.size();
   fwrite(&np, sizeof(int64_t), 1, fp);
   if (np > 0) {
-    const uint64_t per = SPHDEM_DEM_HIST_DOUBLES;
+    const bool with_roll = roll.size() == 3 * (size_t)np;
+    const uint64_t per = with_roll ? SPHDEM_HIST_ROLL_DOUBLES : SPHDEM_DEM_HIST_DOUBLES;
     fwrite(&per, sizeof(uint64_t), 1, fp);
     fwrite(keys.data(), sizeof(uint64_t), (size_t)np, fp);
-    fwrite(hist.data(), sizeof(double), (size_t)np * SPHDEM_DEM_HIST_DOUBLES, fp);
+    if (!with_roll) {
+      fwrite(hist.data(), sizeof(double), (size_t)np * SPHDEM_DEM_HIST_DOUBLES, fp);
+      return;
+    }
+    for (size_t k = 0; k < (size_t)np; k++) {
+      fwrite(&hist[k * SPHDEM_DEM_HIST_DOUBLES], sizeof(double), SPHDEM_DEM_HIST_DOUBLES, fp);
+      fwrite(&roll[3 * k], sizeof(double), 3, fp);
+    }
   }
 }
 inline bool write_history(FILE *fp, sphdem_dem dem) {
   std::vector<uint64_t> keys;
-  std::vector<double> hist;
-  if (!get_history(dem, keys, hist)) return false;
-  write_history(fp, keys, hist);
+  std::vector<double> hist, roll;
+  if (!get_history(dem, keys, hist, &roll)) return false;
+  write_history(fp, keys, hist, roll);
   return true;
 }
 
@@ -86,6 +110,7 @@ struct PendingHistory {
   bool have = false;
   std::vector<uint64_t> keys;
   std::vector<double> hist;
+  std::vector<double> roll; /* 3 per pair when the file has a rolling history, else empty */
   std::string error; /* why read() failed */
 
   /* the message for a failed read: what read() found, else the caller's text */
@@ -106,10 +131,11 @@ struct PendingHistory {
         return fail("restart file ends inside the contact history (" + std::to_string(np) + " pairs)");
       if (field < ((uint64_t)1 << 32)) {
         per = field;
-        if (per != SPHDEM_DEM_HIST_DOUBLES && per != SPHDEM_HIST_LEGACY_DOUBLES)
+        if (per != SPHDEM_DEM_HIST_DOUBLES && per != SPHDEM_HIST_LEGACY_DOUBLES && per != SPHDEM_HIST_ROLL_DOUBLES)
           return fail("restart file: " + std::to_string(per) + " contact-history values per pair; this version "
-                      "reads " + std::to_string(SPHDEM_HIST_LEGACY_DOUBLES) + " or " +
-                      std::to_string(SPHDEM_DEM_HIST_DOUBLES) + " (corrupt restart file)");
+                      "reads " + std::to_string(SPHDEM_HIST_LEGACY_DOUBLES) + ", " +
+                      std::to_string(SPHDEM_DEM_HIST_DOUBLES) + " or " + std::to_string(SPHDEM_HIST_ROLL_DOUBLES) +
+                      " (corrupt restart file)");
       } else {
         per = SPHDEM_HIST_LEGACY_DOUBLES;
         if (fseek(fp, -(long)sizeof(uint64_t), SEEK_CUR) != 0)
@@ -134,8 +160,20 @@ struct PendingHistory {
     if (!read_items(fp, keys.data(), sizeof(uint64_t), keys.size()) ||
         !read_items(fp, raw.data(), sizeof(double), raw.size()))
       return fail("restart file ends inside the contact history (" + std::to_string(np) + " pairs)");
+    const size_t nh = per < SPHDEM_DEM_HIST_DOUBLES ? per : SPHDEM_DEM_HIST_DOUBLES;
     for (size_t k = 0; k < keys.size(); k++) /* legacy pairs: largest overlap 0 */
-      for (size_t v = 0; v < per; v++) hist[k * SPHDEM_DEM_HIST_DOUBLES + v] = raw[k * per + v];
+      for (size_t v = 0; v < nh; v++) hist[k * SPHDEM_DEM_HIST_DOUBLES + v] = raw[k * per + v];
+    roll.clear();
+    if (per == SPHDEM_HIST_ROLL_DOUBLES) {
+      roll.resize(3 * keys.size());
+      for (size_t k = 0; k < keys.size(); k++)
+        for (size_t v = 0; v < 3; v++) {
+          roll[3 * k + v] = raw[k * per + SPHDEM_DEM_HIST_DOUBLES + v];
+          if (!std::isfinite(roll[3 * k + v]))
+            return fail("restart file: contact-history pair " + std::to_string(k) + " has a rolling history that no "
+                        "contact has (corrupt restart file)");
+        }
+    }
     for (size_t k = 0; k < keys.size(); k++) {
       const uint64_t ta = keys[k] >> 32, tb = keys[k] & 0xffffffffu;
       const bool wall = tb > 0xffffffffu - SPHDEM_DEM_MAX_WALL_CONTACTS;
@@ -162,6 +200,7 @@ struct PendingHistory {
     have = false;
     keys.clear();
     hist.clear();
+    roll.clear();
     keys.shrink_to_fit();
     hist.shrink_to_fit();
     return false;
@@ -169,10 +208,13 @@ struct PendingHistory {
   /* hand the history to the core (once); SPHDEM_OK when there is nothing to hand over */
   int apply(sphdem_dem dem) {
     if (!have) return SPHDEM_OK;
-    int rc = sphdem_dem_set_history(dem, (int64_t)keys.size(), keys.data(), hist.data());
+    const bool with_roll = !roll.empty() && roll.size() == 3 * keys.size();
+    int rc = sphdem_dem_set_history_rolling(dem, (int64_t)keys.size(), keys.data(), hist.data(),
+                                            with_roll ? roll.data() : nullptr);
     have = false;
     keys.clear();
     hist.clear();
+    roll.clear();
     return rc;
   }
 };

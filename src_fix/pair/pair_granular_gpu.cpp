@@ -365,8 +365,8 @@ void PairGranularGPU::compute(int eflag, int vflag) {
 }
 
 /* Restart: the global cutoff and keywords, every type pair's coefficients, the pair order of the last list
- * build, then pair_coeff flags and the core's contact history (tangential and twisting; the rolling
- * displacements are not kept). */
+ * build, then pair_coeff flags and the core's contact history (tangential, twisting and the rolling
+ * displacements). */
 void PairGranularGPU::write_restart(FILE *fp) {
   const int nt = atom->ntypes;
   double d[1] = {cutoff_global_};

@@ -11,7 +11,8 @@
                positions within 1e-8 d of the stock run, the run had contacts, both had the same number of atoms
   pour   LMP   fix pour into an empty box (lj units, d = 1, rolling sds + twisting marshall, 5000 steps): the same
                warnings as stock (no cutoff or sorting warnings), positions within 1e-8 d
-  restart LMP  granular/gpu continued from write_restart / read_restart equals the unbroken run (1e-8 d)
+  restart LMP  granular/gpu continued from write_restart / read_restart equals the unbroken run (1e-8 d; with
+               rolling sds 2e-5 d: see restart())
   mpi    LMP MPIRUN  granular/gpu on 2 ranks vs stock on 1 (pack hooke_explicit_12, 1e-8 d); rolling or twisting
                on 2 ranks stops naming it
   badinput LMP unsupported words and values stop with an ERROR naming the keyword and the allowed values
@@ -197,35 +198,50 @@ RESTART_COEFFS = ("pair_coeff * * hertz/material 1e8 3e3 0.3 tangential mindlin 
                   "pair_coeff 1 2 hertz 2e6 3e3 tangential linear_history 1e6 1.0 0.5")
 
 
-def restart(lmp, steps=1500, split=700):
+ROLL_COEFFS = ("pair_coeff * * hertz/material 1e8 3e3 0.3 tangential mindlin NULL 1.0 0.4 rolling sds 50 0.01 0.3\n"
+               "pair_coeff 2 2 hertz/material 5e7 2e3 0.25 tangential mindlin NULL 1.0 0.5 rolling sds 30 0.01 0.2\n"
+               "pair_coeff 1 2 hertz 2e6 3e3 tangential linear_history 1e6 1.0 0.5 rolling sds 40 0.01 0.25")
+
+
+def restart_case(lmp, coeffs, tag, steps=1500, split=700, bound=1e-8):
     """granular/gpu: write_restart after `split` steps, read_restart and run on: the same as the unbroken run
     (the tangential history in the restart file) within 1e-8 d. Not bitwise: the set-up force evaluation after
     read_restart caps the history of sliding contacts with the full-step velocities (the step's own evaluation
     had the half-step ones), as the stock style's set-up does; measured 0 to 2e-9 d after 1500 steps"""
     dmin = 0.008
-    full = PACK.format(style="granular/gpu", coeffs=RESTART_COEFFS, steps=steps)
-    first = PACK.format(style="granular/gpu", coeffs=RESTART_COEFFS, steps=split).replace(
+    full = PACK.format(style="granular/gpu", coeffs=coeffs, steps=steps)
+    first = PACK.format(style="granular/gpu", coeffs=coeffs, steps=split).replace(
         "write_dump all", "write_restart half.restart\nwrite_dump all")
     second = ("read_restart half.restart\natom_modify sort 100 0.005\nneighbor 0.001 bin\nneigh_modify delay 0 every 1 check yes\n"
               "comm_modify vel yes\nfix 1 all nve/sphere\nfix 2 all gravity 9.81 vector 0 0 -1\n"
               "fix 3 all wall/gran hertz/history 2e7 NULL 5e3 NULL 0.5 1 zplane 0.0 NULL\ntimestep 2e-6\n"
               "run %d\nwrite_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id "
               "format float %%.17g\n" % (steps - split))
-    a, _ = run_pair(lmp, os.path.join("gran_restart", "full"), full)
+    a, _ = run_pair(lmp, os.path.join("gran_restart" + tag, "full"), full)
     if a is None:
         return False
-    b, _ = run_pair(lmp, os.path.join("gran_restart", "split"), first)
+    b, _ = run_pair(lmp, os.path.join("gran_restart" + tag, "split"), first)
     if b is None:
         return False
-    b, out = run_pair(lmp, os.path.join("gran_restart", "split"), second)
+    b, out = run_pair(lmp, os.path.join("gran_restart" + tag, "split"), second)
     if b is None:
         return False
     same_ids = [r[0] for r in a] == [r[0] for r in b]
     dx = max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) if same_ids else float("inf")
-    good = same_ids and dx < 1e-8 * dmin and "granular/gpu" in out
-    print("%s restart after %d of %d steps: max |x_restarted - x_unbroken| = %.3g d (bound 1e-8)" %
-          ("PASS" if good else "FAIL", split, steps, dx / dmin))
+    good = same_ids and dx < bound * dmin and "granular/gpu" in out
+    print("%s restart%s after %d of %d steps: max |x_restarted - x_unbroken| = %.3g d (bound %g)" %
+          ("PASS" if good else "FAIL", tag, split, steps, dx / dmin, bound))
     return good
+
+
+def restart(lmp):
+    """restart_case without rolling (tangential history) and with rolling sds, whose rolling displacements the
+    restart file keeps too: measured 2026-12-04 2.6e-6 d after 1500 steps (1.9e-4 d when they restarted from zero;
+    the rest not explained yet: the set-up evaluation after read_restart, or the list order of the first build);
+    bound 2e-5 d. The stock 2021 style's own restart of the same pack: 0.21 d without rolling, a segmentation fault
+    with it."""
+    ok = restart_case(lmp, RESTART_COEFFS, "")
+    return restart_case(lmp, ROLL_COEFFS, "_rolling", bound=2e-5) and ok
 
 
 BAD = [
