@@ -327,12 +327,12 @@ SPHDEM_HD double harmonic_mu(double mua, double mub) { return mua + mub > 0.0 ? 
  * weight 1 (fluid_pair_rec). 0 if out of reach. */
 SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t b, fluid_pair_rec *P) {
   const int shift = D->mp.M.shifting, diff = D->mp.M.diffusion, same = D->mp.ph[b] == R->pha;
-  const double *vb = D->ve + 3 * b, *gb = D->mp.gdr + 3 * b, rhob = D->rhop[b], mb = D->mass[b], pb = D->p[b];
-  const double mubar = harmonic_mu(R->mua, D->mp.mu_p[b]);
+  const double *vb = D->ve + 3 * b, *gb = D->mp.gdr + 3 * b;
   if (pair_in_float(D)) {
     float r[3], vab[3], vbf[3], dub[3], gbf[3];
     const float r2 = separation_f(D, R->xa, D->x + 3 * b, r);
     if (r2 < 0.0f) return 0;
+    const double rhob = D->rhop[b], mb = D->mass[b], pb = D->p[b], mubar = harmonic_mu(R->mua, D->mp.mu_p[b]);
     for (int d = 0; d < 3; d++) {
       vab[d] = (float)(R->va[d] - vb[d]);
       vbf[d] = (float)vb[d];
@@ -349,6 +349,7 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
   double r[3], vab[3], dub[3] = {0, 0, 0};
   const double r2 = separation(D, R->xa, D->x + 3 * b, r);
   if (r2 >= D->support2 || r2 == 0.0) return 0;
+  const double rhob = D->rhop[b], mb = D->mass[b], pb = D->p[b], mubar = harmonic_mu(R->mua, D->mp.mu_p[b]);
   for (int d = 0; d < 3; d++) {
     vab[d] = R->va[d] - vb[d];
     if (shift) dub[d] = D->mp.dus[3 * b + d];
@@ -362,12 +363,12 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
  * (Adami walls take the fluid particle's viscosity, MLS ghosts their own, §3.4, harmonic mean as eq 24),
  * Monaghan repulsion (dplus_wall_core of pair_real.h, in the precision's real type). */
 SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
-  const double Vw = wall_volume(D, w), pw = D->wp[w];
-  const double mubar = harmonic_mu(R->mua, D->ghost.on ? D->ghost.wmu[w] : R->mua);
   if (pair_in_float(D)) {
     float r[3], vs[3], vv[3], drho = 0.0f, acc[3] = {0.0f, 0.0f, 0.0f};
     const float r2 = separation_f(D, R->xa, D->wx + 3 * w, r);
     if (r2 < 0.0f) return;
+    const double Vw = wall_volume(D, w), pw = D->wp[w];
+    const double mubar = harmonic_mu(R->mua, D->ghost.on ? D->ghost.wmu[w] : R->mua);
     for (int d = 0; d < 3; d++) {
       vs[d] = (float)(R->va[d] + R->A.dua[d] - D->wv[3 * w + d]); /* prescribed wall velocity */
       vv[d] = (float)(R->va[d] - D->wvx[3 * w + d]);              /* extrapolated (eq 13) */
@@ -380,6 +381,8 @@ SPHDEM_HD void dplus_wall_pair(const sphdem_dev *D, rates_acc *R, int32_t w) {
   double r[3], vs[3], vv[3];
   const double r2 = separation(D, R->xa, D->wx + 3 * w, r);
   if (r2 >= D->support2 || r2 == 0.0) return;
+  const double Vw = wall_volume(D, w), pw = D->wp[w];
+  const double mubar = harmonic_mu(R->mua, D->ghost.on ? D->ghost.wmu[w] : R->mua);
   for (int d = 0; d < 3; d++) {
     vs[d] = R->va[d] + R->A.dua[d] - D->wv[3 * w + d];
     vv[d] = R->va[d] - D->wvx[3 * w + d];
