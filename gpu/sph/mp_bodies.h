@@ -342,8 +342,7 @@ SPHDEM_HD int dplus_pair_terms(const sphdem_dev *D, const rates_acc *R, int32_t 
     fluid_pair_rec_f Q;
     dplus_pair_core_f(&D->Kf, pair_opts(D), shift, diff, same, &R->Af, r, r2, vab, vbf, dub, gbf, (float)rhob, (float)mb,
                       (float)pb, (float)(pb - R->pa), (float)mubar, &Q);
-    P->cont = Q.cont; P->dda = Q.dda; P->ddb = Q.ddb;
-    for (int d = 0; d < 3; d++) { P->A[d] = Q.A[d]; P->U[d] = Q.U[d]; }
+    pair_rec_from_f(&Q, P);
     return 1;
   }
   double r[3], vab[3], dub[3] = {0, 0, 0};

@@ -374,6 +374,12 @@ SPHDEM_RINLINE int fluid_pair_terms_double(const sphdem_dev *D, const pair_const
   return 1;
 }
 
+/* A pair record evaluated in float, into the record the double sums read. */
+SPHDEM_HD void pair_rec_from_f(const fluid_pair_rec_f *Q, fluid_pair_rec *P) {
+  P->cont = Q->cont; P->dda = Q->dda; P->ddb = Q->ddb;
+  for (int d = 0; d < 3; d++) { P->A[d] = Q->A[d]; P->U[d] = Q->U[d]; }
+}
+
 SPHDEM_HD int fluid_pair_terms_float(const sphdem_dev *D, const double *xa, const double *va, double rhoa,
                                      double pra, double epsa, int32_t b, fluid_pair_rec *P) {
   float r[3], vab[3];
@@ -384,8 +390,7 @@ SPHDEM_HD int fluid_pair_terms_float(const sphdem_dev *D, const double *xa, cons
   fluid_pair_rec_f Q;
   fluid_pair_core_f(&D->Kf, pair_opts(D), r, r2, vab, (float)rhoa, (float)pra, (float)epsa, (float)D->rhop[b], (float)D->pr2[b],
                     (float)epsb, &Q);
-  P->cont = Q.cont; P->dda = Q.dda; P->ddb = Q.ddb;
-  for (int d = 0; d < 3; d++) { P->A[d] = Q.A[d]; P->U[d] = Q.U[d]; }
+  pair_rec_from_f(&Q, P);
   return 1;
 }
 
