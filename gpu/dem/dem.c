@@ -370,16 +370,21 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
   if (!m) return SPHDEM_ERR_ARG;
   dem_dev *D = &m->D;
   if (n < 0 || (n > 0 && !keys)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "flip_history: n %lld, keys NULL", (long long)n);
-  const int64_t np = m->nbuilds ? D->np : 0;
+  /* the history the next build carries over: a seed (restart, hand-over between ranks) or the current list */
+  const int seeded = m->seeded;
+  const int64_t np = seeded ? D->np_old : m->nbuilds ? D->np : 0;
   if (n == 0 || np == 0 || D->P.model != SPHDEM_DEM_GRANULAR) return SPHDEM_OK;
+  uint64_t *dk = seeded ? D->key_old : D->key;
+  double *dh = seeded ? D->hist_old : D->hin;
+  double *dr = seeded ? (m->seed_roll ? D->roll_old : NULL) : D->rin;
   uint64_t *pk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)np), *fk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
   double *h = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  double *r = D->rin ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
-  int rc = (!pk || !fk || !h || (D->rin && !r)) ? sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)np)
-                                                 : SPHDEM_OK;
-  if (!rc) rc = rt_d2h(&m->rt, pk, D->key, sizeof(uint64_t) * (size_t)np);
-  if (!rc) rc = rt_d2h(&m->rt, h, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  if (!rc && r) rc = rt_d2h(&m->rt, r, D->rin, sizeof(double) * 3 * (size_t)np);
+  double *r = dr ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
+  int rc = (!pk || !fk || !h || (dr && !r)) ? sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)np)
+                                            : SPHDEM_OK;
+  if (!rc) rc = rt_d2h(&m->rt, pk, dk, sizeof(uint64_t) * (size_t)np);
+  if (!rc) rc = rt_d2h(&m->rt, h, dh, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && r) rc = rt_d2h(&m->rt, r, dr, sizeof(double) * 3 * (size_t)np);
   int changed = 0;
   if (!rc) {
     memcpy(fk, keys, sizeof(uint64_t) * (size_t)n);
@@ -393,8 +398,8 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
     }
   }
   if (changed) m->tf_valid = 0;
-  if (!rc && changed) rc = rt_h2d(&m->rt, D->hin, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  if (!rc && changed && r) rc = rt_h2d(&m->rt, D->rin, r, sizeof(double) * 3 * (size_t)np);
+  if (!rc && changed) rc = rt_h2d(&m->rt, dh, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && changed && r) rc = rt_h2d(&m->rt, dr, r, sizeof(double) * 3 * (size_t)np);
   free(pk);
   free(fk);
   free(h);

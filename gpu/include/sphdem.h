@@ -579,7 +579,8 @@ int sphdem_dem_set_materials(sphdem_dem dem, const sphdem_dem_materials *mat);
  * a grain's type (0-based) is flags >> SPHDEM_DEM_MATERIAL_SHIFT. The params' kn, kt, mu, ... are unused. */
 int sphdem_dem_set_granular(sphdem_dem dem, int n, const sphdem_dem_granular *pairs);
 /* SPHDEM_DEM_GRANULAR: negate the rolling and twisting history of the listed pairs (keys (tag_a << 32) | tag_b,
- * tag_a < tag_b; pairs not in the current list are skipped). LAMMPS' fix neigh/history stores the history with
+ * tag_a < tag_b) in the history the next list build carries over: the current list, or the history given by
+ * sphdem_dem_set_history(_rolling) since the last build; pairs not in it are skipped. LAMMPS' fix neigh/history stores the history with
  * the pair's first atom in the engine's neighbour list and negates every value when the other atom becomes
  * first at a list build; the tangential history is antisymmetric in the two atoms and the core keeps it in
  * the frame of the lower tag, but the rolling and twisting ones are symmetric, so the stock style flips them:

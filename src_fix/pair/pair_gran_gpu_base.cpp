@@ -161,9 +161,9 @@ void PairGranGPUBase::write_restart_tail(FILE *fp) {
   if (!ghosts_) {
     if (!sphdem_restart::write_history(fp, dem_)) fail("reading the contact history for the restart file failed");
   } else if (gathered_) {
-    sphdem_restart::write_history(fp, gkeys_, ghist_);
+    sphdem_restart::write_history(fp, gkeys_, ghist_, groll_);
   } else {
-    sphdem_restart::write_history(fp, pending_history_.keys, pending_history_.hist);
+    sphdem_restart::write_history(fp, pending_history_.keys, pending_history_.hist, pending_history_.roll);
   }
 }
 
@@ -317,30 +317,33 @@ void PairGranGPUBase::hand_over_history() {
 }
 
 void PairGranGPUBase::gather_history() {
-  const int H = SPHDEM_DEM_HIST_DOUBLES;
+  const int H = SPHDEM_DEM_HIST_DOUBLES, R = hand_rolling_ ? 3 : 0, W = H + R;
   std::vector<uint64_t> keys, sk;
-  std::vector<double> hist, sh;
-  const bool bad = !sphdem_restart::get_history(dem_, keys, hist);
+  std::vector<double> hist, roll, sh;
+  const bool bad = !sphdem_restart::get_history(dem_, keys, hist, R ? &roll : nullptr);
   const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
                                                                     sphdem_dem_last_error(dem_));
   if (!err.empty()) fail(err);
+  if (roll.size() != keys.size() * (size_t)R) roll.assign(keys.size() * (size_t)R, 0.0); /* none kept yet: 0 */
   for (size_t p = 0; p < keys.size(); p++)
     if (sphdem_restart::has_history(&hist[p * H])) {
       sk.push_back(keys[p]);
       sh.insert(sh.end(), hist.begin() + p * H, hist.begin() + (p + 1) * H);
+      sh.insert(sh.end(), roll.begin() + p * R, roll.begin() + (p + 1) * R);
     }
   const int nr = comm->nprocs, ns = (int)sk.size();
   std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
   MPI_Gather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, 0, world);
   int total = 0;
-  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * H, dsph[r] = dsp[r] * H;
+  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
   std::vector<uint64_t> rk(comm->me == 0 ? (size_t)total : 0);
-  std::vector<double> rh(comm->me == 0 ? (size_t)total * H : 0);
+  std::vector<double> rh(comm->me == 0 ? (size_t)total * W : 0);
   MPI_Gatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, 0, world);
-  MPI_Gatherv(sh.data(), ns * H, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, 0, world);
+  MPI_Gatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, 0, world);
   gathered_ = true;
   gkeys_.clear();
   ghist_.clear();
+  groll_.clear();
   if (comm->me != 0) return;
   /* a pair split between two ranks is held by both (the same values): once, from the lower rank */
   std::vector<int> order((size_t)total);
@@ -348,9 +351,20 @@ void PairGranGPUBase::gather_history() {
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return rk[a] < rk[b]; });
   for (size_t t = 0; t < order.size(); t++) {
     if (t && rk[order[t]] == rk[order[t - 1]]) continue;
+    const size_t o = (size_t)order[t] * W;
     gkeys_.push_back(rk[order[t]]);
-    ghist_.insert(ghist_.end(), rh.begin() + (size_t)order[t] * H, rh.begin() + (size_t)(order[t] + 1) * H);
+    ghist_.insert(ghist_.end(), rh.begin() + o, rh.begin() + o + H);
+    groll_.insert(groll_.end(), rh.begin() + o + H, rh.begin() + o + W);
   }
+}
+
+bool PairGranGPUBase::gather_step() const {
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+  const bool restart_step = output->restart_requested(update->ntimestep);
+#else
+  const bool restart_step = output->restart_flag && update->ntimestep == output->next_restart;
+#endif
+  return update->ntimestep == update->laststep || restart_step;
 }
 
 void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_builds) {
@@ -364,6 +378,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   if (ghosts_ && (neighbor->ago == 0 || n != nall_mapped_)) map_ghosts(nlocal, n);
   /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */
   if (ghosts_ && neighbor->ago == 0) hand_over_history();
+  if (neighbor->ago == 0) list_built();
   tags_.resize(n);
   fbuf_.resize(3 * (size_t)n);
   tbuf_.resize(3 * (size_t)n);
@@ -418,12 +433,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
   /* many ranks: rank 0 keeps every rank's history for a restart file written after the run or at this step */
-#ifdef SPHDEM_ENGINE_LIGGGHTS
-  const bool restart_step = output->restart_requested(update->ntimestep);
-#else
-  const bool restart_step = output->restart_flag && update->ntimestep == output->next_restart;
-#endif
-  if (ghosts_ && (update->ntimestep == update->laststep || restart_step)) gather_history();
+  if (ghosts_ && gather_step()) gather_history();
   if (timers_.on) {
     timers_.pack += tp1 - tp0;
     timers_.unpack += sphdem_pair_timers::now() - tp2;

@@ -55,10 +55,16 @@ class PairGranGPUBase : public Pair {
   bool owned_prev_set_;
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
+  std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
   bool gathered_;
 
   /* the engine's arguments -> sphdem_dem_params; ends with set_box and push_params */
   virtual void sync_params() = 0;
+  /* at each engine list build, after the history hand-over between ranks and before the core's own build
+   * (collective on many ranks) */
+  virtual void list_built() {}
+  /* the history of every rank goes to rank 0 at this step (the last of a run, or one that writes a restart file) */
+  bool gather_step() const;
 
   [[noreturn]] void fail(const std::string &msg);
   void allocate();

@@ -5,6 +5,7 @@
 #include "pair_granular_gpu.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <cstring>
 
@@ -52,7 +53,8 @@ double tsuji_alpha(double e) {
 bool material_model(int normal) { return normal == SPHDEM_GRAN_HERTZ_MATERIAL || normal == SPHDEM_GRAN_DMT; }
 }  // namespace
 
-PairGranularGPU::PairGranularGPU(LAMMPS *lmp) : PairGranGPUBase(lmp, "granular/gpu"), cutoff_global_(-1.0), table_sent_(false), track_order_(false) {}
+PairGranularGPU::PairGranularGPU(LAMMPS *lmp) : PairGranGPUBase(lmp, "granular/gpu"), cutoff_global_(-1.0), table_sent_(false), track_order_(false),
+      order_owned_set_(false), gathered_order_(false) {}
 
 /* pair_style granular/gpu [cutoff] [device auto|cpu|gpu] [algo pair|particle] [timers on|off] */
 void PairGranularGPU::settings(int narg, char **arg) {
@@ -253,14 +255,20 @@ void PairGranularGPU::init_style() {
     for (int j = i; j <= nt; j++)
       if (setflag[i][j] && (at(i, j).rolling != SPHDEM_GRAN_ROLL_NONE || at(i, j).twisting != SPHDEM_GRAN_TWIST_NONE))
         roll_twist = true;
-  if (roll_twist && ghosts_)
-    fail("rolling and twisting models on more than one MPI rank are not supported (run on one rank, or use the "
-         "stock pair_style granular)");
+  if (roll_twist && ghosts_ && !force->newton_pair)
+    fail("rolling and twisting models on more than one MPI rank need newton on (the default): with newton off the "
+         "stock style keeps two histories for a pair split between two ranks, one per rank, whose signs its "
+         "history transfer can make differ");
   if (roll_twist && !force->newton_pair && (domain->periodicity[0] || domain->periodicity[1] || domain->periodicity[2]))
     fail("rolling and twisting models with newton off in a periodic box are not supported (the stock style then keeps "
          "two histories for a pair across the boundary, one per atom, whose signs its history transfer can make "
          "differ); use newton on (the default)");
   track_order_ = roll_twist;
+  bool rolling = false; /* rolling sds keeps a rolling displacement per contact: it goes with the hand-over */
+  for (int i = 1; i <= nt; i++)
+    for (int j = i; j <= nt; j++)
+      if (setflag[i][j] && at(i, j).rolling != SPHDEM_GRAN_ROLL_NONE) rolling = true;
+  hand_rolling_ = rolling;
   if (track_order_) neighbor->request(this, instance_me); /* order_prev_ is kept from run to run, as the history */
   /* the radii per type (stock init_style): the grains, frozen ones apart, and what fix pour / deposit insert */
   std::vector<double> dyn(nt + 1, 0.0), frz(nt + 1, 0.0);
@@ -311,12 +319,16 @@ void PairGranularGPU::send_table() {
 }
 
 /* At an engine list build: the pairs (within r_i + r_j + skin) whose first atom in the half list changed since
- * the previous build get their rolling and twisting history negated, as LAMMPS' fix neigh/history does. */
+ * the previous build get their rolling and twisting history negated, as LAMMPS' fix neigh/history does. Many
+ * ranks (newton on: each pair is in one rank's list): the ranks exchange the order of the pairs their lists
+ * share with another rank's atom, and the previous order of the pairs of atoms that changed rank. */
 void PairGranularGPU::follow_list_order() {
   const double skin = neighbor->skin;
   double **x = atom->x, *rad = atom->radius;
   const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
   order_now_.clear();
+  std::vector<uint64_t> boundary; /* many ranks: the pairs of this list with another rank's atom */
   for (int ii = 0; ii < list->inum; ii++) {
     const int i = list->ilist[ii];
     const int *jl = list->firstneigh[i];
@@ -327,9 +339,12 @@ void PairGranularGPU::follow_list_order() {
       const double dx = x[i][0] - x[j][0], dy = x[i][1] - x[j][1], dz = x[i][2] - x[j][2], c = rad[i] + rad[j] + skin;
       if (dx * dx + dy * dy + dz * dz >= c * c) continue;
       const uint64_t key = ti < tj ? (ti << 32) | tj : (tj << 32) | ti;
-      order_now_.push_back((key << 1) | (ti < tj ? 1u : 0u));
+      const uint64_t e = (key << 1) | (ti < tj ? 1u : 0u);
+      order_now_.push_back(e);
+      if (ghosts_ && j >= nlocal && image_of_[j - nlocal] < 0) boundary.push_back(e);
     }
   }
+  if (ghosts_) merge_rank_orders(boundary);
   std::sort(order_now_.begin(), order_now_.end());
   flips_.clear();
   size_t a = 0, b = 0;
@@ -347,6 +362,76 @@ void PairGranularGPU::follow_list_order() {
     fail(std::string("DEM core: ") + sphdem_dem_last_error(dem_));
 }
 
+namespace {
+/* entries (key << 1 | bit) sorted by key, each key once (the first) */
+void sort_unique_keys(std::vector<uint64_t> &v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end(), [](uint64_t a, uint64_t b) { return (a >> 1) == (b >> 1); }), v.end());
+}
+/* one of the pair's two tags in sorted */
+bool pair_of(const std::vector<int64_t> &sorted, uint64_t e) {
+  const uint64_t key = e >> 1;
+  return std::binary_search(sorted.begin(), sorted.end(), (int64_t)(key >> 32)) ||
+         std::binary_search(sorted.begin(), sorted.end(), (int64_t)(key & 0xffffffffu));
+}
+/* every rank's v, concatenated on every rank */
+std::vector<uint64_t> all_of(MPI_Comm world, int nprocs, const std::vector<uint64_t> &v) {
+  const int n = (int)v.size();
+  std::vector<int> cnt(nprocs), dsp(nprocs);
+  MPI_Allgather(&n, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
+  int total = 0;
+  for (int r = 0; r < nprocs; r++) dsp[r] = total, total += cnt[r];
+  std::vector<uint64_t> all((size_t)total);
+  MPI_Allgatherv(v.data(), n, MPI_UINT64_T, all.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
+  return all;
+}
+}  // namespace
+
+/* Many ranks, collective. order_now_ gets the pairs of other ranks' lists that hold one of this rank's atoms (a
+ * pair split between two ranks is in the list of one of them; both hold its history); order_prev_ gets the
+ * previous order of the pairs whose atom joined this rank, from the rank it left. */
+void PairGranularGPU::merge_rank_orders(std::vector<uint64_t> &boundary) {
+  const int nlocal = atom->nlocal;
+  std::vector<int64_t> now((size_t)nlocal);
+  for (int i = 0; i < nlocal; i++) now[i] = (int64_t)atom->tag[i];
+  std::sort(now.begin(), now.end());
+  std::vector<uint64_t> gone; /* the previous order of the pairs of atoms that left this rank */
+  if (order_owned_set_) {
+    std::vector<int64_t> left;
+    std::set_difference(order_owned_.begin(), order_owned_.end(), now.begin(), now.end(), std::back_inserter(left));
+    if (!left.empty())
+      for (uint64_t e : order_prev_)
+        if (pair_of(left, e)) gone.push_back(e);
+  }
+  const std::vector<uint64_t> rb = all_of(world, comm->nprocs, boundary), rg = all_of(world, comm->nprocs, gone);
+  for (uint64_t e : rb)
+    if (pair_of(now, e)) order_now_.push_back(e);
+  sort_unique_keys(order_now_);
+  bool added = false;
+  for (uint64_t e : rg)
+    if (pair_of(now, e)) order_prev_.push_back(e), added = true;
+  if (added) sort_unique_keys(order_prev_); /* (a pair held here already keeps the entry it had: the same) */
+  order_owned_.swap(now);
+  order_owned_set_ = true;
+}
+
+/* Many ranks, collective: every rank's pair order to rank 0 (each pair once), for write_restart. */
+void PairGranularGPU::gather_order() {
+  const int n = (int)order_prev_.size(), nr = comm->nprocs;
+  std::vector<int> cnt(nr), dsp(nr);
+  MPI_Gather(&n, 1, MPI_INT, cnt.data(), 1, MPI_INT, 0, world);
+  int total = 0;
+  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r];
+  gorder_.assign(comm->me == 0 ? (size_t)total : 0, 0);
+  MPI_Gatherv(order_prev_.data(), n, MPI_UINT64_T, gorder_.data(), cnt.data(), dsp.data(), MPI_UINT64_T, 0, world);
+  if (comm->me == 0) sort_unique_keys(gorder_);
+  gathered_order_ = true;
+}
+
+void PairGranularGPU::list_built() {
+  if (track_order_) follow_list_order();
+}
+
 void PairGranularGPU::sync_params() {
   sphdem_dem_params p;
   sphdem_dem_params_default(&p);
@@ -360,8 +445,8 @@ void PairGranularGPU::compute(int eflag, int vflag) {
   ev_init(eflag, vflag);
   if (vflag_atom) fail("per-atom virial (compute stress/atom, centroid/stress/atom) is not supported");
   if (!table_sent_) send_table();
-  if (track_order_ && neighbor->ago == 0) follow_list_order();
-  compute_grains(true, false);
+  compute_grains(true, false); /* (the list order is followed in list_built, after the history hand-over) */
+  if (ghosts_ && track_order_ && gather_step()) gather_order();
 }
 
 /* Restart: the global cutoff and keywords, every type pair's coefficients, the pair order of the last list
@@ -379,9 +464,10 @@ void PairGranularGPU::write_restart(FILE *fp) {
   fwrite(cut_type_.data(), sizeof(double), cut_type_.size(), fp);
   (void)nt;
   /* the pair order of the last list build, for the history transfer of the first build after the restart */
-  const int64_t no = (int64_t)order_prev_.size();
+  const std::vector<uint64_t> &order = ghosts_ && gathered_order_ ? gorder_ : order_prev_;
+  const int64_t no = (int64_t)order.size();
   fwrite(&no, sizeof(int64_t), 1, fp);
-  fwrite(order_prev_.data(), sizeof(uint64_t), order_prev_.size(), fp);
+  fwrite(order.data(), sizeof(uint64_t), order.size(), fp);
   write_restart_tail(fp);
 }
 
@@ -404,6 +490,8 @@ void PairGranularGPU::read_restart(FILE *fp) {
     order_prev_.resize((size_t)no);
     ok2 = read_head(fp, order_prev_.data(), sizeof(uint64_t), (size_t)no);
   }
+  order_owned_set_ = false; /* every rank has the whole order of the file */
+  gathered_order_ = false;
   read_restart_tail(fp, ok2);
   cutoff_global_ = d[0];
   device_ = iv[0], algo_ = iv[1];

@@ -35,13 +35,21 @@ class PairGranularGPU : public PairGranGPUBase {
   /* rolling or twisting on: the stock history transfer is followed (sphdem_dem_flip_history), which needs the
    * engine's half list and, per pair that may touch, whether its lower tag came first at the last build */
   bool track_order_;
-  std::vector<uint64_t> order_prev_, order_now_; /* (key << 1) | (lower tag first), sorted */
+  std::vector<uint64_t> order_prev_, order_now_; /* (key << 1) | (lower tag first), sorted; many ranks: the
+                                                    pairs with one of this rank's atoms */
   std::vector<uint64_t> flips_;
+  std::vector<int64_t> order_owned_;             /* many ranks: the tags owned at the last build, sorted */
+  bool order_owned_set_;
+  std::vector<uint64_t> gorder_;                 /* many ranks, rank 0: every rank's order_prev_, for write_restart */
+  bool gathered_order_;
 
   void sync_params() override;
+  void list_built() override;
   sphdem_dem_granular &at(int i, int j) { return coef_[(size_t)i * (atom->ntypes + 1) + j]; }
   void send_table();
   void follow_list_order();
+  void merge_rank_orders(std::vector<uint64_t> &boundary);
+  void gather_order();
 };
 
 }  // namespace LAMMPS_NS

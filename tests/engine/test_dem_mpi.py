@@ -14,7 +14,8 @@ vs stock at another rank count, printed alongside).
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
                        np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) and rolling_friction
-                       epsd2 and epsd (a rolling torque per contact) /gpu vs stock at np 2
+                       epsd2 and epsd (a rolling torque per contact) /gpu vs stock at np 2; the epsd2 restart
+                       np 2 -> np 1 (the rolling torques of both ranks in the file)
 Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
@@ -205,7 +206,7 @@ def restart_pair(r, results, style, np_write, np_read, newton):
     if r.lig:
         cont = ("processors %d 1 1\nread_restart bed.restart\nneighbor 0.0004 bin\nneigh_modify delay 0\n"
                 "communicate single vel yes\n" % np_read +
-                "\n".join(l for l in LIG.splitlines() if l.startswith("fix m")) + "\n" +
+                "\n".join(l for l in (r.text or LIG).splitlines() if l.startswith("fix m")) + "\n" +
                 "fix floor all wall/gran model hertz tangential history primitive type 1 zplane 0.0\n"
                 "fix g all gravity 9.81 vector 0 0 -1\nfix 1 all nve/sphere\ntimestep 2e-6\n"
                 "thermo 500\nrun %d\n" % half + r.dump("final.dump"))
@@ -312,6 +313,8 @@ def liggghts(mpirun, lig):
         eg2 = roll.final("gpu_np2", "gran/gpu", 2)
         compare(res, "rolling_friction %s: stock np 1 vs stock np 2" % model, e1, e2, bound=0)
         compare(res, "rolling_friction %s: /gpu np 2 vs stock np 2" % model, eg2, e2)
+        if model == "epsd2":  # the rolling torques in the restart file gathered from both ranks
+            restart_pair(roll, res, "gran/gpu", 2, 1, "off")
     ok = all(res)
     print("%s LIGGGHTS gran/gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
     return ok

@@ -13,8 +13,9 @@
                warnings as stock (no cutoff or sorting warnings), positions within 1e-8 d
   restart LMP  granular/gpu continued from write_restart / read_restart equals the unbroken run (1e-8 d; with
                rolling sds 2e-5 d: see restart())
-  mpi    LMP MPIRUN  granular/gpu on 2 ranks vs stock on 1 (pack hooke_explicit_12, 1e-8 d); rolling or twisting
-               on 2 ranks stops naming it
+  mpi    LMP MPIRUN  granular/gpu on 2 ranks vs stock on 1 (pack hooke_explicit_12, 1e-8 d); rolling + twisting
+               on 2 and 4 ranks vs stock on as many (1e-8 d); the rolling restart 2 -> 1 and 1 -> 4 ranks (2e-5 d);
+               rolling with newton off on several ranks stops naming it
   badinput LMP unsupported words and values stop with an ERROR naming the keyword and the allowed values
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -203,12 +204,19 @@ ROLL_COEFFS = ("pair_coeff * * hertz/material 1e8 3e3 0.3 tangential mindlin NUL
                "pair_coeff 1 2 hertz 2e6 3e3 tangential linear_history 1e6 1.0 0.5 rolling sds 40 0.01 0.25")
 
 
-def restart_case(lmp, coeffs, tag, steps=1500, split=700, bound=1e-8):
+def restart_case(lmp, coeffs, tag, steps=1500, split=700, bound=1e-8, mpirun=None, np_write=1, np_read=1):
     """granular/gpu: write_restart after `split` steps, read_restart and run on: the same as the unbroken run
     (the tangential history in the restart file) within 1e-8 d. Not bitwise: the set-up force evaluation after
     read_restart caps the history of sliding contacts with the full-step velocities (the step's own evaluation
-    had the half-step ones), as the stock style's set-up does; measured 0 to 2e-9 d after 1500 steps"""
+    had the half-step ones), as the stock style's set-up does; measured 0 to 2e-9 d after 1500 steps.
+    mpirun: the unbroken run and the writing one on np_write ranks, the reading one on np_read"""
     dmin = 0.008
+    if mpirun:
+        cmd = lambda n: [mpirun, "-np", str(n), "--oversubscribe", "--allow-run-as-root", lmp]
+        lmp_w, lmp_r = cmd(np_write), cmd(np_read)
+        tag += "_np%d_np%d" % (np_write, np_read)
+    else:
+        lmp_w = lmp_r = lmp
     full = PACK.format(style="granular/gpu", coeffs=coeffs, steps=steps)
     first = PACK.format(style="granular/gpu", coeffs=coeffs, steps=split).replace(
         "write_dump all", "write_restart half.restart\nwrite_dump all")
@@ -217,13 +225,13 @@ def restart_case(lmp, coeffs, tag, steps=1500, split=700, bound=1e-8):
               "fix 3 all wall/gran hertz/history 2e7 NULL 5e3 NULL 0.5 1 zplane 0.0 NULL\ntimestep 2e-6\n"
               "run %d\nwrite_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id "
               "format float %%.17g\n" % (steps - split))
-    a, _ = run_pair(lmp, os.path.join("gran_restart" + tag, "full"), full)
+    a, _ = run_pair(lmp_w, os.path.join("gran_restart" + tag, "full"), full)
     if a is None:
         return False
-    b, _ = run_pair(lmp, os.path.join("gran_restart" + tag, "split"), first)
+    b, _ = run_pair(lmp_w, os.path.join("gran_restart" + tag, "split"), first)
     if b is None:
         return False
-    b, out = run_pair(lmp, os.path.join("gran_restart" + tag, "split"), second)
+    b, out = run_pair(lmp_r, os.path.join("gran_restart" + tag, "split"), second)
     if b is None:
         return False
     same_ids = [r[0] for r in a] == [r[0] for r in b]
@@ -320,29 +328,49 @@ def pour(lmp, steps=5000):
 
 
 def mpi(lmp, mpirun, steps=1500):
-    """granular/gpu on 2 MPI ranks against the stock style on one, on a pack without rolling or twisting (those
-    are refused on several ranks, checked too): positions within 1e-8 d"""
+    """granular/gpu on several MPI ranks (newton on) against the stock style: the pack without rolling or twisting on
+    2 ranks vs stock on 1; the rolling sds + twisting marshall pack on 2 and 4 ranks vs stock on as many (the
+    stock style negates a pair's rolling and twisting history when the other atom comes first in the engine's
+    list, which depends on the subdomains: granular/gpu follows the list order of every rank, and exchanges it for
+    the pairs split between ranks and those of atoms that change rank), positions within 1e-8 d (each at one rank
+    count: on 4 ranks create_atoms numbers the lattice and set type/fraction draws the types differently, so the
+    pack itself differs from the one of 1 or 2 ranks); the rolling pack restarted from 2 ranks on 1 and from 1 on 4
+    (2e-5 d, the bound of the rolling restart on one rank); rolling with newton off on 2 ranks stops naming it"""
     dmin = 0.008
+    mp = lambda n: [mpirun, "-np", str(n), "--oversubscribe", "--allow-run-as-root", lmp]
     res = {}
     for tag, cmd, style, coeffs in (
             ("stock1", [lmp], "granular", PACKS["hooke_explicit_12"]),
-            ("gpu2", [mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp], "granular/gpu",
-             PACKS["hooke_explicit_12"])):
+            ("gpu2", mp(2), "granular/gpu", PACKS["hooke_explicit_12"]),
+            ("roll_stock2", mp(2), "granular", PACKS["rolling_twisting"]),
+            ("roll_gpu2", mp(2), "granular/gpu", PACKS["rolling_twisting"]),
+            ("roll_stock4", mp(4), "granular", PACKS["rolling_twisting"]),
+            ("roll_gpu4", mp(4), "granular/gpu", PACKS["rolling_twisting"])):
         d, _ = run_pair(cmd, os.path.join("gran_mpi", tag), PACK.format(style=style, coeffs=coeffs, steps=steps))
         if d is None:
             return False
         res[tag] = d
-    a, b = res["stock1"], res["gpu2"]
-    same_ids = [r[0] for r in a] == [r[0] for r in b]
-    dx = max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) if same_ids else float("inf")
-    good = same_ids and dx < 1e-8 * dmin
-    print("%s 2 ranks granular/gpu vs 1 rank stock: max |dx| = %.3g d (bound 1e-8)" % ("PASS" if good else "FAIL",
-                                                                                      dx / dmin))
-    rc, out = E.run([mpirun, "-np", "2", "--oversubscribe", "--allow-run-as-root", lmp], os.path.join("gran_mpi", "roll"),
-                    PACK.format(style="granular/gpu", coeffs=PACKS["rolling_twisting"], steps=10), timeout=120)
-    refused = rc != 0 and "rolling and twisting models on more than one MPI rank are not supported" in out
-    print("rolling/twisting on 2 ranks: %s" % ("stops naming it" if refused else "FAIL\n" + out[-800:]))
-    return good and refused
+
+    def dx(a, b):
+        a, b = res[a], res[b]
+        same_ids = [r[0] for r in a] == [r[0] for r in b]
+        return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) / dmin if same_ids else float("inf")
+    ok = True
+    for a, b, label in (("gpu2", "stock1", "2 ranks granular/gpu vs 1 rank stock"),
+                        ("roll_gpu2", "roll_stock2", "rolling + twisting, 2 ranks granular/gpu vs 2 ranks stock"),
+                        ("roll_gpu4", "roll_stock4", "rolling + twisting, 4 ranks granular/gpu vs 4 ranks stock")):
+        d = dx(a, b)
+        print("%s %s: max |dx| = %.3g d (bound 1e-8)" % ("PASS" if d < 1e-8 else "FAIL", label, d))
+        ok &= d < 1e-8
+    ok &= restart_case(lmp, ROLL_COEFFS, "_rolling", bound=2e-5, mpirun=mpirun, np_write=2, np_read=1)
+    ok &= restart_case(lmp, ROLL_COEFFS, "_rolling", bound=2e-5, mpirun=mpirun, np_write=1, np_read=4)
+    rc, out = E.run(mp(2), os.path.join("gran_mpi", "roll_newton_off"),
+                    PACK.format(style="granular/gpu", coeffs=PACKS["rolling_twisting"], steps=10).replace(
+                        "comm_modify", "newton off\ncomm_modify"), timeout=120)
+    refused = rc != 0 and "rolling and twisting models on more than one MPI rank need newton on" in out
+    print("%s rolling/twisting with newton off on 2 ranks: %s" % ("PASS" if refused else "FAIL",
+                                                                  "stops naming it" if refused else out[-800:]))
+    return ok and refused
 
 
 MODES = {"pairs": pairs, "pack": pack, "badinput": badinput, "restart": restart, "mpi": mpi, "pour": pour}
