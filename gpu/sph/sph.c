@@ -152,8 +152,9 @@ static void free_walls(sphdem_ctx c) {
   if (!n) return;
   DFREE(c, D->wx, 24 * n); DFREE(c, D->wv, 24 * n); DFREE(c, D->wa, 24 * n); DFREE(c, D->wmass, 8 * n);
   DFREE(c, D->wp, 8 * n); DFREE(c, D->wrho, 8 * n); DFREE(c, D->wvx, 24 * n); DFREE(c, D->wtag, 8 * n);
-  DFREE(c, D->wcell, 4 * n);
+  DFREE(c, D->wcell, 4 * n); DFREE(c, c->wperm, 4 * n);
   c->cap_w = 0;
+  c->wref_n = -1;
 }
 
 
@@ -195,8 +196,9 @@ static int ensure_walls(sphdem_ctx c, int64_t n) {
   TRY(sphdem_dalloc(c, (void **)&D->wa, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wmass, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->wp, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->wrho, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->wvx, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->wtag, 8 * m));
-  TRY(sphdem_dalloc(c, (void **)&D->wcell, 4 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->wcell, 4 * m)); TRY(sphdem_dalloc(c, (void **)&c->wperm, 4 * m));
   c->cap_w = (int64_t)m;
+  c->wref_n = -1;
   return sphdem_ensure_scratch(c, (int64_t)m);
 }
 
@@ -300,6 +302,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
 #endif
   free(c->hbuf); free(c->htag); free(c->huidx); free(c->hmap); free(c->xbuf);
+  free(c->hwx0); free(c->hwm0); free(c->hwx1); free(c->hwm1);
   if (c->backend == SPHDEM_DEVICE_CPU) { free(c->D.nl_start); free(c->D.wl_start); free(c->D.nl); free(c->D.wl); free(c->D.wfl_start); free(c->D.wfl); free(c->symbuf); free(c->f8buf); free(c->nl_ghost); }
   free(c);
   *pc = NULL;
@@ -374,6 +377,16 @@ static int sort_set(sphdem_ctx c, int set) {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
+    /* slot -> caller index: the permutation itself after a full upload, else the old map through it */
+    if (c->walls_caller_order) TRY(rt_d2d(&c->rt, c->wperm, c->perm, 4 * (size_t)n));
+    else TRY(c->ops->gather(c, c->wperm, 4, n));
+    c->walls_caller_order = 0;
+    if (c->cap_hw >= n) {
+      memcpy(c->hwx0, c->hwx1, 24 * (size_t)n);
+      memcpy(c->hwm0, c->hwm1, 8 * (size_t)n);
+      c->wref_n = n;
+    }
+    c->wref_synced = 0; /* sort_all sets it */
   }
   for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* the features' arrays follow their particles */
     if ((*f)->sorted) TRY((*f)->sorted(c, set, n));
@@ -387,6 +400,7 @@ static int sort_all(sphdem_ctx c) {
   TRY(build_grid(c));
   TRY(sort_set(c, SPHDEM_SET_FLUID));
   TRY(sort_set(c, SPHDEM_SET_WALL));
+  c->wref_synced = 1;
   TRY(rt_sync(&c->rt));
   c->timers[SPHDEM_T_SORT] += rt_now() - t0;
   c->need_sort = 0;
@@ -552,6 +566,61 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
   TRY(check_positions(c, "set_walls", n, NULL, x));
   double t0 = rt_now();
   sphdem_dev *D = &c->D;
+  /* the same walls in the same order as at the last wall sort (same count and masses), each within skin/2 of its
+   * position then (or all unmoved): the cells and lists of that sort still hold every pair within 2h, as the
+   * fluid's do between its sorts (the fluid's own displacement counts from its sort: a sort of the moving walls
+   * alone would not, so within skin/2 needs the walls' last sort to have been part of a fluid sort) */
+  int same = n > 0 && n == c->wref_n && n == D->nw && !D->ghost.on && c->cap_hw >= n;
+  double d2max = 0.0;
+  for (int64_t i = 0; same && i < n; i++) {
+    same = mass[i] == c->hwm0[i];
+    double d2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+      const double e = x[3 * i + k] - c->hwx0[3 * i + k];
+      d2 += e * e;
+    }
+    if (d2 > d2max) d2max = d2;
+  }
+  const int reuse = same && (d2max == 0.0 || (c->wref_synced && d2max <= 0.25 * D->P.skin * D->P.skin));
+  if (n > c->cap_hw) {
+    free(c->hwx0); free(c->hwm0); free(c->hwx1); free(c->hwm1);
+    c->hwx0 = (double *)malloc(24 * (size_t)n); c->hwx1 = (double *)malloc(24 * (size_t)n);
+    c->hwm0 = (double *)malloc(8 * (size_t)n); c->hwm1 = (double *)malloc(8 * (size_t)n);
+    c->cap_hw = (c->hwx0 && c->hwx1 && c->hwm0 && c->hwm1) ? n : 0;
+    c->wref_n = -1;
+    if (!c->cap_hw) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate %lld host wall entries", (long long)n);
+  }
+  if (n > 0) {
+    memcpy(c->hwx1, x, 24 * (size_t)n);
+    memcpy(c->hwm1, mass, 8 * (size_t)n);
+  }
+  if (reuse) {
+    D->nw = n;
+    c->nwown = n;
+    D->nwown = n;
+    TRY(up(c, D->wx, x, 24 * (size_t)n));
+    for (int part = 0; part < 2; part++) {
+      const double *src = part == 0 ? v : a;
+      double *dst = part == 0 ? D->wv : D->wa;
+      if (src) TRY(up(c, dst, src, 24 * (size_t)n));
+      else TRY(rt_zero(&c->rt, dst, 24 * (size_t)n));
+    }
+    int32_t *perm = c->perm; /* into the slots of the last sort (masses and tags are there already) */
+    c->perm = c->wperm;
+    int rc = SPHDEM_OK;
+    double *arr[] = {D->wx, D->wv, D->wa};
+    for (int k = 0; k < 3 && !rc; k++) rc = c->ops->gather(c, arr[k], 24, n);
+    c->perm = perm;
+    TRY(rc);
+    c->nwall_reuse++;
+    c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
+    return SPHDEM_OK;
+  }
+  /* moved too far (or reordered) with the same count and masses: moving walls; their sort goes with a fluid sort,
+   * so that the next uploads can keep it */
+  if (same) c->need_sort = 1;
+  c->walls_caller_order = 1;
+  c->wref_n = -1;
   TRY(ensure_walls(c, n));
   TRY(ensure_host(c, n));
   D->nw = n;

@@ -119,6 +119,17 @@ struct sphdem_ctx_s {
   int64_t cap_f, cap_w;         /* allocated capacities */
   int64_t cap_cells;
   int need_sort, need_wall_sort;
+  /* Moving walls re-uploaded in the same order (sphdem_set_walls): while no wall is more than skin/2 from where
+   * it was at the last wall sort, the new values go to the slots of that sort (wperm: slot -> caller index) and
+   * the cells and lists of the walls are kept, as the fluid's are between its sorts. */
+  int32_t *wperm;               /* device, cap_w; valid when wref_n >= 0 */
+  int64_t wref_n;               /* walls at the last wall sort (-1: no reference) */
+  double *hwx0, *hwm0;          /* host, caller order: positions and masses at the last wall sort */
+  double *hwx1, *hwm1;          /* host, caller order: those of the last upload */
+  int64_t cap_hw;
+  int walls_caller_order;       /* the device wall arrays are in caller order (a full upload since the last sort) */
+  int wref_synced;              /* the last wall sort was part of a fluid sort (sort_all) */
+  int64_t nwall_reuse;          /* uploads that kept the wall sort (statistics) */
   int64_t nsorts;
   int have_rates;
   int half_kicked;              /* between the two half kicks of a step */
