@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """test_drum_mesh.py - examples/drum_mesh/in.dem_water (the He 2018 rotating drum with an STL mesh wall, water
-added by fix sph/wall, fix sph/fill, fix sph/fluid and fix sph/couple) shortened through liggghts_sphdem:
+added by fix sph/wall, fix sph/fill, fix sph/fluid and fix sph/couple) and its LAMMPS syntax in.dem_water.lmp (a
+region drum), shortened:
 
   water EXE EXAMPLE_DIR   a short settling and a few hundred steps of rotation: the run completes without ERROR,
                           every grain stays inside the drum (r <= R, 0 <= y <= L, the grain radius inside the
@@ -8,6 +9,21 @@ added by fix sph/wall, fix sph/fill, fix sph/fluid and fix sph/couple) shortened
                           printed, no fluid particle left the drum, the wall particles lie outside the mesh
                           (r >= R or beyond the end caps), and the wall particles turned with the drum: each one
                           keeps its distance from the axis and its y, and has turned by the drum's angle
+                          (liggghts_sphdem)
+  ranks EXE ENGINE MPIRUN EXAMPLE_DIR
+                          the example at processors 2 1 1 (a vertical cut through the axis), 1 1 2 (horizontal,
+                          through the axis, the bed and the water surface) and 2 1 2 against one rank: NSETTLE_R
+                          steps of settling (the lattice bed falls onto the wall and onto itself: contacts between
+                          grains of different ranks), then NROT_R steps of rotation with the water. Grains and fluid
+                          at the end, matched by their positions at creation: max |difference| / (the largest
+                          coordinate; velocities: the largest velocity component) < BOUND (1e-9: only the order of
+                          floating-point sums differs between rank counts; the round-off of 1e-16 grows by the
+                          contacts to 1e-13-1e-11 in these steps, as in the other rank tests). LAMMPS runs
+                          in.dem_water.lmp as written (its grains: the lowest lattice sites by a key of their
+                          position, the same at any rank count). LIGGGHTS' fix insert/pack draws positions per
+                          subdomain (another bed on another rank count, as stock LIGGGHTS), so there the insertion
+                          is replaced by the lattice block of in.dem_water.lmp; the mesh, its rotation, the water
+                          and the coupling are the example's.
 
 Python 3 only; exits 0 on pass, 1 on failure.
 """
@@ -20,10 +36,16 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import engine_test as et  # noqa: E402
+from test_fluid_mpi import add_processors, by_start, dump_lines, mpirun_cmd, worst, write_start  # noqa: E402
+
 R, L = 0.05, 0.1            # drum.stl: radius and length (y from 0 to L)
 RPM = 104.0
 DT = 1e-5
 NSETTLE, NROT, NDUMP = 2000, 300, 100
+NSETTLE_R, NROT_R = 3000, 199   # the run ends at step NROT_R + 1 of the rotation (after its one-step start)
+BOUND = 1e-9
 
 
 def read_dump(path):
@@ -125,7 +147,83 @@ def test_water(exe, exdir):
     return 1 if fails else 0
 
 
+def lattice_block(exdir):
+    """the grain lattice of in.dem_water.lmp: from its 'lattice' line to 'set group grains density', without the
+    region fillreg (in.dem_water defines the same)"""
+    with open(os.path.join(exdir, "in.dem_water.lmp")) as f:
+        lmp = f.read()
+    a = lmp.index("lattice       sc $(1.25*v_dg)")
+    b = lmp.index("set           group grains density ${rhop}\n", a)
+    block = lmp[a:b] + "set           group grains density ${rhop}\n"
+    return re.sub(r"(?m)^region\s+fillreg\s.*\n", "", block)
+
+
+def test_ranks(exe, engine, mpirun, exdir):
+    name = "in.dem_water.lmp" if engine == "lammps" else "in.dem_water"
+    with open(os.path.join(exdir, name)) as f:
+        text = f.read()
+    edits = [(r"(?m)^variable nsettle\s+index\s+\S+", "variable nsettle index %d" % NSETTLE_R),
+             (r"(?m)^variable nrot\s+index\s+\S+", "variable nrot index %d" % NROT_R),
+             (r"(?m)^dump\s.*$", "")]
+    if engine == "liggghts":
+        edits.append((r"(?m)^fix\s+ins\s+grains\s+insert/pack.*&\n.*\n", lattice_block(exdir)))
+    start = ("set           group grains density ${rhop}\n" if engine == "lammps" else
+             "set           group grains density ${rhop}\n")
+    text = re.sub(r"(?m)^dump_modify\s.*$", "", text)
+    for pat, rep in edits:
+        text, n = re.subn(pat, rep.replace("\\", "\\\\"), text)
+        if n == 0:
+            print("FAIL: the example %s no longer has '%s' where the test changes it" % (name, pat))
+            return 1
+    if text.count(start) != 1 or "\nrun " not in text:
+        print("FAIL: the example %s no longer sets the grain density once, or has no run" % name)
+        return 1
+    text = text.replace(start, start + write_start(engine, "grains", "startg.txt"))
+    last = text.rfind("\nrun ")
+    text = text[:last] + "\n" + write_start(engine, "fluid", "startf.txt") + "group moving union grains fluid\n" + \
+        dump_lines(engine, "moving", NROT_R + 1, "x y z vx vy vz") + text[last:]
+    wd = "drum_mesh_ranks_%s" % engine
+    shutil.rmtree(wd, ignore_errors=True)
+    names = ["x", "y", "z", "vx", "vy", "vz"]
+    for sub in ("np1", "np2_211", "np2_112", "np4_212"):
+        os.makedirs(os.path.join(wd, sub))
+        shutil.copy(os.path.join(exdir, "drum.stl"), os.path.join(wd, sub))
+    out = et.must_run([exe], wd + "/np1", text, timeout=400)
+    step, ref, nstart = by_start(wd + "/np1", ("startg.txt", "startf.txt"))
+    ng = len(et.read_dump(os.path.join(wd, "np1", "startg.txt")))
+    vmax = max(abs(r[c]) for r in ref for c in (3, 4, 5))
+    # grains stopped by the wall and the bed: free fall since the start would give vz = -g t to every grain
+    tend = (NSETTLE_R + NROT_R + 1) * DT
+    ids = sorted(et.read_dump(os.path.join(wd, "np1", "startg.txt")))
+    now = et.read_dump(os.path.join(wd, "np1", "mpi.%d.txt" % step))
+    slow = sum(1 for i in ids if now[i][5] > -0.5 * 9.81 * tend)
+    print("grains falling slower than half the free fall (stopped by a contact): %d of %d" % (slow, len(ids)))
+    contacts = slow > len(ids) // 10
+    print("drum_mesh (%s) at 1 rank: %d grains, %d fluid, step %d, max |v| %.3g m/s" %
+          (engine, ng, nstart - ng, step, vmax))
+    if not (ng == 969 and nstart - ng > 1000 and vmax > 0.05 and len(ref) == nstart and contacts):
+        print("FAIL drum_mesh: not 969 grains, too few fluid atoms, nothing moved or no grain stopped")
+        return 1
+    fails = 0
+    for np_, grid in ((2, "2 1 1"), (2, "1 1 2"), (4, "2 1 2")):
+        sub = "%s/np%d_%s" % (wd, np_, grid.replace(" ", ""))
+        et.must_run(mpirun_cmd(mpirun, np_, exe), sub, add_processors(text, grid), timeout=400)
+        st, got, n = by_start(sub, ("startg.txt", "startf.txt"))
+        if st != step or n != nstart:
+            print("FAIL %s: step %d, %d atoms at the start (1 rank: %d, %d)" % (sub, st, n, step, nstart))
+            fails += 1
+            continue
+        d, col = worst(ref, got, names)
+        ok = d < BOUND
+        print("%s %s (%s) at %d ranks, processors %s, step %d: max relative difference %.3e in %s (bound %.0e)" %
+              ("PASS" if ok else "FAIL", wd, engine, np_, grid, step, d, col, BOUND))
+        fails += 0 if ok else 1
+    return 1 if fails else 0
+
+
 if __name__ == "__main__":
+    if len(sys.argv) == 6 and sys.argv[1] == "ranks":
+        sys.exit(test_ranks(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]))
     if len(sys.argv) < 4 or sys.argv[1] != "water":
         sys.exit(__doc__)
     sys.exit(test_water(sys.argv[2], sys.argv[3]))
