@@ -16,7 +16,7 @@ region drum), shortened:
                           steps of settling (the lattice bed falls onto the wall and onto itself: contacts between
                           grains of different ranks), then NROT_R steps of rotation with the water. Grains and fluid
                           at the end, matched by their positions at creation: max |difference| / (the largest
-                          coordinate; velocities: the largest velocity component) < BOUND (1e-9: only the order of
+                          coordinate; velocities: the largest velocity component) < 1e-9 (test_fluid_mpi.BOUND: only the order of
                           floating-point sums differs between rank counts; the round-off of 1e-16 grows by the
                           contacts to 1e-13-1e-11 in these steps, as in the other rank tests). LAMMPS runs
                           in.dem_water.lmp as written (its grains: the lowest lattice sites by a key of their
@@ -38,14 +38,13 @@ import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import engine_test as et  # noqa: E402
-from test_fluid_mpi import add_processors, by_start, dump_lines, mpirun_cmd, worst, write_start  # noqa: E402
+from test_fluid_mpi import by_start, drum_ranks, dump_lines, write_start  # noqa: E402
 
 R, L = 0.05, 0.1            # drum.stl: radius and length (y from 0 to L)
 RPM = 104.0
 DT = 1e-5
 NSETTLE, NROT, NDUMP = 2000, 300, 100
 NSETTLE_R, NROT_R = 3000, 199   # the run ends at step NROT_R + 1 of the rotation (after its one-step start)
-BOUND = 1e-9
 
 
 def read_dump(path):
@@ -188,7 +187,7 @@ def test_ranks(exe, engine, mpirun, exdir):
     for sub in ("np1", "np2_211", "np2_112", "np4_212"):
         os.makedirs(os.path.join(wd, sub))
         shutil.copy(os.path.join(exdir, "drum.stl"), os.path.join(wd, sub))
-    out = et.must_run([exe], wd + "/np1", text, timeout=400)
+    et.must_run([exe], wd + "/np1", text, timeout=400)
     step, ref, nstart = by_start(wd + "/np1", ("startg.txt", "startf.txt"))
     ng = len(et.read_dump(os.path.join(wd, "np1", "startg.txt")))
     vmax = max(abs(r[c]) for r in ref for c in (3, 4, 5))
@@ -204,21 +203,7 @@ def test_ranks(exe, engine, mpirun, exdir):
     if not (ng == 969 and nstart - ng > 1000 and vmax > 0.05 and len(ref) == nstart and contacts):
         print("FAIL drum_mesh: not 969 grains, too few fluid atoms, nothing moved or no grain stopped")
         return 1
-    fails = 0
-    for np_, grid in ((2, "2 1 1"), (2, "1 1 2"), (4, "2 1 2")):
-        sub = "%s/np%d_%s" % (wd, np_, grid.replace(" ", ""))
-        et.must_run(mpirun_cmd(mpirun, np_, exe), sub, add_processors(text, grid), timeout=400)
-        st, got, n = by_start(sub, ("startg.txt", "startf.txt"))
-        if st != step or n != nstart:
-            print("FAIL %s: step %d, %d atoms at the start (1 rank: %d, %d)" % (sub, st, n, step, nstart))
-            fails += 1
-            continue
-        d, col = worst(ref, got, names)
-        ok = d < BOUND
-        print("%s %s (%s) at %d ranks, processors %s, step %d: max relative difference %.3e in %s (bound %.0e)" %
-              ("PASS" if ok else "FAIL", wd, engine, np_, grid, step, d, col, BOUND))
-        fails += 0 if ok else 1
-    return 1 if fails else 0
+    return 1 if drum_ranks(exe, engine, mpirun, wd, text, step, ref, nstart, names, timeout=400) else 0
 
 
 if __name__ == "__main__":

@@ -423,11 +423,16 @@ def test_drum(exe, engine, mpirun, examples):
     if not (ng > 900 and nstart - ng > 1000 and vmax > 0.05 and len(ref) == nstart):
         print("FAIL drum: too few grains or fluid atoms, or nothing moved")
         return 1
+    return drum_ranks(exe, engine, mpirun, wd, text, step, ref, nstart, ["x", "y", "z", "vx", "vy", "vz", "rho"])
+
+
+def drum_ranks(exe, engine, mpirun, wd, text, step, ref, nstart, names, timeout=300):
+    """text at processors 2 1 1, 1 1 2 and 2 1 2 against the 1-rank rows ref (in the order of the start files
+    startg.txt, startf.txt, see by_start): the number of failed comparisons (bound BOUND)"""
     fails = 0
-    names = ["x", "y", "z", "vx", "vy", "vz", "rho"]
     for np_, grid in ((2, "2 1 1"), (2, "1 1 2"), (4, "2 1 2")):
         sub = "%s/np%d_%s" % (wd, np_, grid.replace(" ", ""))
-        et.must_run(mpirun_cmd(mpirun, np_, exe), sub, add_processors(text, grid), timeout=300)
+        et.must_run(mpirun_cmd(mpirun, np_, exe), sub, add_processors(text, grid), timeout=timeout)
         st, got, n = by_start(sub, ("startg.txt", "startf.txt"))
         if st != step or n != nstart:
             print("FAIL %s: step %d, %d atoms at the start (1 rank: %d, %d)" % (sub, st, n, step, nstart))
