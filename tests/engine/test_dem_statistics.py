@@ -21,6 +21,8 @@ statistic, so the comparison can tell a different physics from chaos. The final 
 
 Scenes, the kinds of the LIGGGHTS tutorials and LAMMPS granular examples (written here):
   lammps   pour    LAMMPS examples/granular/in.pour: fix pour of 1000 grains (lj units) onto a wall/gran floor
+           funnel  ~600 grains in a conical hopper of fix wall/gran/region (region cone, both ends open, outlet
+                   6 d), discharging onto a floor 0.1 m below
            pack    ~1000 grains of a bcc lattice settling into a dense bed (periodic x y)
            shake   the same bed on a floor moving up and down (fix wall/gran ... wiggle z, 3 g)
   liggghts pour    fix insert/pack of frictional Hertz grains onto a wall/gran floor (periodic x y)
@@ -94,6 +96,21 @@ timestep        2e-6
 thermo_style    custom step atoms ke
 thermo          5000
 """ + DUMP_LMP + SPLIT
+
+# a conical hopper (half angle 26.6 deg, outlet 6 d) of fix wall/gran/region, both ends open, filled with a bcc
+# lattice, discharging onto a floor 0.1 m below
+FUNNEL_LMP = SI_LMP_HEAD + """boundary        f f f
+region          box block -0.05 0.05 -0.05 0.05 -0.11 0.08 units box
+create_box      1 box
+region          hop cone z 0 0 0.015 0.045 0 0.06 side in units box open 1 open 2
+region          hopin cone z 0 0 0.0132 0.0402 0.003 0.057 side in units box
+region          fill block -0.05 0.05 -0.05 0.05 0.003 {size} units box
+region          ins intersect 2 hopin fill
+lattice         bcc 0.006
+create_atoms    1 region ins
+fix             hopw all wall/gran/region hertz/history 2e7 NULL 5e3 NULL {mu} 1 region hop
+fix             floor all wall/gran hertz/history 2e7 NULL 5e3 NULL {mu} 1 zplane -0.1 NULL
+""" + SI_LMP_TAIL
 
 PACK_LMP = SI_LMP_HEAD + """boundary        p p f
 region          box block 0 0.06 0 0.06 0 0.1 units box
@@ -190,6 +207,7 @@ LIG_STYLES = (("gran", LIG_COEFF), ("gran/gpu", LIG_COEFF))
 SCENES = {
     "lammps": {
         "pour": dict(text=POUR_LMP, d=1.0, floor=(0.0, 400.0), outlet=None, styles=LMP_STYLES),
+        "funnel": dict(text=FUNNEL_LMP, d=0.005, floor=None, outlet=0.0, styles=LMP_STYLES),
         "pack": dict(text=PACK_LMP, d=0.005, floor=(0.0, 0.0036), outlet=None, styles=LMP_STYLES,
                      fmt=dict(wiggle="")),
         "shake": dict(text=PACK_LMP, d=0.005, floor=None, outlet=None, styles=LMP_STYLES,
@@ -212,7 +230,7 @@ SCENES = {
 }
 # the short runs of ctest: scene -> (size, n1, n2, every)
 SHORT = {
-    "lammps": {"pour": (400, 1000, 19000, 1000), "pack": (0.033, 200, 59800, 3000), "shake": (0.02, 200, 59800, 3000)},
+    "lammps": {"pour": (400, 1000, 19000, 1000), "funnel": (0.04, 200, 59800, 3000), "pack": (0.033, 200, 59800, 3000), "shake": (0.02, 200, 59800, 3000)},
     "liggghts": {"pour": (1500, 200, 7800, 400), "mesh": (800, 200, 7800, 400),
                  "hopper": (600, 200, 15800, 800), "shake": (600, 200, 11800, 600)},
 }
