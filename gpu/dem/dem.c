@@ -1,5 +1,6 @@
 /* dem.c - the GPU DEM context: parameters, grain upload, pair-list builds with history carry, forces. */
 #define _POSIX_C_SOURCE 200809L
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -136,9 +137,11 @@ static void derive(dem_dev *D, const sphdem_dem_params *p) {
   D->ct = p->ct < 0.0 ? D->cdamp : p->ct;
   D->Estar = p->E / (2.0 * (1.0 - p->nu * p->nu));    /* He eq 21, one material */
   D->tmax_fac = (2.0 - p->nu) / (2.0 - 2.0 * p->nu) * p->mu; /* He eq 22 */
+  D->halfL2min = HUGE_VAL;
   for (int d = 0; d < 3; d++) {
     D->L[d] = p->boxhi[d] - p->boxlo[d];
     D->halfL[d] = p->periodic[d] ? 0.5 * D->L[d] : HUGE_VAL;
+    if (p->periodic[d] && D->halfL[d] * D->halfL[d] < D->halfL2min) D->halfL2min = D->halfL[d] * D->halfL[d];
   }
   /* LIGGGHTS' material model for two grains of one material, evaluated as it does */
   const double Y = p->E, v = p->nu;
@@ -215,6 +218,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hx0);
   free(m->hr0);
   free(m->cpu_gap);
+  free(m->acc_f);
   free(m->cpu_bt);
   free(m->htag);
   free(m->cpu_pfb);
@@ -424,6 +428,12 @@ int sphdem_dem_set_walls(sphdem_dem m, int nw, const sphdem_dem_wall *w) {
   return SPHDEM_OK;
 }
 
+int sphdem_dem_set_accumulate(sphdem_dem m, int on) {
+  if (!m) return SPHDEM_ERR_ARG;
+  m->accumulate = on != 0;
+  return SPHDEM_OK;
+}
+
 int sphdem_dem_request_build(sphdem_dem m) {
   if (!m) return SPHDEM_ERR_ARG;
   m->need_build = 1;
@@ -549,6 +559,19 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
+  if (!D->pa && m->backend == SPHDEM_DEVICE_CPU && n > 0) {
+    /* the first list on the CPU: room for 8 pairs a grain (a dense packing has 6-7), so that the one-thread scan
+     * writes the pairs as it counts them (host pages that are never written cost no memory) */
+    const int64_t cap = 8 * n + 64;
+    TRY(grow(m, (void **)&D->pa, sizeof(int32_t), 0, cap));
+    TRY(grow(m, (void **)&D->pb, sizeof(int32_t), 0, cap));
+    TRY(grow(m, (void **)&D->rlist, sizeof(int32_t), 0, cap));
+    TRY(grow(m, (void **)&D->rkey, sizeof(int32_t), 0, cap));
+    TRY(grow(m, (void **)&D->key, sizeof(uint64_t), 0, cap));
+    TRY(grow(m, (void **)&D->hin, sizeof(double) * SPHDEM_DEM_NHIST, 0, cap));
+    TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, 0, cap));
+    m->cap_p = cap;
+  }
   D->pcap = D->pa ? m->cap_p : 0;
   TRY(m->ops->count(m, &np));
   if (np > 2147483647LL) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "%lld candidate pairs exceed 2^31", (long long)np);
@@ -599,6 +622,51 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
   return sphdem_dem_compute_store(m, m->gstore, tag, flags, dt, update_history, f, torque, virial);
 }
 
+/* the per-step loops over all grains: an AVX2 copy beside the baseline one, chosen at load time (gcc, x86-64) */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define SPHDEM_DEM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define SPHDEM_DEM_CLONES
+#endif
+
+/* 1 if a position, radius or mass is inf or NaN: its exponent bits are all set, and adding 1 to them carries into
+ * the top bit (integer loops the compiler vectorises) */
+SPHDEM_DEM_CLONES static uint64_t nonfinite_bits(const double *v, int64_t n) {
+  uint64_t acc = 0;
+  for (int64_t k = 0; k < n; k++) {
+    uint64_t u;
+    memcpy(&u, v + k, sizeof u);
+    acc |= (u & 0x7ff0000000000000ull) + 0x0010000000000000ull;
+  }
+  return acc >> 63;
+}
+static int grains_nonfinite(const double *x, const double *radius, const double *mass, int n) {
+  return (nonfinite_bits(x, 3 * (int64_t)n) | nonfinite_bits(radius, n) | nonfinite_bits(mass, n)) != 0;
+}
+
+/* For finite grains: the least radius and mass, the largest radius, squared displacement since x0 and radius
+ * growth since r0. Max and min of finite values in any order are the same bits, so the loops may be
+ * vectorised (the attribute lets the compiler reorder them). */
+__attribute__((optimize("finite-math-only", "no-signed-zeros"))) SPHDEM_DEM_CLONES
+static void grains_extremes(const double *x, const double *x0, const double *radius, const double *r0,
+                            const double *mass, int n, double *rmin_, double *rmax_, double *mmin_, double *d2max_,
+                            double *drmax_) {
+  double rmin = DBL_MAX, rmax = *rmax_, mmin = DBL_MAX, d2max = 0.0, drmax = 0.0;
+  for (int i = 0; i < n; i++) {
+    const double r = radius[i], dr = r - r0[i];
+    rmax = r > rmax ? r : rmax;
+    rmin = r < rmin ? r : rmin;
+    mmin = mass[i] < mmin ? mass[i] : mmin;
+    drmax = dr > drmax ? dr : drmax;
+  }
+  for (int i = 0; i < n; i++) {
+    const double dx = x[3 * i] - x0[3 * i], dy = x[3 * i + 1] - x0[3 * i + 1], dz = x[3 * i + 2] - x0[3 * i + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz; /* (may overflow for finite, far apart positions) */
+    d2max = d2 > d2max ? d2 : d2max;
+  }
+  *rmin_ = rmin, *rmax_ = rmax, *mmin_ = mmin, *d2max_ = d2max, *drmax_ = drmax;
+}
+
 /* The first bad grain of sphdem_dem_compute_store, in the words of its checks (rc of sphdem_dem_fail). */
 static int grain_error(struct sphdem_dem_s *m, int n, const int64_t *tag, const double *x, const double *radius,
                        const double *mass, const int *flags, int nmat) {
@@ -645,32 +713,26 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
    * grain is bad */
   const int same_n = !m->need_build && m->tags_valid && n == D->n && m->hx0 && m->hr0;
   const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x, *r0 = same_n ? m->hr0 : radius;
-  /* sums and extremes only (no test per grain): nonfinite stays 0 unless a value is inf or NaN */
-  double nonfinite = 0.0, rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
-  for (int i = 0; i < n; i++) {
-    const double r = radius[i], ms = mass[i], xa = x[3 * i], ya = x[3 * i + 1], za = x[3 * i + 2];
-    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2];
-    const double d2 = dx * dx + dy * dy + dz * dz; /* (may overflow for finite, far apart positions) */
-    nonfinite += (xa - xa) + (ya - ya) + (za - za) + (r - r) + (ms - ms);
-    rmax = r > rmax ? r : rmax;
-    rmin = r < rmin ? r : rmin;
-    mmin = ms < mmin ? ms : mmin;
-    d2max = d2 > d2max ? d2 : d2max;
-    drmax = r - r0[i] > drmax ? r - r0[i] : drmax;
-  }
-  int bad = !(nonfinite == 0.0) | !(rmin > 0.0) | !(mmin > 0.0);
+  /* extremes only (no test and branch per grain), in loops the compiler vectorises */
+  double rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
+  const int nonfinite = grains_nonfinite(x, radius, mass, n);
+  if (!nonfinite) grains_extremes(x, x0, radius, r0, mass, n, &rmin, &rmax, &mmin, &d2max, &drmax);
+  int bad = nonfinite | !(rmin > 0.0) | !(mmin > 0.0);
   /* the tags: unless they are those of the last call (checked then) */
   const int tags_same = m->tags_valid && n == D->n && m->htag && (!n || !memcmp(m->htag, tag, sizeof(int64_t) * n));
   if (!tags_same)
     for (int i = 0; i < n; i++) bad |= (tag[i] < 1) | (tag[i] > SPHDEM_DEM_MAX_TAG);
   const int moved = d2max > lim;
+  int any_frozen = 0;
   if (flags)
     for (int i = 0; i < n; i++) {
+      any_frozen |= (flags[i] & SPHDEM_DEM_FROZEN) != 0;
       has_ghosts |= (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)) != 0;
       bad |= (flags[i] < 0) | ((flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat);
     }
   if (bad) return grain_error(m, n, tag, x, radius, mass, flags, nmat);
   TRY(ensure_grains(m, n));
+  D->any_frozen = any_frozen;
   if (has_ghosts != m->has_ghosts) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
   m->has_ghosts = has_ghosts;
   /* rebuild when the grains, their order or their sizes changed, or one moved more than skin/2 */
@@ -688,8 +750,27 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
     TRY(sphdem_grains_device(g, &m->rt));
     D->x = g->dx, D->v = g->dv, D->om = g->dom, D->rad = g->drad, D->mass = g->dmass;
     if (m->zero_copy) D->f = f, D->tq = torque;
-    if (flags) TRY(rt_h2d(&m->rt, D->flags, flags, sizeof(int32_t) * n));
-    else TRY(rt_zero(&m->rt, D->flags, sizeof(int32_t) * n));
+    /* adding to the caller's forces: the one-thread CPU pass adds in place; the other passes write their own
+     * arrays (here, or the device's), added below */
+    m->cpu_adds = m->accumulate && m->zero_copy && sphdem_dem_cpu_serial_pass(m);
+    if (m->accumulate && !m->cpu_adds) {
+      if (6 * (int64_t)n > m->cap_acc) {
+        const int64_t cap = 6 * (int64_t)n + 6 * (int64_t)(n / 4) + 64;
+        double *a = (double *)realloc(m->acc_f, sizeof(double) * (size_t)cap);
+        if (!a) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the force buffer (%d grains)", n);
+        m->acc_f = a;
+        m->cap_acc = cap;
+      }
+      if (m->zero_copy) D->f = m->acc_f, D->tq = m->acc_f + 3 * (int64_t)n;
+    }
+    if (flags) {
+      TRY(rt_h2d(&m->rt, D->flags, flags, sizeof(int32_t) * n));
+      m->flags_zero = NULL;
+    } else if (m->flags_zero != D->flags || m->flags_zero_n != n) { /* (still zero from the last call: kept) */
+      TRY(rt_zero(&m->rt, D->flags, sizeof(int32_t) * n));
+      m->flags_zero = D->flags;
+      m->flags_zero_n = n;
+    }
     if (new_tags) {
       TRY(rt_h2d(&m->rt, D->tag, tag, sizeof(int64_t) * n));
       memcpy(m->htag, tag, sizeof(int64_t) * n);
@@ -745,10 +826,17 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   m->t[SPHDEM_DEM_T_FORCE] += t1 - t0;
   t0 = t1;
   if (n) {
+    const int add = m->accumulate && !m->cpu_adds;
+    double *fo = add ? m->acc_f : f, *to = add ? m->acc_f + 3 * (int64_t)n : torque;
     if (!m->zero_copy) {
-      TRY(rt_d2h(&m->rt, f, D->f, sizeof(double) * 3 * n));
-      TRY(rt_d2h(&m->rt, torque, D->tq, sizeof(double) * 3 * n));
+      TRY(rt_d2h(&m->rt, fo, D->f, sizeof(double) * 3 * n));
+      TRY(rt_d2h(&m->rt, to, D->tq, sizeof(double) * 3 * n));
     }
+    if (add)
+      for (int64_t k = 0; k < 3 * (int64_t)n; k++) {
+        f[k] += fo[k];
+        torque[k] += to[k];
+      }
   }
   if (virial) TRY(rt_d2h(&m->rt, virial, D->vir, 6 * sizeof(double)));
   m->t[SPHDEM_DEM_T_DOWNLOAD] += rt_now() - t0;

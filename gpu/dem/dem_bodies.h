@@ -107,13 +107,18 @@ SPHDEM_HD int dem_neighbor_cells(const dem_dev *D, int32_t c, int32_t *out) {
 /* r = xa - xb with the minimum image on periodic axes; returns |r|^2. */
 SPHDEM_HD double dem_sep(const dem_dev *D, const double *xa, const double *xb, double *r) {
   double s[3] = {xa[0] - xb[0], xa[1] - xb[1], xa[2] - xb[2]};
-  /* |s| < L/2: rint(s/L) is 0 (s/L rounds to at most 0.5, and rint(0.5) = 0), s stays as it is (halfL is
-   * L/2 on periodic axes, HUGE_VAL on the others); one test for the three axes, as a pair rarely needs an image */
-  if (!((fabs(s[0]) < D->halfL[0]) & (fabs(s[1]) < D->halfL[1]) & (fabs(s[2]) < D->halfL[2])))
+  double rsq = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]; /* (0 + s0^2) + ... as before: the same bits */
+  /* |s|^2 < min (L/2)^2: every |s_d| < L_d/2 (the rounded squares are monotone and rsq is no less than any of
+   * them), so rint(s_d/L_d) is 0 and s stays as it is: one compare for most pairs. Else the axes of |s_d| >= L_d/2
+   * (halfL is L/2 on periodic axes, HUGE_VAL on the others) take the image, and |r|^2 is taken again. */
+  if (!(rsq < D->halfL2min) &&
+      !((fabs(s[0]) < D->halfL[0]) & (fabs(s[1]) < D->halfL[1]) & (fabs(s[2]) < D->halfL[2]))) {
     for (int d = 0; d < 3; d++)
       if (!(fabs(s[d]) < D->halfL[d]) && D->P.periodic[d]) s[d] -= D->L[d] * rint(s[d] / D->L[d]);
+    rsq = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+  }
   for (int d = 0; d < 3; d++) r[d] = s[d];
-  return s[0] * s[0] + s[1] * s[1] + s[2] * s[2]; /* (0 + s0^2) + ... as before: the same bits */
+  return rsq;
 }
 
 /* keep_history: which periodic image of b touches a, as the touch flag of the history stores it
@@ -677,13 +682,12 @@ SPHDEM_HD void dem_flag_coincident(const dem_dev *D, int32_t a, int32_t b) {
 #endif
 }
 
-/* Geometry of pair p: del = x_a - x_b (minimum image; for a wall the distance along its normal),
- * |del|^2, the partner's radius (0 for a wall) and r_a + r_b. Returns 1 if the grains overlap. */
-DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, double *rsq_, double *rb_,
-                                   double *radsum_) {
-  const int32_t a = D->pa[p], b = D->pb[p];
-  const double *xa = D->x + 3 * (int64_t)a;
-  const double ra = D->rad[a];
+/* Geometry of pair p of grain a (at xa, radius ra): del = x_a - x_b (minimum image; for a wall the distance
+ * along its normal), |del|^2, the partner's radius (0 for a wall) and r_a + r_b. Returns 1 if the grains
+ * overlap. */
+DEM_HD_INLINE int dem_contact_geom_a(const dem_dev *D, int64_t p, const int32_t a, const double *xa, const double ra,
+                                     double *del, double *rsq_, double *rb_, double *radsum_) {
+  const int32_t b = D->pb[p];
   double rsq, rb, radsum;
   if (b >= 0) {
     rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
@@ -707,6 +711,13 @@ DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, dou
   *rb_ = rb;
   *radsum_ = radsum;
   return rsq < radsum * radsum;
+}
+
+/* The same with grain a read from the pair. */
+DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, double *rsq_, double *rb_,
+                                   double *radsum_) {
+  const int32_t a = D->pa[p];
+  return dem_contact_geom_a(D, p, a, D->x + 3 * (int64_t)a, D->rad[a], del, rsq_, rb_, radsum_);
 }
 
 /* History carried across a rebuild (and any reordering): look the pair's key up in the previous,
@@ -755,8 +766,10 @@ DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const double 
       wrel[d] = wa[d] - wb[d];
     }
     meff = ma * mb / (ma + mb);
-    if (D->flags[a] & SPHDEM_DEM_FROZEN) meff = mb;
-    if (D->flags[b] & SPHDEM_DEM_FROZEN) meff = ma;
+    if (D->any_frozen) {
+      if (D->flags[a] & SPHDEM_DEM_FROZEN) meff = mb;
+      if (D->flags[b] & SPHDEM_DEM_FROZEN) meff = ma;
+    }
   } else {
     for (int d = 0; d < 3; d++) {
       vr[d] = va[d];
@@ -1067,18 +1080,37 @@ SPHDEM_HD double dem_pair_gap(const dem_dev *D, int64_t p) {
  * (dem_separated_history would change nothing: it is not read). With D->gap0 the pairs whose gap at the build
  * exceeds D->gap_thr are not touching without a look at their grains (dem_pair_gap). dem_particle_forward_model
  * has the contact law inlined for a model fixed at compile time. */
+/* One pair of the particle-parallel passes, its grain a at xa with radius ra: 0 when it does not touch (its
+ * history that of a separated pair, unless known says it is already), else the law of model into F, Ta, Tb
+ * (and vir with D->want_virial) and the history in place. tf[p] marks the pair touching (1) or not (0). */
+DEM_HD_INLINE int dem_pair_step_a(const dem_dev *D, int64_t p, const int32_t a, const double *xa, const double ra,
+                                  unsigned char *tf, const int known, double *F, double *Ta, double *Tb, double *vir,
+                                  const int model) {
+  double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
+  if ((D->gap0 && D->gap0[p] > D->gap_thr) || !dem_contact_geom_a(D, p, a, xa, ra, del, &rsq, &rb, &radsum)) {
+    if (!known || tf[p]) {
+      dem_separated_history(D, p, hout);
+      tf[p] = 0;
+    }
+    return 0;
+  }
+  tf[p] = 1;
+  dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
+  return 1;
+}
+DEM_HD_INLINE int dem_pair_step_model(const dem_dev *D, int64_t p, unsigned char *tf, const int known, double *F,
+                                      double *Ta, double *Tb, double *vir, const int model) {
+  const int32_t a = D->pa[p];
+  return dem_pair_step_a(D, p, a, D->x + 3 * (int64_t)a, D->rad[a], tf, known, F, Ta, Tb, vir, model);
+}
+
 DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
                                                  unsigned char *bt, const int known, const int model) {
   double F[3], Ta[3], Tb[3], vir[6] = {0, 0, 0, 0, 0, 0}, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
   int64_t nt = 0;
+  const int counted = dem_pair_counted(D, (int32_t)i);
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
-    double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
-    if ((D->gap0 && D->gap0[p] > D->gap_thr) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
-      if (!known || tf[p]) dem_separated_history(D, p, hout);
-      tf[p] = 0;
-      continue;
-    }
-    tf[p] = 1;
+    if (!dem_pair_step_model(D, p, tf, known, F, Ta, Tb, vir, model)) continue;
     if (D->pb[p] >= 0) { /* grain b has a touching pair for the reverse half (any thread may set it: the same 1) */
 #ifdef __CUDA_ARCH__
       bt[D->pb[p]] = 1;
@@ -1086,8 +1118,7 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
       __atomic_store_n(&bt[D->pb[p]], (unsigned char)1, __ATOMIC_RELAXED);
 #endif
     }
-    dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-    nt += dem_pair_counted(D, (int32_t)i);
+    nt += counted;
     for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
     if (D->want_virial)
       for (int d = 0; d < 6; d++) vs[d] += vir[d];
@@ -1097,6 +1128,68 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   dem_store_grain(D, i, f, t, vs);
   return nt;
 }
+
+/* The same pairs on one thread, each evaluated once, in list order (by the tags of a, then of b: the order
+ * does not depend on the order of the grains): the force of each run of pairs of one grain a (fstart, fend of
+ * dem_forward_range_body) summed and added to a at the run's end, -F and Tb added to grain b at once; f and tq
+ * hold what is there already (zero, or the caller's forces to add to). No pair force buffer and no reverse pass.
+ * tf marks every pair as the last evaluation left it (set all to 1 when unknown), D->gap0 is set (the CPU builds).
+ * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's position and
+ * radius are read once per run. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
+DEM_HD_INLINE int dem_serial_pair(const dem_dev *D, int64_t p, const int32_t g, const double *xg, const double rg,
+                                  unsigned char *tf, double *F, double *Ta, double *Tb, double *vir, const int model,
+                                  const int uniform) {
+  double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
+  const int32_t a = uniform ? g : D->pa[p];
+  const int touch = D->gap0[p] > D->gap_thr
+                        ? 0
+                        : uniform ? dem_contact_geom_a(D, p, a, xg, rg, del, &rsq, &rb, &radsum)
+                                  : dem_contact_geom(D, p, del, &rsq, &rb, &radsum);
+  if (!touch) {
+    if (tf[p]) {
+      dem_separated_history(D, p, hout);
+      tf[p] = 0;
+    }
+    return 0;
+  }
+  tf[p] = 1;
+  dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
+  const int32_t b = D->pb[p];
+  if (b >= 0) {
+    double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
+    for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
+  }
+  return 1;
+}
+
+DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int model, const int uniform,
+                                             const int virial) {
+  const int64_t np = D->np;
+  int64_t nt = 0;
+  double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
+  for (int64_t p = 0; p < np;) {
+    const int32_t g = D->pa[p];
+    const int64_t end = D->fend[g];
+    const double *xg = D->x + 3 * (int64_t)g, rg = D->rad[g];
+    double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+    int64_t touched = 0;
+    for (; p < end; p++) {
+      if (!dem_serial_pair(D, p, g, xg, rg, tf, F, Ta, Tb, vir, model, uniform)) continue;
+      touched++;
+      for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
+      if (virial)
+        for (int d = 0; d < 6; d++) vs[d] += vir[d];
+    }
+    if (!touched) continue;
+    nt += dem_pair_counted(D, g) ? touched : 0;
+    double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
+    for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
+    if (virial)
+      for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
+  }
+  return nt;
+}
+
 SPHDEM_HD int64_t dem_particle_forward_body(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
                                             unsigned char *bt) {
   return dem_particle_forward_model(D, i, pfb, tf, bt, 0, D->P.model);

@@ -76,18 +76,80 @@ static int cmp_key(const void *a, const void *b) {
   uint64_t ka = g_sort_keys[*(const int32_t *)a], kb = g_sort_keys[*(const int32_t *)b];
   return ka < kb ? -1 : ka > kb;
 }
+
+/* perm = the pairs in key order (keys are unique), without a comparison sort of the whole list: the pairs counted
+ * into the groups of their grain a's tag in tag order, and each group (a grain's few partners) sorted by key by
+ * insertion. The group of a grain: its tag itself when the tags are dense (at most 4 n + 1024; gt = tag), else
+ * the rank of its tag among the distinct tags (a radix sort of the 31-bit tags; copies of a grain share one).
+ * Returns 0, or 1 when the scratch cannot be had or a group is too long for insertion (the caller then sorts the
+ * whole list). */
+static int key_order(const dem_dev *D, int64_t n, int64_t np, int32_t *perm) {
+  int64_t maxtag = 0;
+  for (int64_t i = 0; i < n; i++) maxtag = D->tag[i] > maxtag ? D->tag[i] : maxtag;
+  const int dense = maxtag <= 4 * n + 1024;
+  const int64_t ng0 = dense ? maxtag + 1 : n;
+  int32_t *grp = (int32_t *)malloc(sizeof(int32_t) * (size_t)(ng0 + 1 + (dense ? 0 : 3 * n)));
+  if (!grp) return 1;
+  int32_t *gt = grp + ng0 + 1; /* not dense: the group of each grain, the grains by tag, scratch */
+  int64_t ng = ng0;
+  if (!dense) {
+    int32_t *ord = gt + n, *tmp = ord + n, cnt[256];
+    for (int64_t i = 0; i < n; i++) ord[i] = (int32_t)i;
+    for (int sh = 0; sh < 32; sh += 8) { /* LSD radix sort, stable */
+      memset(cnt, 0, sizeof cnt);
+      for (int64_t i = 0; i < n; i++) cnt[(D->tag[ord[i]] >> sh) & 255]++;
+      int32_t acc = 0;
+      for (int b = 0; b < 256; b++) { const int32_t c = cnt[b]; cnt[b] = acc; acc += c; }
+      for (int64_t i = 0; i < n; i++) tmp[cnt[(D->tag[ord[i]] >> sh) & 255]++] = ord[i];
+      memcpy(ord, tmp, sizeof(int32_t) * (size_t)n);
+    }
+    ng = 0;
+    for (int64_t k = 0; k < n; k++) {
+      if (k > 0 && D->tag[ord[k]] != D->tag[ord[k - 1]]) ng++;
+      gt[ord[k]] = (int32_t)ng;
+    }
+    if (n > 0) ng++;
+  }
+  /* pairs counted into the groups of a (grp: offsets), then placed in list order within each group */
+  for (int64_t g = 0; g <= ng; g++) grp[g] = 0;
+#define SPHDEM_KEY_GROUP(p) (dense ? (int64_t)D->tag[D->pa[p]] : (int64_t)gt[D->pa[p]])
+  for (int64_t p = 0; p < np; p++) grp[SPHDEM_KEY_GROUP(p) + 1]++;
+  for (int64_t g = 0; g < ng; g++) grp[g + 1] += grp[g];
+  for (int64_t p = 0; p < np; p++) perm[grp[SPHDEM_KEY_GROUP(p)]++] = (int32_t)p;
+#undef SPHDEM_KEY_GROUP
+  /* grp[g] is now the end of group g; each group by key */
+  int32_t lo = 0;
+  int rc = 0;
+  for (int64_t g = 0; g < ng && !rc; g++) {
+    const int32_t hi = grp[g];
+    if (hi - lo > 512) rc = 1;
+    for (int32_t k = lo + 1; k < hi && !rc; k++) {
+      const int32_t q = perm[k];
+      const uint64_t kq = D->key[q];
+      int32_t j = k;
+      while (j > lo && D->key[perm[j - 1]] > kq) { perm[j] = perm[j - 1]; j--; }
+      perm[j] = q;
+    }
+    lo = hi;
+  }
+  free(grp);
+  return rc;
+}
+
 static int c_fill(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
-  int64_t np = D->np;
+  const int64_t np = D->np, n = D->n;
   if (!m->cpu_prefilled) DEM_TRY(m->ops->scan_fill(m));
   m->cpu_prefilled = 0;
   /* sort the list by key (keys are unique); rlist and rkey serve as scratch */
   int32_t *perm = D->rlist;
-  for (int64_t p = 0; p < np; p++) perm[p] = (int32_t)p;
+  if (key_order(D, n, np, perm)) {
+    for (int64_t p = 0; p < np; p++) perm[p] = (int32_t)p;
 #pragma omp critical(sphdem_dem_qsort)
-  {
-    g_sort_keys = D->key;
-    qsort(perm, (size_t)np, sizeof(int32_t), cmp_key);
+    {
+      g_sort_keys = D->key;
+      qsort(perm, (size_t)np, sizeof(int32_t), cmp_key);
+    }
   }
   uint64_t *k2 = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)(np ? np : 1));
   if (!k2) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair sort buffer");
@@ -109,6 +171,12 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
   DEM_TRY(m->ops->forward_ranges(m));
+  /* one grain a per run of pairs (no copies of one grain sharing a tag): the one-thread pass reads a once per run */
+  m->cpu_uniform = 1;
+  for (int64_t p = 0; p < np && m->cpu_uniform; p++) {
+    const int32_t a = D->pa[p];
+    m->cpu_uniform = D->fstart[a] <= p && p < D->fend[a];
+  }
   /* the pairs in the order of their grain b, ties in pair order (a stable counting sort; the walls, pb < 0,
    * first, which the reverse ranges skip): rend counts, rstart the offsets, both set again by reverse_ranges */
   int64_t nwall = 0;
@@ -162,6 +230,21 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
   return nt;
 }
 
+/* The one-thread pass with the contact law of one model inlined; a local copy of the constants and array
+ * pointers, which the stores of forces and history cannot alias (kept in registers). */
+static inline __attribute__((always_inline)) int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf,
+                                                                    const int model, int uniform) {
+  const dem_dev Dl = *D;
+  if (uniform && !D->want_virial) return dem_pairs_serial_model(&Dl, tf, model, 1, 0);
+  if (uniform) return dem_pairs_serial_model(&Dl, tf, model, 1, 1);
+  return dem_pairs_serial_model(&Dl, tf, model, 0, 1);
+}
+
+/* 1 when sphdem_dem_cpu_particle_forces will take the one-thread pass, which adds to f and tq as they are */
+int sphdem_dem_cpu_serial_pass(const struct sphdem_dem_s *m) {
+  return m->D.P.algo != SPHDEM_DEM_PAIR_PARALLEL && c_serial(m->D.n);
+}
+
 /* Pair-parallel forces: one thread sums without atomics, several with. */
 int sphdem_dem_cpu_pair_forces(struct sphdem_dem_s *m) {
   const dem_dev *D = &m->D;
@@ -209,6 +292,26 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
   double *pfb = m->cpu_pfb;
   unsigned char *tf = m->cpu_tf, *bt = m->cpu_bt;
   const int serial = c_serial(n);
+  if (serial && (D->gap0 || !np)) { /* one thread: each pair once in list order, b's share added at once (no reverse pass) */
+    if (!known) memset(tf, 1, (size_t)np); /* unknown: every pair may have a history to clear */
+    if (!m->cpu_adds) {
+      memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
+      memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
+    }
+    const int u = m->cpu_uniform;
+    switch (D->P.model) {
+      case SPHDEM_DEM_HOOKE: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HOOKE, u); break;
+      case SPHDEM_DEM_HERTZ: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ, u); break;
+      case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ_MINDLIN, u); break;
+      case SPHDEM_DEM_GRANULAR: nt = c_serial_pairs(D, tf, SPHDEM_DEM_GRANULAR, u); break;
+      default: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ_LIGGGHTS, u); break;
+    }
+    m->cpu_ntouch = nt;
+    m->tf_valid = 1;
+    return SPHDEM_OK;
+  }
+  if (m->cpu_adds) /* (the pass below overwrites f and tq: dem.c asks for it only on one thread) */
+    return rt_fail(&m->rt, SPHDEM_ERR_ARG, "DEM forces: the pair gaps are missing for the one-thread pass");
   switch (D->P.model) { /* each model's contact law inlined into a loop of its own */
     case SPHDEM_DEM_HOOKE: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HOOKE, serial); break;
     case SPHDEM_DEM_HERTZ: nt = c_forward(D, n, pfb, tf, bt, known, SPHDEM_DEM_HERTZ, serial); break;

@@ -47,6 +47,7 @@ typedef struct {
   int gran_rolling;   /* some type pair of gran has a rolling model: the rolling history rin/rout is kept */
   double L[3];
   double halfL[3];    /* L / 2 on periodic axes, HUGE_VAL on the others (the minimum-image test of dem_sep) */
+  double halfL2min;   /* the least halfL[d]^2 (HUGE_VAL without a periodic axis): |r|^2 below it needs no image */
   double glo[3], cs_inv[3];
   int nc[3];
   int64_t ncells;
@@ -58,6 +59,7 @@ typedef struct {
   int64_t n;
   double *x, *v, *om, *rad, *mass, *f, *tq;
   int32_t *flags;
+  int any_frozen;     /* some grain has SPHDEM_DEM_FROZEN (else the law reads no flags for it) */
   int64_t *tag;
   /* cell grid: sorted slot -> grain, cell of each sorted slot, cell ranges */
   int32_t *sidx, *cell, *cstart, *cend;
@@ -144,6 +146,13 @@ struct sphdem_dem_s {
                                   particle-parallel pass only since (cleared by builds and history edits) */
   int64_t cpu_ntouch;          /* touching pairs counted by the CPU particle-parallel pass */
   int cpu_prefilled;           /* the CPU count (one thread) wrote pa, pb, key already: the fill has no scan */
+  int cpu_uniform;             /* every run of pairs of one tag has one grain a (set by the CPU builds) */
+  const int32_t *flags_zero;   /* D->flags holds flags_zero_n zeros (no flags given) since the last call */
+  int64_t flags_zero_n;
+  int accumulate;              /* sphdem_dem_set_accumulate: the forces are added to the caller's f, torque */
+  int cpu_adds;                /* the CPU forces of this call add to D->f, D->tq as they are (else overwrite) */
+  double *acc_f;               /* accumulate where the backend overwrites: the forces here, then added */
+  int64_t cap_acc;
   /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
   double t[SPHDEM_DEM_NTIMERS];
   int64_t ncalls;
@@ -154,6 +163,7 @@ extern "C" {
 #endif
 int sphdem_dem_fail(struct sphdem_dem_s *m, int code, const char *fmt, ...);
 extern const dem_ops sphdem_dem_cpu_ops;
+int sphdem_dem_cpu_serial_pass(const struct sphdem_dem_s *m);
 SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_DECL_CPU)
 #ifdef SPHDEM_WITH_CUDA
 extern const dem_ops sphdem_dem_cuda_ops;

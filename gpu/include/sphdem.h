@@ -591,6 +591,9 @@ int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
 /* The next sphdem_dem_compute rebuilds the pair list (call when the engine rebuilt its neighbour lists:
  * pairs leave the list, and with keep_history separated pairs lose their history, on the engine's steps). */
 int sphdem_dem_request_build(sphdem_dem dem);
+/* on != 0: the next sphdem_dem_compute calls add the contact forces and torques to what f and torque hold
+ * (an engine's force arrays after its force clear) instead of overwriting them; 0 (the default): overwrite. */
+int sphdem_dem_set_accumulate(sphdem_dem dem, int on);
 /* Contact forces for n grains given in the caller's order. tag[i] in [1, 2^31) unique; x, v, omega 3n;
  * radius, mass n; flags n or NULL. dt: the time step that advances the tangential history (eq 13);
  * update_history 0 evaluates forces without changing the history (engine setup). f and torque (3n)

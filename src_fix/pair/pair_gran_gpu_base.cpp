@@ -379,10 +379,13 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */
   if (ghosts_ && neighbor->ago == 0) hand_over_history();
   if (neighbor->ago == 0) list_built();
-  tags_.resize(n);
   fbuf_.resize(3 * (size_t)n);
   tbuf_.resize(3 * (size_t)n);
-  for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
+  /* the atoms are reordered, inserted or exchanged only on the engine's list builds (and at set-up) */
+  if (neighbor->ago == 0 || update->setupflag || tags_.size() != (size_t)n) {
+    tags_.resize(n);
+    for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
+  }
   const int *fl = nullptr; /* NULL: no grain frozen, one material, one rank */
   if (freeze_group_bit_ || material_types || ghosts_) {
     flags_.resize(n);
@@ -402,8 +405,14 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   /* the atoms go to the grain store in place (x, v, omega contiguous n x 3 blocks, radius and rmass) */
   std::string gerr;
   sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, gerr);
-  int rc = g ? sphdem_dem_compute_store(dem_, g, tags_.data(), fl, update->dt, update->setupflag ? 0 : 1, fbuf_.data(),
-                                        tbuf_.data(), vflag_global ? vir : nullptr)
+  /* one rank: the core adds force and torque to the engine's arrays (contiguous n x 3 blocks) itself; many
+   * ranks: into fbuf_, tbuf_, then the periodic images' shares go to their atoms below */
+  double **f = atom->f, **t = atom->torque;
+  const bool direct = !ghosts_ && nlocal > 0;
+  sphdem_dem_set_accumulate(dem_, direct ? 1 : 0);
+  int rc = g ? sphdem_dem_compute_store(dem_, g, tags_.data(), fl, update->dt, update->setupflag ? 0 : 1,
+                                        direct ? f[0] : fbuf_.data(), direct ? t[0] : tbuf_.data(),
+                                        vflag_global ? vir : nullptr)
              : SPHDEM_ERR_ARG;
   if (ghosts_) {
     const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "");
@@ -412,8 +421,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     fail(std::string("DEM core: ") + (g ? sphdem_dem_last_error(dem_) : gerr));
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  double **f = atom->f, **t = atom->torque;
-  if (nlocal > 0) { /* the engines' n x 3 arrays are contiguous blocks */
+  if (!direct && nlocal > 0) { /* the engines' n x 3 arrays are contiguous blocks */
     double *f0 = f[0], *t0 = t[0];
     const double *fb = fbuf_.data(), *tb = tbuf_.data();
     for (int k = 0; k < 3 * nlocal; k++) {
