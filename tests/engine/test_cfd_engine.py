@@ -462,7 +462,7 @@ def rel_diff(a, b):
 # to round-off (1e-16 relative per sum), the conjugate-gradient solve stops at relative residual tol 1e-10, so
 # two solves from right-hand sides equal up to round-off agree to about tol (times the few units of the
 # condition-number share the warm start leaves); the gas fields and the grain forces follow p linearly.
-MPI_FIXED = """# fixed bed of 1 mm grains, voidage 0.40, 6 cells high, in a 3 x 3 x 12 cell column
+MPI_FIXED = """# fixed bed of 1 mm grains, voidage 0.40, 6 cells high, in a 4 x 3 x 12 cell column
 units si
 atom_style sphere
 boundary f f f
@@ -479,7 +479,7 @@ pair_style none
 neighbor 0.001 bin
 neigh_modify every 1000 delay 0 check no
 timestep 1e-3
-fix gas all cfd/grid grid 3 3 12 rho 1.2 mu 1.8e-5 bc zlo inlet 0.3 bc zhi outlet bc xlo slip bc xhi slip &
+fix gas all cfd/grid grid 4 3 12 rho 1.2 mu 1.8e-5 bc zlo inlet 0.3 bc zhi outlet bc xlo slip bc xhi slip &
     bc ylo slip bc yhi slip vtk {steps} gas {extra}
 thermo_style custom step f_gas[1] f_gas[2] f_gas[3] f_gas[5] f_gas[8] f_gas[11] f_gas[14] f_gas[17] f_gas[20]
 thermo_modify format float %.17g
