@@ -358,7 +358,7 @@ static int64_t item_len(const cfd_dev *D, int kind) {
   return (int64_t)(D->nc[0] + (kind == 0)) * (D->nc[1] + (kind == 1)) * (D->nc[2] + (kind == 2));
 }
 
-static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int reverse) {
+static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int reverse, int layers) {
   cfd_dev *D = &m->D;
   if (!m->decomp || !D->split) return SPHDEM_OK;
   if (!m->rt.comm.exchange)
@@ -410,14 +410,14 @@ static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int 
   }
   for (int s = 0; s < 3 && !rc; s++) {
     const int d = reverse ? 2 - s : s;
-    const int H = CFD_HALO, hl = D->hlo[d], top = D->hlo[d] + D->own[d], hh = D->nc[d] - top;
+    const int H = layers, hl = D->hlo[d], top = D->hlo[d] + D->own[d], hh = D->nc[d] - top;
     for (int dir = 1; dir >= -1 && !rc; dir -= 2) {
       /* the layers sent to the neighbour at dir and those received from the one opposite */
       int snd = dir > 0 ? hh > 0 : hl > 0, rcv = dir > 0 ? hl > 0 : hh > 0;
       int s0, r0;
       if (!reverse) {
         s0 = dir > 0 ? top - H : hl;
-        r0 = dir > 0 ? 0 : top;
+        r0 = dir > 0 ? hl - H : top;
       } else {
         s0 = dir > 0 ? top : 0;
         r0 = dir > 0 ? hl : top - H;
@@ -464,16 +464,17 @@ static int face_items(const cfd_dev *D, double *a, cfd_item *out) {
   return 3;
 }
 
-static int halo_cells(struct sphdem_cfd_s *m, double *a, int reverse) {
+/* layers: CFD_HALO, or 1 for an operand of the matrix (its 7-point stencil reaches one cell) */
+static int halo_cells(struct sphdem_cfd_s *m, double *a, int reverse, int layers) {
   cfd_item it = {a, -1};
-  return halo_pass(m, 1, &it, reverse);
+  return halo_pass(m, 1, &it, reverse, layers);
 }
 
 static int halo_faces(struct sphdem_cfd_s *m, double *a, double *b, int reverse) {
   cfd_item it[6];
   int n = face_items(&m->D, a, it);
   if (b) n += face_items(&m->D, b, it + n);
-  return halo_pass(m, n, it, reverse);
+  return halo_pass(m, n, it, reverse, CFD_HALO);
 }
 
 /* sums (op SPHDEM_RED_SUM) or maxima over the ranks of a decomposed grid; nothing to do otherwise */
@@ -734,7 +735,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   double bn = sqrt(bb);
   D->mvx = D->p;
   if ((rc = mg_setup(m))) return rc;
-  if ((rc = halo_cells(m, D->p, 0)) || (rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) ||
+  if ((rc = halo_cells(m, D->p, 0, 1)) || (rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) ||
       (rc = precondition(m)) || (rc = o->run(m, CFD_K_pcg_first, n)))
     return rc;
   if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz))) return rc;
@@ -756,7 +757,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
                              "lower every), or a field already broken",
                              D->P.tol, D->P.maxiter, *res);
     }
-    if ((rc = halo_cells(m, D->d, 0)) || (rc = o->run(m, CFD_K_matvec, n))) return rc;
+    if ((rc = halo_cells(m, D->d, 0, 1)) || (rc = o->run(m, CFD_K_matvec, n))) return rc;
     if ((rc = o->reduce(m, CFD_R_dad, n, &dad)) || (rc = dreduce(m, &dad, 1, SPHDEM_RED_SUM))) return rc;
     if (!(dad > 0.0)) break; /* converged to round-off */
     D->alpha = rz / dad;
@@ -776,7 +777,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   }
   *iters = it;
   *res = sqrt(rr) / bn;
-  return halo_cells(m, D->p, 0); /* the pressure gradient at the faces next to the halo */
+  return halo_cells(m, D->p, 0, CFD_HALO); /* the pressure gradient at the faces next to the halo */
 }
 
 int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
@@ -850,7 +851,7 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
   if (!rc) rc = rt_zero(&m->rt, D->sol, sizeof(double) * (size_t)D->ncell);
   if (!rc && n) rc = o->run(m, CFD_K_void_scatter, n);
   if (m->decomp) { /* halo deposits to their owners, then the owners' sums to the halo copies */
-    if (rc || (rc = halo_cells(m, D->sol, 1)) || (rc = halo_cells(m, D->sol, 0))) return rc;
+    if (rc || (rc = halo_cells(m, D->sol, 1, CFD_HALO)) || (rc = halo_cells(m, D->sol, 0, CFD_HALO))) return rc;
   } else if ((rc = deposit_sum(m, D->sol, D->ncell, NULL, 0, rc))) {
     return rc;
   }
