@@ -235,12 +235,15 @@ static int grow_grains(struct sphdem_cfd_s *m, int64_t n) {
 }
 
 /* ---- many ranks ------------------------------------------------------------------------------------
- * The grid is replicated: every rank holds all cells and faces and deposits its own grains only. The
+ * Decomposed (sphdem_cfd_set_subdomain; what the engine shims use): each rank holds its block of cells and a
+ * halo, deposits its own grains, sends the halo deposits to their owners and takes the owners' sums back, and
+ * the pressure solve's dot products are summed over the ranks (halo_pass, dreduce below).
+ * Replicated (no subdomain set): every rank holds all cells and faces and deposits its own grains only. The
  * deposits (solid volume per cell; drag sums K, Kv per face) are added over the ranks, after which every
  * rank advances the same gas equations from the same inputs, so the fields stay identical without halo
- * exchange. A failure seen on some ranks before or between the deposits is agreed on by every rank, so
- * none waits in a reduction the others left: every rank then returns the code and message of the lowest
- * failing rank. */
+ * exchange. Either way a failure seen on some ranks before or between the deposits is agreed on by every
+ * rank, so none waits in a reduction the others left: every rank then returns the code and message of the
+ * lowest failing rank. */
 
 /* buf[0..n) combined over the ranks, in slices whose count fits the callback's int */
 static int comm_reduce(struct sphdem_cfd_s *m, double *buf, int64_t n, int op) {

@@ -98,7 +98,7 @@ void FixCFDGrid::fail_one(const std::string &msg) {
   sphdem_compat::error_one(error, FLERR, std::string("Fix cfd/grid: ") + msg);
 }
 
-/* the core's reductions over the ranks (the deposit sums of the replicated grid), timed for the run summary */
+/* the core's reductions over the ranks (solver scalars, statistics, gathers), timed for the run summary */
 int FixCFDGrid::reduce_cb(void *user, double *buf, int n, int op) {
   Reduce *r = (Reduce *)user;
   const double t0 = MPI_Wtime();
@@ -476,7 +476,7 @@ void FixCFDGrid::setup(int) {
     update_inlets(false);
     char msg[512] = "";
     if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
-    /* every rank holds the whole grid (see the doc: the grid is coarse); a device or memory failure may be
+    /* each rank holds its block of the grid (set_subdomain below); a device or memory failure may be
      * one rank's alone: every rank stops with the first such message */
     if (comm->nprocs > 1 && device_ != SPHDEM_DEVICE_CPU) { /* one GPU per rank on its node, shared when fewer */
       const std::string map = sphdem_mpi::select_gpus(world);
