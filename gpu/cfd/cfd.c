@@ -561,16 +561,20 @@ static int alloc_grid(struct sphdem_cfd_s *m) {
   return rc;
 }
 
+/* (with their sizes, so that the device bytes held stay right when a subdomain replaces the whole grid) */
 static void free_grid(struct sphdem_cfd_s *m) {
   cfd_dev *D = &m->D;
-#define F_(a) rt_free(&m->rt, (void **)&D->a, 0);
-  CELL_ARRAYS(F_)
-  FACE_ARRAYS(F_)
-#undef F_
+#define FC_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->ncell);
+#define FF_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->nface);
+  CELL_ARRAYS(FC_)
+  FACE_ARRAYS(FF_)
+#undef FC_
+#undef FF_
   for (int l = D->split ? 0 : 1; l < D->nlev; l++) {
     cfd_level *L = &D->L[l];
-    void **lv[] = {(void **)&L->af, (void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
-    for (int k = 0; k < 5; k++) rt_free(&m->rt, lv[k], 0);
+    rt_free(&m->rt, (void **)&L->af, sizeof(double) * (size_t)L->foff[3]);
+    void **lv[] = {(void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
+    for (int k = 0; k < 4; k++) rt_free(&m->rt, lv[k], sizeof(double) * (size_t)L->ncell);
   }
   memset(D->L, 0, sizeof D->L);
 }
