@@ -95,8 +95,11 @@ static int fake_exchange(void *user, int axis, int dir, const double *send, int 
 
 static double gx0[3 * NG], gv0[3 * NG], grad0[NG];
 
+static int g_solver = SPHDEM_CFD_SOLVER_MG; /* the pressure solve's preconditioner of the runs that follow */
+
 static void scene_params(sphdem_cfd_params *p, int voidage) {
   sphdem_cfd_params_default(p);
+  p->solver = g_solver;
   p->nc[0] = NX; p->nc[1] = NY; p->nc[2] = NZ;
   for (int d = 0; d < 3; d++) { p->boxlo[d] = 0.0; p->boxhi[d] = 0.004 * p->nc[d]; }
   for (int s = 0; s < 6; s++) p->bc[s] = SPHDEM_CFD_NOSLIP;
@@ -403,9 +406,9 @@ static void test_decomposed(int px, int pz, int voidage) {
   double dfield, dforce, worst = decomp_diff(&one[0], R, &dfield, &dforce);
   int64_t lmax = 0;
   for (int r = 0; r < R; r++) lmax = dec[r].local_cells > lmax ? dec[r].local_cells : lmax;
-  printf("  decomposed %d x 1 x %d, voidage %d: fields %.2e, grain forces %.2e, all %.2e (bound %.0e); PCG "
+  printf("  decomposed %d x 1 x %d, solver %s, voidage %d: fields %.2e, grain forces %.2e, all %.2e (bound %.0e); PCG "
          "iterations of the last step %d (1 rank %d); %ld halo exchanges; largest rank holds %lld of %d cells\n",
-         px, pz, voidage, dfield, dforce, worst, DECOMP_BOUND, dec[0].st.iters, one[0].st.iters, w.xcalls,
+         px, pz, g_solver == SPHDEM_CFD_SOLVER_LINE ? "line" : "mg", voidage, dfield, dforce, worst, DECOMP_BOUND, dec[0].st.iters, one[0].st.iters, w.xcalls,
          (long long)lmax, NCELL);
   TEST_ASSERT(worst < DECOMP_BOUND, "decomposed %d x 1 x %d, voidage %d: equal to 1 rank within %.0e (%.3g)", px, pz,
               voidage, DECOMP_BOUND, worst);
@@ -460,6 +463,10 @@ int main(void) {
   test_decomposed(2, 1, SPHDEM_CFD_VOID_SMOOTH);
   test_decomposed(1, 2, SPHDEM_CFD_VOID_CENTROID);
   test_decomposed(2, 2, SPHDEM_CFD_VOID_SMOOTH);
+  g_solver = SPHDEM_CFD_SOLVER_LINE; /* the lines along z (the longest axis) cut by the z planes: block lines */
+  test_decomposed(1, 1, SPHDEM_CFD_VOID_SMOOTH);
+  test_decomposed(2, 2, SPHDEM_CFD_VOID_SMOOTH);
+  g_solver = SPHDEM_CFD_SOLVER_MG;
   test_decomposed_restart(2, 1, 1, 1);
   test_decomposed_restart(1, 1, 2, 2);
   test_thin();
