@@ -324,6 +324,7 @@ typedef struct {
 
 static int alloc_grid(struct sphdem_cfd_s *m);
 static void free_grid(struct sphdem_cfd_s *m);
+static int gc_alloc(struct sphdem_cfd_s *m);
 
 /* local index range [r0, r1) of item kind along axis e in a message along axis d */
 static void xrange(const cfd_dev *D, int kind, int e, int d, int *r0, int *r1) {
@@ -511,6 +512,7 @@ int sphdem_cfd_set_subdomain(sphdem_cfd c, const int lo[3], const int hi[3]) {
     c->shi[d] = hi[d];
   }
   int rc = alloc_grid(c);
+  if (!rc && D->split) rc = gc_alloc(c);
   if (rc) return rc;
   free(c->hred);
   c->hred = NULL;
@@ -642,6 +644,10 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   free(m->hsend);
   free(m->hrecv);
   free(m->hmirror);
+  free(m->gc_L);
+  free(m->gc_v);
+  free(m->gc_w);
+  free(m->gc_host);
   free(m);
   *c = NULL;
   return SPHDEM_OK;
@@ -667,6 +673,165 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
   if (!c || !p) return SPHDEM_ERR_ARG;
   *p = c->D.P;
   return SPHDEM_OK;
+}
+
+/* ---- the global coarse level of a decomposed grid -------------------------------------------------------
+ * Block Jacobi alone loses the coarse correction across the cuts (the iterations grow with the ranks). The
+ * preconditioner of a decomposed grid is therefore M^-1 = B^-1 + P A_c^-1 P^T: B the block V-cycles (or lines),
+ * P piecewise constant on aggregates of the whole grid (at most CFD_GC_MAX), A_c = P^T A P. Each rank adds the
+ * coefficients of the faces it owns into A_c's faces, one allreduce makes them every rank's, and every rank
+ * factors the same small matrix; each application restricts its owned residual (one allreduce of gc_n values),
+ * solves and adds the correction to its own cells. Both terms are symmetric positive (semi)definite, so CG keeps
+ * its guarantees. */
+
+static int64_t gc_agg(const struct sphdem_cfd_s *m, const int *g) {
+  return (int64_t)(g[0] / m->gc_b[0]) +
+         (int64_t)m->gc_nc[0] * ((g[1] / m->gc_b[1]) + (int64_t)m->gc_nc[1] * (g[2] / m->gc_b[2]));
+}
+
+/* host view of device array a (n doubles): the array itself on the CPU backend, else a copy in buf */
+static double *host_view(struct sphdem_cfd_s *m, double *a, int64_t n, double *buf, int *rc) {
+  if (m->backend == SPHDEM_DEVICE_CPU) return a;
+  *rc = rt_d2h(&m->rt, buf, a, sizeof(double) * (size_t)n);
+  return buf;
+}
+
+static int gc_alloc(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  for (int d = 0; d < 3; d++) {
+    m->gc_b[d] = 1;
+    m->gc_nc[d] = D->gnc[d];
+  }
+  for (;;) {
+    m->gc_n = (int64_t)m->gc_nc[0] * m->gc_nc[1] * m->gc_nc[2];
+    if (m->gc_n <= CFD_GC_MAX) break;
+    int a = 0;
+    for (int d = 1; d < 3; d++)
+      if (m->gc_nc[d] > m->gc_nc[a]) a = d;
+    m->gc_b[a] *= 2;
+    m->gc_nc[a] = (D->gnc[a] + m->gc_b[a] - 1) / m->gc_b[a];
+  }
+  const int64_t n = m->gc_n, hostn = m->backend == SPHDEM_DEVICE_CPU ? 0 : D->nface + D->ncell;
+  free(m->gc_L);
+  free(m->gc_v);
+  free(m->gc_w);
+  free(m->gc_host);
+  m->gc_L = (double *)malloc(sizeof(double) * (size_t)(n * n));
+  m->gc_v = (double *)malloc(sizeof(double) * (size_t)(4 * n));
+  m->gc_w = (double *)malloc(sizeof(double) * (size_t)n);
+  m->gc_host = hostn ? (double *)malloc(sizeof(double) * (size_t)hostn) : NULL;
+  if (!m->gc_L || !m->gc_v || !m->gc_w || (hostn && !m->gc_host))
+    return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the coarse level of %lld cells", (long long)n);
+  return SPHDEM_OK;
+}
+
+/* A_c from the face coefficients of this gas step, factored */
+static int gc_setup(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  const int64_t n = m->gc_n;
+  int rc = SPHDEM_OK;
+  const double *af = host_view(m, D->af, D->nface, m->gc_host, &rc);
+  if (rc) return rc;
+  /* per coarse cell: the couplings to its upper neighbour along x, y, z and its boundary (outlet) diagonal */
+  double *c = m->gc_v;
+  memset(c, 0, sizeof(double) * (size_t)(4 * n));
+  for (int64_t f = 0; f < D->nface; f++) {
+    if (af[f] == 0.0 || !cfd_owned_face(D, f)) continue;
+    int ix[3];
+    const int d = cfd_face_decode(D, f, ix);
+    int g[3];
+    for (int e = 0; e < 3; e++) g[e] = ix[e] + D->g0[e];
+    if (g[d] == 0 || g[d] == D->gnc[d]) { /* a boundary face: the diagonal of its cell's aggregate */
+      if (g[d] == D->gnc[d]) g[d]--;
+      c[3 * n + gc_agg(m, g)] += af[f];
+      continue;
+    }
+    const int64_t up = gc_agg(m, g);
+    g[d]--;
+    if (gc_agg(m, g) != up) c[3 * up + d] += af[f]; /* between two aggregates: the upper one keeps it */
+  }
+  if ((rc = comm_reduce(m, c, 4 * n, SPHDEM_RED_SUM))) return rc;
+  /* dense A_c, then its Cholesky factor in the lower triangle */
+  double *A = m->gc_L;
+  memset(A, 0, sizeof(double) * (size_t)(n * n));
+  for (int64_t I = 0; I < n; I++) {
+    A[I * n + I] += c[3 * n + I];
+    int ci[3] = {(int)(I % m->gc_nc[0]), (int)((I / m->gc_nc[0]) % m->gc_nc[1]),
+                 (int)(I / ((int64_t)m->gc_nc[0] * m->gc_nc[1]))};
+    for (int d = 0; d < 3; d++) {
+      const double a = c[3 * I + d];
+      if (a == 0.0 || ci[d] == 0) continue;
+      const int64_t J = I - (d == 0 ? 1 : d == 1 ? (int64_t)m->gc_nc[0] : (int64_t)m->gc_nc[0] * m->gc_nc[1]);
+      A[I * n + I] += a;
+      A[J * n + J] += a;
+      A[I * n + J] -= a;
+      A[J * n + I] -= a;
+    }
+  }
+  for (int64_t I = 0; I < n; I++)
+    if (A[I * n + I] == 0.0) A[I * n + I] = 1.0; /* an aggregate without couplings (walls all round) */
+  /* banded: aggregates are numbered x fastest, so A_c and its factor lie within bw of the diagonal */
+  const int64_t bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+  m->gc_ok = 1;
+  for (int64_t j = 0; j < n && m->gc_ok; j++) {
+    double s = A[j * n + j];
+    for (int64_t k = j > bw ? j - bw : 0; k < j; k++) s -= A[j * n + k] * A[j * n + k];
+    if (!(s > 0.0)) {
+      m->gc_ok = 0; /* not positive definite to round-off: no coarse correction this step (same on every rank) */
+      break;
+    }
+    const double ljj = sqrt(s);
+    A[j * n + j] = ljj;
+    for (int64_t i = j + 1; i < n && i <= j + bw; i++) {
+      double t = A[i * n + j];
+      for (int64_t k = i > bw ? i - bw : 0; k < j; k++) t -= A[i * n + k] * A[j * n + k];
+      A[i * n + j] = t / ljj;
+    }
+  }
+  return SPHDEM_OK;
+}
+
+/* z += P A_c^-1 P^T r over this rank's cells */
+static int gc_apply(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  if (!m->gc_ok) return SPHDEM_OK;
+  const int64_t n = m->gc_n;
+  int rc = SPHDEM_OK;
+  double *hr = host_view(m, D->r, D->ncell, m->gc_host, &rc);
+  if (rc) return rc;
+  double *v = m->gc_w;
+  memset(v, 0, sizeof(double) * (size_t)n);
+  for (int64_t ci = 0; ci < D->ncell; ci++) {
+    if (!cfd_owned_cell(D, ci)) continue;
+    int g[3];
+    cfd_cell_decode(D, ci, g);
+    for (int e = 0; e < 3; e++) g[e] += D->g0[e];
+    v[gc_agg(m, g)] += hr[ci];
+  }
+  if ((rc = comm_reduce(m, v, n, SPHDEM_RED_SUM))) return rc;
+  const double *L = m->gc_L;
+  const int64_t bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+  for (int64_t i = 0; i < n; i++) { /* L y = v */
+    double t = v[i];
+    for (int64_t k = i > bw ? i - bw : 0; k < i; k++) t -= L[i * n + k] * v[k];
+    v[i] = t / L[i * n + i];
+  }
+  for (int64_t i = n - 1; i >= 0; i--) { /* L^T x = y */
+    double t = v[i];
+    for (int64_t k = i + 1; k < n && k <= i + bw; k++) t -= L[k * n + i] * v[k];
+    v[i] = t / L[i * n + i];
+  }
+  double *hz = host_view(m, D->z, D->ncell, m->gc_host, &rc);
+  if (rc) return rc;
+  for (int64_t ci = 0; ci < D->ncell; ci++) {
+    if (!cfd_owned_cell(D, ci)) continue;
+    int g[3];
+    cfd_cell_decode(D, ci, g);
+    for (int e = 0; e < 3; e++) g[e] += D->g0[e];
+    hz[ci] += v[gc_agg(m, g)];
+  }
+  if (m->backend != SPHDEM_DEVICE_CPU) rc = rt_h2d(&m->rt, D->z, hz, sizeof(double) * (size_t)D->ncell);
+  return rc;
 }
 
 /* Multigrid V-cycle z = M^-1 r from level l: damped Jacobi (2 sweeps before and after, the first from
@@ -705,6 +870,7 @@ static int precondition(struct sphdem_cfd_s *m) {
   if (D->P.solver == SPHDEM_CFD_SOLVER_LINE) rc = m->ops->run(m, CFD_K_precond, D->nlines);
   else rc = mg_vcycle(m, 0);
   if (!rc && D->split) rc = m->ops->run(m, CFD_K_blk_z, D->L[0].ncell);
+  if (!rc && D->split && m->gc_n) rc = gc_apply(m);
   return rc;
 }
 
@@ -716,6 +882,7 @@ static int mg_setup(struct sphdem_cfd_s *m) {
     D->lv = 0;
     if ((rc = m->ops->run(m, CFD_K_blk_af, D->L[0].foff[3])) || (rc = m->ops->run(m, CFD_K_mg_diag, D->L[0].ncell)))
       return rc;
+    if (m->gc_n && (rc = gc_setup(m))) return rc;
   }
   if (D->P.solver != SPHDEM_CFD_SOLVER_MG) return SPHDEM_OK;
   for (int l = 1; l < D->nlev; l++) {
