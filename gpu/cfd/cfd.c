@@ -379,7 +379,8 @@ static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int 
     m->nhmirror = m->hmirror ? tot : 0;
     if (!m->hmirror) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the halo host copy");
   }
-  for (int it = 0, off = 0; it < ni; it++) {
+  int64_t off = 0;
+  for (int it = 0; it < ni; it++) {
     kinds[it] = items[it].kind;
     int64_t len = item_len(D, kinds[it]);
     if (m->backend == SPHDEM_DEVICE_CPU) hp[it] = items[it].a;
@@ -387,7 +388,7 @@ static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int 
       hp[it] = m->hmirror + off;
       if ((rc = rt_d2h(&m->rt, hp[it], items[it].a, sizeof(double) * (size_t)len))) return rc;
     }
-    off += (int)len;
+    off += len;
   }
   /* the largest message: CFD_HALO layers along any axis */
   for (int d = 0; d < 3; d++) {

@@ -131,6 +131,9 @@ int FixCFDGrid::exchange_cb(void *user, int axis, int dir, const double *send, i
 std::string FixCFDGrid::subdomain() {
   if (domain->triclinic) return "a triclinic box on many ranks is not supported (the gas grid is decomposed along "
                                 "the orthogonal processor grid)";
+  if (sphdem_compat::comm_tiled(comm))
+    return "comm_style tiled (or balance rcb) is not supported: the gas grid is decomposed along a regular "
+           "processor grid (comm_style brick, processors)";
   for (int d = 0; d < 3; d++) {
     const double h = (prm_.boxhi[d] - prm_.boxlo[d]) / prm_.nc[d];
     auto cell_at = [&](double x) {

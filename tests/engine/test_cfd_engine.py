@@ -711,6 +711,15 @@ def test_mpi_fixed(exe, engine, mpirun):
     if not ok:
         print(out[-2000:])
     fails += 0 if ok else 1
+    if engine == "lammps":  # subdomains that are not a processor grid (LIGGGHTS has no other layout)
+        rc, out = run(mpirun_cmd(mpirun, 2, exe), wd + "/tiled", fixed_scene(engine, "comm_style tiled"), timeout=120)
+        crashed = rc < 0 or rc in (124, 134, 136, 137, 139) or "Segmentation" in out
+        ok = rc != 0 and "comm_style tiled" in out and "is not supported" in out and not crashed
+        print("%s comm_style tiled at 2 ranks: exit %d, message %s" % ("PASS" if ok else "FAIL", rc,
+                                                                       "found" if ok else "MISSING"))
+        if not ok:
+            print(out[-2000:])
+        fails += 0 if ok else 1
     # a failure of the core during a gas step at 2 ranks: every rank stops with the message, no hang
     rc, out = run(mpirun_cmd(mpirun, 2, exe), wd + "/stop", fixed_scene(engine, "", "cfl 1e-6"), timeout=120)
     want = "gas step at timestep 1 (gas dt 0.001): gas CFL"
