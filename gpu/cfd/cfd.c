@@ -495,9 +495,10 @@ int sphdem_cfd_set_subdomain(sphdem_cfd c, const int lo[3], const int hi[3]) {
   for (int d = 0; d < 3; d++) {
     if (lo[d] < 0 || hi[d] > D->gnc[d] || hi[d] <= lo[d])
       return sphdem_cfd_fail(c, SPHDEM_ERR_ARG,
-                             "subdomain: gas cells %d to %d along %c are not a part of the grid's %d cells (each rank "
-                             "needs at least one cell along every axis: fewer ranks along %c, or more cells)",
-                             lo[d], hi[d] - 1, AX[d], D->gnc[d], AX[d]);
+                             "subdomain: gas cells [%d, %d) along %c are not a part of the grid's %d cells (each rank "
+                             "needs at least one cell centre in its subdomain along every axis: fewer ranks along %c, "
+                             "more cells, or a gas box that spans the subdomains)",
+                             lo[d], hi[d], AX[d], D->gnc[d], AX[d]);
     if ((lo[d] > 0 || hi[d] < D->gnc[d]) && hi[d] - lo[d] < CFD_HALO)
       return sphdem_cfd_fail(c, SPHDEM_ERR_ARG,
                              "subdomain: %d gas cell(s) along %c (cells %d to %d of %d) is thinner than the gas "

@@ -451,6 +451,11 @@ static void test_thin(void) {
   const char *m = sphdem_cfd_last_error(c);
   TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(m, "thinner than the gas stencil") && strstr(m, "along z"),
               "1 cell along a cut z refused: '%s'", m);
+  int lo1[3] = {2, 0, 0}, hi1[3] = {2, NY, NZ};
+  rc = sphdem_cfd_set_subdomain(c, lo1, hi1);
+  m = sphdem_cfd_last_error(c);
+  TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(m, "not a part of the grid") && strstr(m, "along x"),
+              "no cell along x refused: '%s'", m);
   int lo2[3] = {0, 0, 0}, hi2[3] = {NX, NY, 2};
   TEST_ASSERT(sphdem_cfd_set_subdomain(c, lo2, hi2) == SPHDEM_OK, "2 cells along a cut z accepted (%s)",
               sphdem_cfd_last_error(c));
