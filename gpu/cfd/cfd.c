@@ -1,6 +1,7 @@
-/* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag,
- * predictor, line-preconditioned conjugate-gradient pressure solve, correction, grain forces),
- * statistics, fields and restart state. The loops are in cfd_bodies.h, run by a backend. */
+/* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag, predictor,
+ * preconditioned conjugate-gradient pressure solve, correction, grain forces), statistics, fields and restart
+ * state; on many ranks the grid decomposed into blocks with halo exchange (or replicated). The loops are in
+ * cfd_bodies.h, run by a backend. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
