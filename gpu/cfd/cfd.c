@@ -681,7 +681,8 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
 /* ---- the global coarse level of a decomposed grid -------------------------------------------------------
  * Block Jacobi alone loses the coarse correction across the cuts (the iterations grow with the ranks). The
  * preconditioner of a decomposed grid is therefore M^-1 = B^-1 + P A_c^-1 P^T: B the block V-cycles (or lines),
- * P piecewise constant on aggregates of the whole grid (at most CFD_GC_MAX), A_c = P^T A P. Each rank adds the
+ * P piecewise constant on aggregates of the whole grid (at most CFD_GC_MAX, and a factorization of at most
+ * CFD_GC_FLOPS), A_c = P^T A P. Each rank adds the
  * coefficients of the faces it owns into A_c's faces, one allreduce makes them every rank's, and every rank
  * factors the same small matrix; each application restricts its owned residual (one allreduce of gc_n values),
  * solves and adds the correction to its own cells. Both terms are symmetric positive (semi)definite, so CG keeps
@@ -707,7 +708,8 @@ static int gc_alloc(struct sphdem_cfd_s *m) {
   }
   for (;;) {
     m->gc_n = (int64_t)m->gc_nc[0] * m->gc_nc[1] * m->gc_nc[2];
-    if (m->gc_n <= CFD_GC_MAX) break;
+    m->gc_bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+    if (m->gc_n <= CFD_GC_MAX && (double)m->gc_n * (double)m->gc_bw * (double)m->gc_bw <= CFD_GC_FLOPS) break;
     int a = 0;
     for (int d = 1; d < 3; d++)
       if (m->gc_nc[d] > m->gc_nc[a]) a = d;
@@ -719,7 +721,7 @@ static int gc_alloc(struct sphdem_cfd_s *m) {
   free(m->gc_v);
   free(m->gc_w);
   free(m->gc_host);
-  m->gc_L = (double *)malloc(sizeof(double) * (size_t)(n * n));
+  m->gc_L = (double *)malloc(sizeof(double) * (size_t)(n * (m->gc_bw + 1)));
   m->gc_v = (double *)malloc(sizeof(double) * (size_t)(4 * n));
   m->gc_w = (double *)malloc(sizeof(double) * (size_t)n);
   m->gc_host = hostn ? (double *)malloc(sizeof(double) * (size_t)hostn) : NULL;
@@ -754,43 +756,44 @@ static int gc_setup(struct sphdem_cfd_s *m) {
     if (gc_agg(m, g) != up) c[3 * up + d] += af[f]; /* between two aggregates: the upper one keeps it */
   }
   if ((rc = comm_reduce(m, c, 4 * n, SPHDEM_RED_SUM))) return rc;
-  /* dense A_c, then its Cholesky factor in the lower triangle */
-  double *A = m->gc_L;
-  memset(A, 0, sizeof(double) * (size_t)(n * n));
+  /* A_c's lower band (aggregates x fastest: the couplings lie within bw of the diagonal), then its Cholesky
+   * factor in place; entry (i, k), i - bw <= k <= i, at i W + k - i + bw */
+  const int64_t bw = m->gc_bw, W = bw + 1;
+  double *B = m->gc_L;
+#define GC_AT(i, k) B[(i) * W + (k) - (i) + bw]
+  memset(B, 0, sizeof(double) * (size_t)(n * W));
   for (int64_t I = 0; I < n; I++) {
-    A[I * n + I] += c[3 * n + I];
+    GC_AT(I, I) += c[3 * n + I];
     int ci[3] = {(int)(I % m->gc_nc[0]), (int)((I / m->gc_nc[0]) % m->gc_nc[1]),
                  (int)(I / ((int64_t)m->gc_nc[0] * m->gc_nc[1]))};
     for (int d = 0; d < 3; d++) {
       const double a = c[3 * I + d];
       if (a == 0.0 || ci[d] == 0) continue;
       const int64_t J = I - (d == 0 ? 1 : d == 1 ? (int64_t)m->gc_nc[0] : (int64_t)m->gc_nc[0] * m->gc_nc[1]);
-      A[I * n + I] += a;
-      A[J * n + J] += a;
-      A[I * n + J] -= a;
-      A[J * n + I] -= a;
+      GC_AT(I, I) += a;
+      GC_AT(J, J) += a;
+      GC_AT(I, J) -= a;
     }
   }
   for (int64_t I = 0; I < n; I++)
-    if (A[I * n + I] == 0.0) A[I * n + I] = 1.0; /* an aggregate without couplings (walls all round) */
-  /* banded: aggregates are numbered x fastest, so A_c and its factor lie within bw of the diagonal */
-  const int64_t bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+    if (GC_AT(I, I) == 0.0) GC_AT(I, I) = 1.0; /* an aggregate without couplings (walls all round) */
   m->gc_ok = 1;
   for (int64_t j = 0; j < n && m->gc_ok; j++) {
-    double s = A[j * n + j];
-    for (int64_t k = j > bw ? j - bw : 0; k < j; k++) s -= A[j * n + k] * A[j * n + k];
+    double s = GC_AT(j, j);
+    for (int64_t k = j > bw ? j - bw : 0; k < j; k++) s -= GC_AT(j, k) * GC_AT(j, k);
     if (!(s > 0.0)) {
       m->gc_ok = 0; /* not positive definite to round-off: no coarse correction this step (same on every rank) */
       break;
     }
     const double ljj = sqrt(s);
-    A[j * n + j] = ljj;
+    GC_AT(j, j) = ljj;
     for (int64_t i = j + 1; i < n && i <= j + bw; i++) {
-      double t = A[i * n + j];
-      for (int64_t k = i > bw ? i - bw : 0; k < j; k++) t -= A[i * n + k] * A[j * n + k];
-      A[i * n + j] = t / ljj;
+      double t = GC_AT(i, j);
+      for (int64_t k = i > bw ? i - bw : 0; k < j; k++) t -= GC_AT(i, k) * GC_AT(j, k);
+      GC_AT(i, j) = t / ljj;
     }
   }
+#undef GC_AT
   return SPHDEM_OK;
 }
 
@@ -812,18 +815,20 @@ static int gc_apply(struct sphdem_cfd_s *m) {
     v[gc_agg(m, g)] += hr[ci];
   }
   if ((rc = comm_reduce(m, v, n, SPHDEM_RED_SUM))) return rc;
-  const double *L = m->gc_L;
-  const int64_t bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+  const double *B = m->gc_L;
+  const int64_t bw = m->gc_bw, W = bw + 1;
+#define GC_AT(i, k) B[(i) * W + (k) - (i) + bw]
   for (int64_t i = 0; i < n; i++) { /* L y = v */
     double t = v[i];
-    for (int64_t k = i > bw ? i - bw : 0; k < i; k++) t -= L[i * n + k] * v[k];
-    v[i] = t / L[i * n + i];
+    for (int64_t k = i > bw ? i - bw : 0; k < i; k++) t -= GC_AT(i, k) * v[k];
+    v[i] = t / GC_AT(i, i);
   }
   for (int64_t i = n - 1; i >= 0; i--) { /* L^T x = y */
     double t = v[i];
-    for (int64_t k = i + 1; k < n && k <= i + bw; k++) t -= L[k * n + i] * v[k];
-    v[i] = t / L[i * n + i];
+    for (int64_t k = i + 1; k < n && k <= i + bw; k++) t -= GC_AT(k, i) * v[k];
+    v[i] = t / GC_AT(i, i);
   }
+#undef GC_AT
   double *hz = host_view(m, D->z, D->ncell, m->gc_host, &rc);
   if (rc) return rc;
   for (int64_t ci = 0; ci < D->ncell; ci++) {

@@ -14,8 +14,10 @@
  * beyond its subdomain, its trilinear corners and the pressure gradient at its faces) reach two cells out */
 #define CFD_HALO 2
 
-/* largest global coarse level of a decomposed grid's preconditioner (cells; its matrix is factored densely) */
-#define CFD_GC_MAX 512
+/* largest global coarse level of a decomposed grid's preconditioner: aggregates, and the flops of its banded
+ * Cholesky factorization (n bw^2, once per gas step) */
+#define CFD_GC_MAX 2048
+#define CFD_GC_FLOPS 1e7
 
 /* One level of the multigrid preconditioner. Level 0 is the grid itself (its arrays alias the solver's:
  * af, diag, r in, x = z out, t = lcp scratch); level l+1 aggregates cf[d] (1 or 2) cells per axis of level l,
@@ -154,9 +156,10 @@ struct sphdem_cfd_s {
   int64_t nhx, nhmirror;
   /* decomposed grid: the preconditioner's global coarse level, the same on every rank: the whole grid in
    * aggregates of gc_b[d] cells per axis (gc_n of them, at most CFD_GC_MAX), its Galerkin matrix factored
-   * (dense Cholesky, gc_L), the coarse vectors; gc_ok 0 where the factorization failed this gas step */
+   * (banded Cholesky, gc_L: gc_n rows of the gc_bw + 1 entries left of and on the diagonal), the coarse vectors;
+   * gc_ok 0 where the factorization failed this gas step */
   int gc_b[3], gc_nc[3], gc_ok;
-  int64_t gc_n;
+  int64_t gc_n, gc_bw;
   double *gc_L, *gc_v, *gc_w, *gc_host;
   double xbytes;
   long xcalls;
