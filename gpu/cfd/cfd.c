@@ -1,6 +1,7 @@
-/* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag,
- * predictor, line-preconditioned conjugate-gradient pressure solve, correction, grain forces),
- * statistics, fields and restart state. The loops are in cfd_bodies.h, run by a backend. */
+/* cfd.c - the gas-grid context of CFD-DEM: parameters, allocation, the gas step (voidage, drag, predictor,
+ * preconditioned conjugate-gradient pressure solve, correction, grain forces), statistics, fields and restart
+ * state; on many ranks the grid decomposed into blocks with halo exchange (or replicated). The loops are in
+ * cfd_bodies.h, run by a backend. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -90,24 +91,48 @@ int sphdem_cfd_params_check(const sphdem_cfd_params *p, char *msg, size_t msglen
   return SPHDEM_OK;
 }
 
-static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
+/* The local grid of the owned global cells [slo, shi) per axis (the whole grid: 0, nc), with a halo of CFD_HALO
+ * cells on each side where the grid goes on (another rank's cells), and the preconditioner's levels over the
+ * owned block. */
+static void derive(cfd_dev *D, const sphdem_cfd_params *p, const int *slo, const int *shi) {
   D->P = *p;
   D->Vc = 1.0;
+  D->split = 0;
   for (int d = 0; d < 3; d++) {
-    D->nc[d] = p->nc[d];
-    D->lo[d] = p->boxlo[d];
+    int hl = slo[d] > 0 ? CFD_HALO : 0, hh = shi[d] < p->nc[d] ? CFD_HALO : 0;
+    D->gnc[d] = p->nc[d];
+    D->own[d] = shi[d] - slo[d];
+    D->hlo[d] = hl;
+    D->nc[d] = D->own[d] + hl + hh;
+    D->g0[d] = slo[d] - hl;
     D->h[d] = (p->boxhi[d] - p->boxlo[d]) / p->nc[d];
+    D->lo[d] = D->g0[d] ? p->boxlo[d] + D->g0[d] * D->h[d] : p->boxlo[d];
     D->inv_h[d] = 1.0 / D->h[d];
     D->Vc *= D->h[d];
+    if (hl || hh) D->split = 1;
   }
+  D->gncell = (int64_t)p->nc[0] * p->nc[1] * p->nc[2];
+  cfd_level *G = &D->G;
+  for (int d = 0; d < 3; d++) {
+    G->nc[d] = D->nc[d];
+    G->cf[d] = 1;
+  }
+  G->ncell = (int64_t)G->nc[0] * G->nc[1] * G->nc[2];
+  G->foff[0] = 0;
+  G->foff[1] = ((int64_t)G->nc[0] + 1) * G->nc[1] * G->nc[2];
+  G->foff[2] = G->foff[1] + (int64_t)G->nc[0] * ((int64_t)G->nc[1] + 1) * G->nc[2];
+  G->foff[3] = G->foff[2] + (int64_t)G->nc[0] * G->nc[1] * ((int64_t)G->nc[2] + 1);
+  D->ncell = G->ncell;
+  D->nface = G->foff[3];
   D->lax = 2;
   if (p->nc[0] > p->nc[D->lax]) D->lax = 0;
   if (p->nc[1] > p->nc[D->lax]) D->lax = 1;
-  /* multigrid levels: halve every axis that has more than one cell, down to a few dozen cells */
+  /* multigrid levels over the owned block: halve every axis that has more than one cell, down to a few dozen
+   * cells */
   D->omega = 0.8;
   D->nlev = 1;
   for (int d = 0; d < 3; d++) {
-    D->L[0].nc[d] = p->nc[d];
+    D->L[0].nc[d] = D->own[d];
     D->L[0].cf[d] = 1;
   }
   for (;;) {
@@ -117,10 +142,6 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
     F->foff[1] = ((int64_t)F->nc[0] + 1) * F->nc[1] * F->nc[2];
     F->foff[2] = F->foff[1] + (int64_t)F->nc[0] * ((int64_t)F->nc[1] + 1) * F->nc[2];
     F->foff[3] = F->foff[2] + (int64_t)F->nc[0] * F->nc[1] * ((int64_t)F->nc[2] + 1);
-    if (D->nlev == 1) { /* the grid itself: its cells and faces */
-      D->ncell = F->ncell;
-      D->nface = F->foff[3];
-    }
     if (F->ncell <= 32 || D->nlev == SPHDEM_CFD_MAX_LEVELS) break;
     if (F->nc[0] == 1 && F->nc[1] == 1 && F->nc[2] == 1) break;
     cfd_level *C = &D->L[D->nlev++];
@@ -129,7 +150,7 @@ static void derive(cfd_dev *D, const sphdem_cfd_params *p) {
       C->nc[d] = (F->nc[d] + C->cf[d] - 1) / C->cf[d];
     }
   }
-  D->nlines = D->ncell / p->nc[D->lax];
+  D->nlines = D->L[0].ncell / D->L[0].nc[D->lax];
 }
 
 #define CELL_ARRAYS(X) X(sol) X(eps) X(eps_old) X(p) X(b) X(r) X(z) X(d) X(Ad) X(diag) X(lcp)
@@ -215,12 +236,15 @@ static int grow_grains(struct sphdem_cfd_s *m, int64_t n) {
 }
 
 /* ---- many ranks ------------------------------------------------------------------------------------
- * The grid is replicated: every rank holds all cells and faces and deposits its own grains only. The
+ * Decomposed (sphdem_cfd_set_subdomain; what the engine shims use): each rank holds its block of cells and a
+ * halo, deposits its own grains, sends the halo deposits to their owners and takes the owners' sums back, and
+ * the pressure solve's dot products are summed over the ranks (halo_pass, dreduce below).
+ * Replicated (no subdomain set): every rank holds all cells and faces and deposits its own grains only. The
  * deposits (solid volume per cell; drag sums K, Kv per face) are added over the ranks, after which every
  * rank advances the same gas equations from the same inputs, so the fields stay identical without halo
- * exchange. A failure seen on some ranks before or between the deposits is agreed on by every rank, so
- * none waits in a reduction the others left: every rank then returns the code and message of the lowest
- * failing rank. */
+ * exchange. Either way a failure seen on some ranks before or between the deposits is agreed on by every
+ * rank, so none waits in a reduction the others left: every rank then returns the code and message of the
+ * lowest failing rank. */
 
 /* buf[0..n) combined over the ranks, in slices whose count fits the callback's int */
 static int comm_reduce(struct sphdem_cfd_s *m, double *buf, int64_t n, int op) {
@@ -286,6 +310,280 @@ static int deposit_sum(struct sphdem_cfd_s *m, double *a, int64_t na, double *b,
   return SPHDEM_OK;
 }
 
+/* ---- decomposed grid: halo exchange with the face neighbours ------------------------------------------
+ * An item is a cell array (kind -1) or the faces of one axis of a face array (kind 0-2, base at that axis'
+ * first face); faces of axis d are laid out as cells with one more layer along d, face i the low face of cell
+ * i. Per axis (forward 0, 1, 2; reverse 2, 1, 0) two messages: the layers next to each neighbour. Along the
+ * other axes a message spans the whole local range for the axes exchanged before it (forward) and the owned
+ * range for the others, so edge and corner halo cells arrive in two or three hops. Forward: the owners' values
+ * replace the halo copies. Reverse: the halo values (deposits of this rank's grains) are sent, added into the
+ * owners' cells and zeroed here. */
+typedef struct {
+  double *a;
+  int kind;
+} cfd_item;
+
+static int alloc_grid(struct sphdem_cfd_s *m);
+static void free_grid(struct sphdem_cfd_s *m);
+static int gc_alloc(struct sphdem_cfd_s *m);
+
+/* local index range [r0, r1) of item kind along axis e in a message along axis d */
+static void xrange(const cfd_dev *D, int kind, int e, int d, int *r0, int *r1) {
+  const int n = D->nc[e] + (kind == e), hh = D->nc[e] - D->hlo[e] - D->own[e];
+  if (e < d) { *r0 = 0; *r1 = n; }
+  else { *r0 = D->hlo[e]; *r1 = n - hh; }
+}
+
+/* pack (dir 0) or unpack (1: assign, 2: add) the layers [l0, l0 + nl) along d of the items into buf */
+static int64_t xcopy(const cfd_dev *D, int ni, double *const *hp, const int *kinds, int d, int l0, int nl, double *buf,
+                     int mode) {
+  int64_t k = 0;
+  for (int it = 0; it < ni; it++) {
+    const int kind = kinds[it];
+    int r0[3], r1[3], n[3];
+    for (int e = 0; e < 3; e++) {
+      n[e] = D->nc[e] + (kind == e);
+      if (e == d) { r0[e] = l0; r1[e] = l0 + nl; }
+      else xrange(D, kind, e, d, &r0[e], &r1[e]);
+    }
+    double *a = hp[it];
+    for (int z = r0[2]; z < r1[2]; z++)
+      for (int y = r0[1]; y < r1[1]; y++)
+        for (int x = r0[0]; x < r1[0]; x++) {
+          double *v = a + x + (int64_t)n[0] * (y + (int64_t)n[1] * z);
+          if (mode == 0) buf[k++] = *v;
+          else if (mode == 1) *v = buf[k++];
+          else *v += buf[k++];
+        }
+  }
+  return k;
+}
+
+static int64_t item_len(const cfd_dev *D, int kind) {
+  return (int64_t)(D->nc[0] + (kind == 0)) * (D->nc[1] + (kind == 1)) * (D->nc[2] + (kind == 2));
+}
+
+static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int reverse, int layers) {
+  cfd_dev *D = &m->D;
+  if (!m->decomp || !D->split) return SPHDEM_OK;
+  if (!m->rt.comm.exchange)
+    return sphdem_cfd_fail(m, SPHDEM_ERR_STATE, "decomposed gas grid without a halo-exchange callback");
+  double *hp[12];
+  int kinds[12];
+  int rc = SPHDEM_OK;
+  /* host view of the items: the arrays themselves on the CPU backend, copies on a GPU */
+  int64_t tot = 0, big = 0;
+  for (int it = 0; it < ni; it++) tot += item_len(D, items[it].kind);
+  if (m->backend != SPHDEM_DEVICE_CPU && m->nhmirror < tot) {
+    free(m->hmirror);
+    m->hmirror = (double *)malloc(sizeof(double) * (size_t)tot);
+    m->nhmirror = m->hmirror ? tot : 0;
+    if (!m->hmirror) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the halo host copy");
+  }
+  int64_t off = 0;
+  for (int it = 0; it < ni; it++) {
+    kinds[it] = items[it].kind;
+    int64_t len = item_len(D, kinds[it]);
+    if (m->backend == SPHDEM_DEVICE_CPU) hp[it] = items[it].a;
+    else {
+      hp[it] = m->hmirror + off;
+      if ((rc = rt_d2h(&m->rt, hp[it], items[it].a, sizeof(double) * (size_t)len))) return rc;
+    }
+    off += len;
+  }
+  /* the largest message: CFD_HALO layers along any axis */
+  for (int d = 0; d < 3; d++) {
+    int64_t sz = 0;
+    for (int it = 0; it < ni; it++) {
+      int64_t t = CFD_HALO;
+      for (int e = 0; e < 3; e++) {
+        if (e == d) continue;
+        int r0, r1;
+        xrange(D, kinds[it], e, d, &r0, &r1);
+        t *= r1 - r0;
+      }
+      sz += t;
+    }
+    if (sz > big) big = sz;
+  }
+  if (m->nhx < big) {
+    free(m->hsend);
+    free(m->hrecv);
+    m->hsend = (double *)malloc(sizeof(double) * (size_t)big);
+    m->hrecv = (double *)malloc(sizeof(double) * (size_t)big);
+    m->nhx = m->hsend && m->hrecv ? big : 0;
+    if (!m->nhx) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the halo buffers");
+  }
+  for (int s = 0; s < 3 && !rc; s++) {
+    const int d = reverse ? 2 - s : s;
+    const int H = layers, hl = D->hlo[d], top = D->hlo[d] + D->own[d], hh = D->nc[d] - top;
+    for (int dir = 1; dir >= -1 && !rc; dir -= 2) {
+      /* the layers sent to the neighbour at dir and those received from the one opposite */
+      int snd = dir > 0 ? hh > 0 : hl > 0, rcv = dir > 0 ? hl > 0 : hh > 0;
+      int s0, r0;
+      if (!reverse) {
+        s0 = dir > 0 ? top - H : hl;
+        r0 = dir > 0 ? hl - H : top;
+      } else {
+        s0 = dir > 0 ? top : 0;
+        r0 = dir > 0 ? hl : top - H;
+      }
+      int64_t ns = snd ? xcopy(D, ni, hp, kinds, d, s0, H, m->hsend, 0) : 0;
+      int64_t nr = 0;
+      if (rcv) { /* the count only */
+        nr = 0;
+        for (int it = 0; it < ni; it++) {
+          int64_t t = H;
+          for (int e = 0; e < 3; e++)
+            if (e != d) {
+              int a0, a1;
+              xrange(D, kinds[it], e, d, &a0, &a1);
+              t *= a1 - a0;
+            }
+          nr += t;
+        }
+      }
+      if (reverse && snd) { /* the deposits sent are the owner's now: zeros over the sent layers */
+        for (int64_t k = 0; k < ns; k++) m->hrecv[k] = 0.0;
+        xcopy(D, ni, hp, kinds, d, s0, H, m->hrecv, 1);
+      }
+      if (m->rt.comm.exchange(m->rt.comm.user, d, dir, m->hsend, (int)ns, m->hrecv, (int)nr) != 0)
+        rc = sphdem_cfd_fail(m, SPHDEM_ERR_STATE, "the halo exchange along axis %d with the neighbour rank failed", d);
+      else if (rcv)
+        xcopy(D, ni, hp, kinds, d, r0, H, m->hrecv, reverse ? 2 : 1);
+      m->xbytes += 8.0 * (double)ns;
+    }
+  }
+  m->xcalls++;
+  if (!rc && m->backend != SPHDEM_DEVICE_CPU)
+    for (int it = 0; it < ni && !rc; it++)
+      rc = rt_h2d(&m->rt, items[it].a, hp[it], sizeof(double) * (size_t)item_len(D, kinds[it]));
+  return rc;
+}
+
+/* the faces of a face array as three items */
+static int face_items(const cfd_dev *D, double *a, cfd_item *out) {
+  for (int d = 0; d < 3; d++) {
+    out[d].a = a + D->G.foff[d];
+    out[d].kind = d;
+  }
+  return 3;
+}
+
+/* layers: CFD_HALO, or 1 for an operand of the matrix (its 7-point stencil reaches one cell) */
+static int halo_cells(struct sphdem_cfd_s *m, double *a, int reverse, int layers) {
+  cfd_item it = {a, -1};
+  return halo_pass(m, 1, &it, reverse, layers);
+}
+
+static int halo_faces(struct sphdem_cfd_s *m, double *a, double *b, int reverse) {
+  cfd_item it[6];
+  int n = face_items(&m->D, a, it);
+  if (b) n += face_items(&m->D, b, it + n);
+  return halo_pass(m, n, it, reverse, CFD_HALO);
+}
+
+/* sums (op SPHDEM_RED_SUM) or maxima over the ranks of a decomposed grid; nothing to do otherwise */
+static int dreduce(struct sphdem_cfd_s *m, double *v, int n, int op) {
+  if (!m->decomp || rt_nranks(&m->rt) == 1) return SPHDEM_OK;
+  return comm_reduce(m, v, n, op);
+}
+
+int sphdem_cfd_set_subdomain(sphdem_cfd c, const int lo[3], const int hi[3]) {
+  if (!c || !lo || !hi) return SPHDEM_ERR_ARG;
+  cfd_dev *D = &c->D;
+  static const char AX[3] = {'x', 'y', 'z'};
+  for (int d = 0; d < 3; d++) {
+    if (lo[d] < 0 || hi[d] > D->gnc[d] || hi[d] <= lo[d])
+      return sphdem_cfd_fail(c, SPHDEM_ERR_ARG,
+                             "subdomain: gas cells [%d, %d) along %c are not a part of the grid's %d cells (each rank "
+                             "needs at least one cell centre in its subdomain along every axis: fewer ranks along %c, "
+                             "more cells, or a gas box that spans the subdomains)",
+                             lo[d], hi[d], AX[d], D->gnc[d], AX[d]);
+    if ((lo[d] > 0 || hi[d] < D->gnc[d]) && hi[d] - lo[d] < CFD_HALO)
+      return sphdem_cfd_fail(c, SPHDEM_ERR_ARG,
+                             "subdomain: %d gas cell(s) along %c (cells %d to %d of %d) is thinner than the gas "
+                             "stencil, which needs %d cells per subdomain along a cut axis: fewer ranks along %c, "
+                             "or more cells",
+                             hi[d] - lo[d], AX[d], lo[d], hi[d] - 1, D->gnc[d], CFD_HALO, AX[d]);
+  }
+  free_grid(c);
+  derive(D, &D->P, lo, hi);
+  c->decomp = 1;
+  for (int d = 0; d < 3; d++) {
+    c->slo[d] = lo[d];
+    c->shi[d] = hi[d];
+  }
+  int rc = alloc_grid(c);
+  if (!rc && D->split) rc = gc_alloc(c);
+  if (rc) return rc;
+  free(c->hred);
+  c->hred = NULL;
+  c->nhred = 0;
+  return SPHDEM_OK;
+}
+
+int64_t sphdem_cfd_local_cells(sphdem_cfd c) { return c ? c->D.ncell : 0; }
+
+void sphdem_cfd_halo_traffic(sphdem_cfd c, double *bytes, long *calls) {
+  if (bytes) *bytes = c ? c->xbytes : 0.0;
+  if (calls) *calls = c ? c->xcalls : 0;
+}
+
+/* the cell and face arrays of the local grid and the preconditioner's levels; the gas at rest, all void */
+static int alloc_grid(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  int rc = SPHDEM_OK;
+#define AC_(a) if (!rc) rc = dalloc(m, &D->a, D->ncell);
+#define AF_(a) if (!rc) rc = dalloc(m, &D->a, D->nface);
+  CELL_ARRAYS(AC_)
+  FACE_ARRAYS(AF_)
+#undef AC_
+#undef AF_
+  if (rc) return rc;
+  D->G.af = D->af;
+  D->G.diag = D->diag;
+  D->G.r = D->r;
+  D->G.x = D->z;
+  D->G.t = D->lcp;
+  if (!D->split) D->L[0] = D->G; /* level 0 is the grid itself */
+  for (int l = D->split ? 0 : 1; l < D->nlev && !rc; l++) {
+    cfd_level *L = &D->L[l];
+    rc = dalloc(m, &L->af, L->foff[3]);
+    if (!rc) rc = dalloc(m, &L->diag, L->ncell);
+    if (!rc) rc = dalloc(m, &L->r, L->ncell);
+    if (!rc) rc = dalloc(m, &L->x, L->ncell);
+    if (!rc) rc = dalloc(m, &L->t, L->ncell);
+  }
+  if (rc) return rc;
+  double *one = (double *)malloc(sizeof(double) * (size_t)D->ncell);
+  if (!one) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %lld host doubles", (long long)D->ncell);
+  for (int64_t i = 0; i < D->ncell; i++) one[i] = 1.0;
+  rc = rt_h2d(&m->rt, D->eps, one, sizeof(double) * (size_t)D->ncell);
+  if (!rc) rc = rt_h2d(&m->rt, D->eps_old, one, sizeof(double) * (size_t)D->ncell);
+  free(one);
+  D->first = 1;
+  return rc;
+}
+
+/* (with their sizes, so that the device bytes held stay right when a subdomain replaces the whole grid) */
+static void free_grid(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+#define FC_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->ncell);
+#define FF_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->nface);
+  CELL_ARRAYS(FC_)
+  FACE_ARRAYS(FF_)
+#undef FC_
+#undef FF_
+  for (int l = D->split ? 0 : 1; l < D->nlev; l++) {
+    cfd_level *L = &D->L[l];
+    rt_free(&m->rt, (void **)&L->af, sizeof(double) * (size_t)L->foff[3]);
+    void **lv[] = {(void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
+    for (int k = 0; k < 4; k++) rt_free(&m->rt, lv[k], sizeof(double) * (size_t)L->ncell);
+  }
+  memset(D->L, 0, sizeof D->L);
+}
+
 int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device dev, char *msg, size_t msglen) {
   if (!out) BAD("out: NULL");
   *out = NULL;
@@ -318,48 +616,15 @@ int sphdem_cfd_create(sphdem_cfd *out, const sphdem_cfd_params *p, sphdem_device
     }
   }
   m->ops = ops;
-  derive(&m->D, p);
-  m->D.first = 1;
+  const int zero[3] = {0, 0, 0};
+  derive(&m->D, p, zero, p->nc);
+  rc = alloc_grid(m);
+  if (rc) {
+    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
+    sphdem_cfd_destroy(&m);
+    return rc;
+  }
   cfd_dev *D = &m->D;
-#define AC_(a) if (!rc) rc = dalloc(m, &D->a, D->ncell);
-#define AF_(a) if (!rc) rc = dalloc(m, &D->a, D->nface);
-  CELL_ARRAYS(AC_)
-  FACE_ARRAYS(AF_)
-#undef AC_
-#undef AF_
-  D->L[0].af = D->af;
-  D->L[0].diag = D->diag;
-  D->L[0].r = D->r;
-  D->L[0].x = D->z;
-  D->L[0].t = D->lcp;
-  for (int l = 1; l < D->nlev && !rc; l++) {
-    cfd_level *L = &D->L[l];
-    rc = dalloc(m, &L->af, L->foff[3]);
-    if (!rc) rc = dalloc(m, &L->diag, L->ncell);
-    if (!rc) rc = dalloc(m, &L->r, L->ncell);
-    if (!rc) rc = dalloc(m, &L->x, L->ncell);
-    if (!rc) rc = dalloc(m, &L->t, L->ncell);
-  }
-  if (rc) {
-    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
-    sphdem_cfd_destroy(&m);
-    return rc;
-  }
-  /* all void until grains arrive */
-  double *one = (double *)malloc(sizeof(double) * (size_t)D->ncell);
-  if (!one) {
-    sphdem_cfd_destroy(&m);
-    BAD("cannot allocate %lld host doubles", (long long)D->ncell);
-  }
-  for (int64_t i = 0; i < D->ncell; i++) one[i] = 1.0;
-  rc = rt_h2d(&m->rt, D->eps, one, sizeof(double) * (size_t)D->ncell);
-  if (!rc) rc = rt_h2d(&m->rt, D->eps_old, one, sizeof(double) * (size_t)D->ncell);
-  free(one);
-  if (rc) {
-    if (msg && msglen) snprintf(msg, msglen, "%s", m->rt.err);
-    sphdem_cfd_destroy(&m);
-    return rc;
-  }
   m->st.eps_min = m->st.eps_mean = 1.0;
   m->st.flow_axis = cfd_flow_axis(D);
   *out = m;
@@ -370,21 +635,22 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   if (!c || !*c) return SPHDEM_OK;
   struct sphdem_cfd_s *m = *c;
   cfd_dev *D = &m->D;
+  free_grid(m);
 #define F_(a) rt_free(&m->rt, (void **)&D->a, 0);
-  CELL_ARRAYS(F_)
-  FACE_ARRAYS(F_)
   GRAIN3_ARRAYS(F_)
   GRAIN1_ARRAYS(F_)
 #undef F_
   free_selection(m);
   sphdem_grains_destroy(&m->gstore);
-  for (int l = 1; l < D->nlev; l++) {
-    cfd_level *L = &D->L[l];
-    void **lv[] = {(void **)&L->af, (void **)&L->diag, (void **)&L->r, (void **)&L->x, (void **)&L->t};
-    for (int k = 0; k < 5; k++) rt_free(&m->rt, lv[k], 0);
-  }
   if (m->ops->release) m->ops->release(m);
   free(m->hred);
+  free(m->hsend);
+  free(m->hrecv);
+  free(m->hmirror);
+  free(m->gc_L);
+  free(m->gc_v);
+  free(m->gc_w);
+  free(m->gc_host);
   free(m);
   *c = NULL;
   return SPHDEM_OK;
@@ -410,6 +676,170 @@ int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p) {
   if (!c || !p) return SPHDEM_ERR_ARG;
   *p = c->D.P;
   return SPHDEM_OK;
+}
+
+/* ---- the global coarse level of a decomposed grid -------------------------------------------------------
+ * Block Jacobi alone loses the coarse correction across the cuts (the iterations grow with the ranks). The
+ * preconditioner of a decomposed grid is therefore M^-1 = B^-1 + P A_c^-1 P^T: B the block V-cycles (or lines),
+ * P piecewise constant on aggregates of the whole grid (at most CFD_GC_MAX, and a factorization of at most
+ * CFD_GC_FLOPS), A_c = P^T A P. Each rank adds the
+ * coefficients of the faces it owns into A_c's faces, one allreduce makes them every rank's, and every rank
+ * factors the same small matrix; each application restricts its owned residual (one allreduce of gc_n values),
+ * solves and adds the correction to its own cells. Both terms are symmetric positive (semi)definite, so CG keeps
+ * its guarantees. */
+
+static int64_t gc_agg(const struct sphdem_cfd_s *m, const int *g) {
+  return (int64_t)(g[0] / m->gc_b[0]) +
+         (int64_t)m->gc_nc[0] * ((g[1] / m->gc_b[1]) + (int64_t)m->gc_nc[1] * (g[2] / m->gc_b[2]));
+}
+
+/* host view of device array a (n doubles): the array itself on the CPU backend, else a copy in buf */
+static double *host_view(struct sphdem_cfd_s *m, double *a, int64_t n, double *buf, int *rc) {
+  if (m->backend == SPHDEM_DEVICE_CPU) return a;
+  *rc = rt_d2h(&m->rt, buf, a, sizeof(double) * (size_t)n);
+  return buf;
+}
+
+static int gc_alloc(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  for (int d = 0; d < 3; d++) {
+    m->gc_b[d] = 1;
+    m->gc_nc[d] = D->gnc[d];
+  }
+  for (;;) {
+    m->gc_n = (int64_t)m->gc_nc[0] * m->gc_nc[1] * m->gc_nc[2];
+    m->gc_bw = (int64_t)m->gc_nc[0] * m->gc_nc[1];
+    if (m->gc_n <= CFD_GC_MAX && (double)m->gc_n * (double)m->gc_bw * (double)m->gc_bw <= CFD_GC_FLOPS) break;
+    int a = 0;
+    for (int d = 1; d < 3; d++)
+      if (m->gc_nc[d] > m->gc_nc[a]) a = d;
+    m->gc_b[a] *= 2;
+    m->gc_nc[a] = (D->gnc[a] + m->gc_b[a] - 1) / m->gc_b[a];
+  }
+  const int64_t n = m->gc_n, hostn = m->backend == SPHDEM_DEVICE_CPU ? 0 : D->nface + D->ncell;
+  free(m->gc_L);
+  free(m->gc_v);
+  free(m->gc_w);
+  free(m->gc_host);
+  m->gc_L = (double *)malloc(sizeof(double) * (size_t)(n * (m->gc_bw + 1)));
+  m->gc_v = (double *)malloc(sizeof(double) * (size_t)(4 * n));
+  m->gc_w = (double *)malloc(sizeof(double) * (size_t)n);
+  m->gc_host = hostn ? (double *)malloc(sizeof(double) * (size_t)hostn) : NULL;
+  if (!m->gc_L || !m->gc_v || !m->gc_w || (hostn && !m->gc_host))
+    return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the coarse level of %lld cells", (long long)n);
+  return SPHDEM_OK;
+}
+
+/* A_c from the face coefficients of this gas step, factored */
+static int gc_setup(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  const int64_t n = m->gc_n;
+  int rc = SPHDEM_OK;
+  const double *af = host_view(m, D->af, D->nface, m->gc_host, &rc);
+  if (rc) return rc;
+  /* per coarse cell: the couplings to its upper neighbour along x, y, z and its boundary (outlet) diagonal */
+  double *c = m->gc_v;
+  memset(c, 0, sizeof(double) * (size_t)(4 * n));
+  for (int64_t f = 0; f < D->nface; f++) {
+    if (af[f] == 0.0 || !cfd_owned_face(D, f)) continue;
+    int ix[3];
+    const int d = cfd_face_decode(D, f, ix);
+    int g[3];
+    for (int e = 0; e < 3; e++) g[e] = ix[e] + D->g0[e];
+    if (g[d] == 0 || g[d] == D->gnc[d]) { /* a boundary face: the diagonal of its cell's aggregate */
+      if (g[d] == D->gnc[d]) g[d]--;
+      c[3 * n + gc_agg(m, g)] += af[f];
+      continue;
+    }
+    const int64_t up = gc_agg(m, g);
+    g[d]--;
+    if (gc_agg(m, g) != up) c[3 * up + d] += af[f]; /* between two aggregates: the upper one keeps it */
+  }
+  if ((rc = comm_reduce(m, c, 4 * n, SPHDEM_RED_SUM))) return rc;
+  /* A_c's lower band (aggregates x fastest: the couplings lie within bw of the diagonal), then its Cholesky
+   * factor in place; entry (i, k), i - bw <= k <= i, at i W + k - i + bw */
+  const int64_t bw = m->gc_bw, W = bw + 1;
+  double *B = m->gc_L;
+#define GC_AT(i, k) B[(i) * W + (k) - (i) + bw]
+  memset(B, 0, sizeof(double) * (size_t)(n * W));
+  for (int64_t I = 0; I < n; I++) {
+    GC_AT(I, I) += c[3 * n + I];
+    int ci[3] = {(int)(I % m->gc_nc[0]), (int)((I / m->gc_nc[0]) % m->gc_nc[1]),
+                 (int)(I / ((int64_t)m->gc_nc[0] * m->gc_nc[1]))};
+    for (int d = 0; d < 3; d++) {
+      const double a = c[3 * I + d];
+      if (a == 0.0 || ci[d] == 0) continue;
+      const int64_t J = I - (d == 0 ? 1 : d == 1 ? (int64_t)m->gc_nc[0] : (int64_t)m->gc_nc[0] * m->gc_nc[1]);
+      GC_AT(I, I) += a;
+      GC_AT(J, J) += a;
+      GC_AT(I, J) -= a;
+    }
+  }
+  for (int64_t I = 0; I < n; I++)
+    if (GC_AT(I, I) == 0.0) GC_AT(I, I) = 1.0; /* an aggregate without couplings (walls all round) */
+  m->gc_ok = 1;
+  for (int64_t j = 0; j < n && m->gc_ok; j++) {
+    double s = GC_AT(j, j);
+    for (int64_t k = j > bw ? j - bw : 0; k < j; k++) s -= GC_AT(j, k) * GC_AT(j, k);
+    if (!(s > 0.0)) {
+      m->gc_ok = 0; /* not positive definite to round-off: no coarse correction this step (same on every rank) */
+      break;
+    }
+    const double ljj = sqrt(s);
+    GC_AT(j, j) = ljj;
+    for (int64_t i = j + 1; i < n && i <= j + bw; i++) {
+      double t = GC_AT(i, j);
+      for (int64_t k = i > bw ? i - bw : 0; k < j; k++) t -= GC_AT(i, k) * GC_AT(j, k);
+      GC_AT(i, j) = t / ljj;
+    }
+  }
+#undef GC_AT
+  return SPHDEM_OK;
+}
+
+/* z += P A_c^-1 P^T r over this rank's cells */
+static int gc_apply(struct sphdem_cfd_s *m) {
+  cfd_dev *D = &m->D;
+  if (!m->gc_ok) return SPHDEM_OK;
+  const int64_t n = m->gc_n;
+  int rc = SPHDEM_OK;
+  double *hr = host_view(m, D->r, D->ncell, m->gc_host, &rc);
+  if (rc) return rc;
+  double *v = m->gc_w;
+  memset(v, 0, sizeof(double) * (size_t)n);
+  for (int64_t ci = 0; ci < D->ncell; ci++) {
+    if (!cfd_owned_cell(D, ci)) continue;
+    int g[3];
+    cfd_cell_decode(D, ci, g);
+    for (int e = 0; e < 3; e++) g[e] += D->g0[e];
+    v[gc_agg(m, g)] += hr[ci];
+  }
+  if ((rc = comm_reduce(m, v, n, SPHDEM_RED_SUM))) return rc;
+  const double *B = m->gc_L;
+  const int64_t bw = m->gc_bw, W = bw + 1;
+#define GC_AT(i, k) B[(i) * W + (k) - (i) + bw]
+  for (int64_t i = 0; i < n; i++) { /* L y = v */
+    double t = v[i];
+    for (int64_t k = i > bw ? i - bw : 0; k < i; k++) t -= GC_AT(i, k) * v[k];
+    v[i] = t / GC_AT(i, i);
+  }
+  for (int64_t i = n - 1; i >= 0; i--) { /* L^T x = y */
+    double t = v[i];
+    for (int64_t k = i + 1; k < n && k <= i + bw; k++) t -= GC_AT(k, i) * v[k];
+    v[i] = t / GC_AT(i, i);
+  }
+#undef GC_AT
+  double *hz = host_view(m, D->z, D->ncell, m->gc_host, &rc);
+  if (rc) return rc;
+  for (int64_t ci = 0; ci < D->ncell; ci++) {
+    if (!cfd_owned_cell(D, ci)) continue;
+    int g[3];
+    cfd_cell_decode(D, ci, g);
+    for (int e = 0; e < 3; e++) g[e] += D->g0[e];
+    hz[ci] += v[gc_agg(m, g)];
+  }
+  if (m->backend != SPHDEM_DEVICE_CPU) rc = rt_h2d(&m->rt, D->z, hz, sizeof(double) * (size_t)D->ncell);
+  return rc;
 }
 
 /* Multigrid V-cycle z = M^-1 r from level l: damped Jacobi (2 sweeps before and after, the first from
@@ -442,14 +872,26 @@ static int mg_vcycle(struct sphdem_cfd_s *m, int l) {
 
 /* z = M^-1 r with the chosen preconditioner */
 static int precondition(struct sphdem_cfd_s *m) {
-  if (m->D.P.solver == SPHDEM_CFD_SOLVER_LINE) return m->ops->run(m, CFD_K_precond, m->D.nlines);
-  return mg_vcycle(m, 0);
+  cfd_dev *D = &m->D;
+  int rc;
+  if (D->split && (rc = m->ops->run(m, CFD_K_blk_r, D->L[0].ncell))) return rc;
+  if (D->P.solver == SPHDEM_CFD_SOLVER_LINE) rc = m->ops->run(m, CFD_K_precond, D->nlines);
+  else rc = mg_vcycle(m, 0);
+  if (!rc && D->split) rc = m->ops->run(m, CFD_K_blk_z, D->L[0].ncell);
+  if (!rc && D->split && m->gc_n) rc = gc_apply(m);
+  return rc;
 }
 
 /* coarse-level operators of the step (the fine face coefficients change every step) */
 static int mg_setup(struct sphdem_cfd_s *m) {
   cfd_dev *D = &m->D;
   int rc;
+  if (D->split) { /* level 0: the owned block's coefficients (the faces to other blocks on the diagonal only) */
+    D->lv = 0;
+    if ((rc = m->ops->run(m, CFD_K_blk_af, D->L[0].foff[3])) || (rc = m->ops->run(m, CFD_K_mg_diag, D->L[0].ncell)))
+      return rc;
+    if (m->gc_n && (rc = gc_setup(m))) return rc;
+  }
   if (D->P.solver != SPHDEM_CFD_SOLVER_MG) return SPHDEM_OK;
   for (int l = 1; l < D->nlev; l++) {
     D->lv = l;
@@ -467,7 +909,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   double bb, rr, rz, dad;
   int rc;
   *iters = 0;
-  if ((rc = o->reduce(m, CFD_R_bb, n, &bb))) return rc;
+  if ((rc = o->reduce(m, CFD_R_bb, n, &bb)) || (rc = dreduce(m, &bb, 1, SPHDEM_RED_SUM))) return rc;
   if (!(bb > 0.0)) { /* nothing drives the flow: p = 0 solves it */
     *res = 0.0;
     return rt_zero(&m->rt, D->p, sizeof(double) * (size_t)n);
@@ -475,10 +917,16 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   double bn = sqrt(bb);
   D->mvx = D->p;
   if ((rc = mg_setup(m))) return rc;
-  if ((rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) || (rc = precondition(m)) ||
-      (rc = o->run(m, CFD_K_pcg_first, n)))
+  if ((rc = halo_cells(m, D->p, 0, 1)) || (rc = o->run(m, CFD_K_matvec, n)) || (rc = o->run(m, CFD_K_pcg_res, n)) ||
+      (rc = precondition(m)) || (rc = o->run(m, CFD_K_pcg_first, n)))
     return rc;
   if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz))) return rc;
+  if (m->decomp) {
+    double v[2] = {rr, rz};
+    if ((rc = dreduce(m, v, 2, SPHDEM_RED_SUM))) return rc;
+    rr = v[0];
+    rz = v[1];
+  }
   D->mvx = D->d;
   int it = 0;
   while (sqrt(rr) > D->P.tol * bn) {
@@ -491,13 +939,19 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
                              "lower every), or a field already broken",
                              D->P.tol, D->P.maxiter, *res);
     }
-    if ((rc = o->run(m, CFD_K_matvec, n))) return rc;
-    if ((rc = o->reduce(m, CFD_R_dad, n, &dad))) return rc;
+    if ((rc = halo_cells(m, D->d, 0, 1)) || (rc = o->run(m, CFD_K_matvec, n))) return rc;
+    if ((rc = o->reduce(m, CFD_R_dad, n, &dad)) || (rc = dreduce(m, &dad, 1, SPHDEM_RED_SUM))) return rc;
     if (!(dad > 0.0)) break; /* converged to round-off */
     D->alpha = rz / dad;
     if ((rc = o->run(m, CFD_K_pcg_update, n)) || (rc = precondition(m))) return rc;
     double rz_new;
     if ((rc = o->reduce(m, CFD_R_rr, n, &rr)) || (rc = o->reduce(m, CFD_R_rz, n, &rz_new))) return rc;
+    if (m->decomp) {
+      double v[2] = {rr, rz_new};
+      if ((rc = dreduce(m, v, 2, SPHDEM_RED_SUM))) return rc;
+      rr = v[0];
+      rz_new = v[1];
+    }
     D->beta = rz_new / rz;
     rz = rz_new;
     if ((rc = o->run(m, CFD_K_pcg_dir, n))) return rc;
@@ -505,7 +959,7 @@ static int pressure_solve(struct sphdem_cfd_s *m, int *iters, double *res) {
   }
   *iters = it;
   *res = sqrt(rr) / bn;
-  return SPHDEM_OK;
+  return halo_cells(m, D->p, 0, CFD_HALO); /* the pressure gradient at the faces next to the halo */
 }
 
 int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const double *v, const double *radius,
@@ -541,7 +995,30 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
     if (!(radius[s] > 0.0) || !isfinite(x[3 * s]) || !isfinite(x[3 * s + 1]) || !isfinite(x[3 * s + 2]))
       rc = sphdem_cfd_fail(c, SPHDEM_ERR_NAN, "grain %d: radius %g or position not valid", i, radius[s]);
   }
+  /* decomposed grid: a grain's stencil (its cell, the neighbours of its trilinear corners and of its faces) must
+   * lie in this rank's cells and halo: at most one cell beyond the owned ones */
+  for (int i = 0; !rc && m->decomp && D->split && i < n; i++) {
+    const int64_t s = sphdem_grains_at(idx, i);
+    for (int d = 0; d < 3 && !rc; d++) {
+      double w, sx = floor((x[3 * s + d] - D->P.boxlo[d]) * D->inv_h[d]);
+      int gc = !(sx > 0.0) ? 0 : sx > (double)(D->gnc[d] - 1) ? D->gnc[d] - 1 : (int)sx;
+      (void)w;
+      int cl = gc - D->g0[d], hh = D->nc[d] - D->hlo[d] - D->own[d];
+      if ((D->hlo[d] && cl < 1) || (hh && cl > D->nc[d] - 2))
+        rc = sphdem_cfd_fail(c, SPHDEM_ERR_ARG,
+                             "grain %d at %g along %c lies in gas cell %d, more than one cell beyond this rank's "
+                             "cells %d to %d: a grain may leave its subdomain by at most one gas cell between "
+                             "re-neighborings (the neighbor skin must be smaller than a gas cell)",
+                             i, x[3 * s + d], "xyz"[d], gc, m->slo[d], m->shi[d] - 1);
+    }
+  }
   if (rc) n = 0; /* the failing rank deposits nothing */
+  if (m->decomp && rt_nranks(&m->rt) > 1) { /* every rank stops here together when one failed */
+    double flag = rc ? 1.0 : 0.0;
+    int rr = comm_reduce(m, &flag, 1, SPHDEM_RED_MAX);
+    if (rr) return rr;
+    if (flag > 0.0) return comm_agree(m, rc);
+  }
   double t0 = rt_now();
   if (!rc) rc = grow_grains(m, n);
   if (!rc) {
@@ -555,13 +1032,21 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
   if (!rc) rc = rt_d2d(&m->rt, D->eps_old, D->eps, sizeof(double) * (size_t)D->ncell);
   if (!rc) rc = rt_zero(&m->rt, D->sol, sizeof(double) * (size_t)D->ncell);
   if (!rc && n) rc = o->run(m, CFD_K_void_scatter, n);
-  if ((rc = deposit_sum(m, D->sol, D->ncell, NULL, 0, rc))) return rc;
+  if (m->decomp) { /* halo deposits to their owners, then the owners' sums to the halo copies */
+    if (rc || (rc = halo_cells(m, D->sol, 1, CFD_HALO)) || (rc = halo_cells(m, D->sol, 0, CFD_HALO))) return rc;
+  } else if ((rc = deposit_sum(m, D->sol, D->ncell, NULL, 0, rc))) {
+    return rc;
+  }
   if ((rc = o->run(m, CFD_K_void_finish, D->ncell))) return rc;
   /* drag coefficients of this rank's grains to the faces, summed over the ranks */
   rc = rt_zero(&m->rt, D->K, sizeof(double) * (size_t)D->nface);
   if (!rc) rc = rt_zero(&m->rt, D->Kv, sizeof(double) * (size_t)D->nface);
   if (!rc && n) rc = o->run(m, CFD_K_drag, n);
-  if ((rc = deposit_sum(m, D->K, D->nface, D->Kv, D->nface, rc))) return rc;
+  if (m->decomp) {
+    if (rc || (rc = halo_faces(m, D->K, D->Kv, 1)) || (rc = halo_faces(m, D->K, D->Kv, 0))) return rc;
+  } else if ((rc = deposit_sum(m, D->K, D->nface, D->Kv, D->nface, rc))) {
+    return rc;
+  }
   double t2 = rt_now();
   m->timers[SPHDEM_CFD_T_COUPLE] += t2 - t1;
   if ((rc = o->run(m, CFD_K_predict, D->nface))) return rc;
@@ -577,6 +1062,7 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
   m->timers[SPHDEM_CFD_T_SOLVE] += t4 - t3;
   if (rc) return rc;
   if ((rc = o->run(m, CFD_K_correct, D->nface))) return rc;
+  if ((rc = halo_faces(m, D->u, NULL, 0))) return rc;
   if (n && (rc = o->run(m, CFD_K_forces, n))) return rc;
   double t5 = rt_now();
   m->timers[SPHDEM_CFD_T_CORRECT] += t5 - t4;
@@ -590,6 +1076,21 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
       (rc = o->reduce(m, CFD_R_fbndy, D->nface, &fb[1])) || (rc = o->reduce(m, CFD_R_fbndz, D->nface, &fb[2])) ||
       (rc = o->reduce(m, CFD_R_pfirst, D->ncell, &pf)) || (rc = o->reduce(m, CFD_R_plast, D->ncell, &pl)))
     return rc;
+  if (m->decomp) { /* the statistics over every rank's cells and faces */
+    double sv[9] = {epssum, fg[0], fg[1], fg[2], fb[0], fb[1], fb[2], pf, pl}, mv[4] = {u2, cfl, mass, negeps};
+    if ((rc = dreduce(m, sv, 9, SPHDEM_RED_SUM)) || (rc = dreduce(m, mv, 4, SPHDEM_RED_MAX))) return rc;
+    epssum = sv[0];
+    for (int d = 0; d < 3; d++) {
+      fg[d] = sv[1 + d];
+      fb[d] = sv[4 + d];
+    }
+    pf = sv[7];
+    pl = sv[8];
+    u2 = mv[0];
+    cfl = mv[1];
+    mass = mv[2];
+    negeps = mv[3];
+  }
   double t6 = rt_now();
   m->timers[SPHDEM_CFD_T_CORRECT] += t6 - t5;
   sphdem_cfd_stats *S = &m->st;
@@ -598,9 +1099,9 @@ static int step_store(struct sphdem_cfd_s *m, double dt, struct sphdem_grains_s 
   S->cfl = cfl * dt;
   S->mass_err = mass;
   S->eps_min = -negeps;
-  S->eps_mean = epssum / (double)D->ncell;
+  S->eps_mean = epssum / (double)D->gncell;
   int a = cfd_flow_axis(D);
-  double layer = (double)D->ncell / D->nc[a];
+  double layer = (double)D->gncell / D->gnc[a];
   S->flow_axis = a;
   S->dp = (pf - pl) / layer;
   for (int d = 0; d < 3; d++) {
@@ -669,7 +1170,7 @@ int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s) {
   return SPHDEM_OK;
 }
 
-int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u) {
+static int fields_local(sphdem_cfd c, double *eps, double *p, double *u) {
   if (!c) return SPHDEM_ERR_ARG;
   cfd_dev *D = &c->D;
   size_t nb = sizeof(double) * (size_t)D->ncell;
@@ -708,9 +1209,8 @@ int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u) {
   return SPHDEM_OK;
 }
 
-int64_t sphdem_cfd_state_size(sphdem_cfd c) { return c ? c->D.nface + 2 * c->D.ncell : 0; }
 
-int sphdem_cfd_get_state(sphdem_cfd c, double *state) {
+static int state_local_get(sphdem_cfd c, double *state) {
   if (!c || !state) return SPHDEM_ERR_ARG;
   cfd_dev *D = &c->D;
   int rc;
@@ -719,7 +1219,7 @@ int sphdem_cfd_get_state(sphdem_cfd c, double *state) {
   return rt_d2h(&c->rt, state + D->nface + D->ncell, D->eps, sizeof(double) * (size_t)D->ncell);
 }
 
-int sphdem_cfd_set_state(sphdem_cfd c, const double *state) {
+static int state_local_set(sphdem_cfd c, const double *state) {
   if (!c || !state) return SPHDEM_ERR_ARG;
   cfd_dev *D = &c->D;
   int rc;
@@ -728,6 +1228,138 @@ int sphdem_cfd_set_state(sphdem_cfd c, const double *state) {
   if ((rc = rt_h2d(&c->rt, D->eps, state + D->nface + D->ncell, sizeof(double) * (size_t)D->ncell))) return rc;
   D->first = 0;
   return SPHDEM_OK;
+}
+
+/* ---- whole-grid fields and state of a decomposed grid: each rank's owned cells and faces placed in the
+ * whole grid's layout, the rest zero, added over the ranks (collective; every rank gets the whole grid) ------ */
+
+/* the whole grid's faces before axis d, and its face of axis d at global index triple g */
+static int64_t gface(const cfd_dev *D, int d, const int *g) {
+  int64_t off = 0;
+  for (int e = 0; e < d; e++)
+    off += (int64_t)(D->gnc[0] + (e == 0)) * (D->gnc[1] + (e == 1)) * (D->gnc[2] + (e == 2));
+  int64_t fx = D->gnc[0] + (d == 0), fy = D->gnc[1] + (d == 1);
+  return off + g[0] + fx * (g[1] + fy * (int64_t)g[2]);
+}
+static int64_t gcell(const cfd_dev *D, const int *g) {
+  return g[0] + (int64_t)D->gnc[0] * (g[1] + (int64_t)D->gnc[1] * g[2]);
+}
+static int64_t gnface(const cfd_dev *D) {
+  int gg[3] = {0, 0, D->gnc[2] + 1}; /* one past the last face of axis z */
+  return gface(D, 2, gg);
+}
+
+/* the local grid's u (nface), p, eps (ncell) as host copies in one buffer */
+static double *host_copy(struct sphdem_cfd_s *c) {
+  cfd_dev *D = &c->D;
+  double *h = (double *)malloc(sizeof(double) * (size_t)(D->nface + 2 * D->ncell));
+  if (!h) {
+    sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
+    return NULL;
+  }
+  if (state_local_get(c, h)) {
+    free(h);
+    return NULL;
+  }
+  return h;
+}
+
+int64_t sphdem_cfd_state_size(sphdem_cfd c) {
+  if (!c) return 0;
+  if (!c->decomp) return c->D.nface + 2 * c->D.ncell;
+  return gnface(&c->D) + 2 * c->D.gncell;
+}
+
+/* owned cells of the local grid: local index triple l, global g */
+#define FOR_OWNED_CELLS(D, l, g)                                                                      \
+  for (int l##z = D->hlo[2]; l##z < D->hlo[2] + D->own[2]; l##z++)                                    \
+    for (int l##y = D->hlo[1]; l##y < D->hlo[1] + D->own[1]; l##y++)                                  \
+      for (int l##x = D->hlo[0]; l##x < D->hlo[0] + D->own[0]; l##x++)                                \
+        for (int l[3] = {l##x, l##y, l##z}, g[3] = {l##x + D->g0[0], l##y + D->g0[1], l##z + D->g0[2]}, \
+                 once_ = 1; once_; once_ = 0)
+
+int sphdem_cfd_get_state(sphdem_cfd c, double *state) {
+  if (!c || !state) return SPHDEM_ERR_ARG;
+  if (!c->decomp) return state_local_get(c, state);
+  cfd_dev *D = &c->D;
+  const int64_t gnf = gnface(D), ns = gnf + 2 * D->gncell;
+  double *h = host_copy(c);
+  if (!h) return SPHDEM_ERR_ALLOC;
+  memset(state, 0, sizeof(double) * (size_t)ns);
+  for (int64_t f = 0; f < D->nface; f++) {
+    if (!cfd_owned_face(D, f)) continue;
+    int ix[3];
+    int d = cfd_face_decode(D, f, ix);
+    for (int e = 0; e < 3; e++) ix[e] += D->g0[e];
+    state[gface(D, d, ix)] = h[f];
+  }
+  FOR_OWNED_CELLS(D, l, g) {
+    int64_t ci = cfd_cellv(D, l), gi = gcell(D, g);
+    state[gnf + gi] = h[D->nface + ci];
+    state[gnf + D->gncell + gi] = h[D->nface + D->ncell + ci];
+  }
+  free(h);
+  return comm_reduce(c, state, ns, SPHDEM_RED_SUM);
+}
+
+int sphdem_cfd_set_state(sphdem_cfd c, const double *state) {
+  if (!c || !state) return SPHDEM_ERR_ARG;
+  if (!c->decomp) return state_local_set(c, state);
+  cfd_dev *D = &c->D;
+  const int64_t gnf = gnface(D);
+  double *h = (double *)malloc(sizeof(double) * (size_t)(D->nface + 2 * D->ncell));
+  if (!h) return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the state copy");
+  /* every local face and cell, halo included, from the whole grid's state */
+  for (int64_t f = 0; f < D->nface; f++) {
+    int ix[3];
+    int d = cfd_face_decode(D, f, ix);
+    for (int e = 0; e < 3; e++) ix[e] += D->g0[e];
+    h[f] = state[gface(D, d, ix)];
+  }
+  for (int64_t ci = 0; ci < D->ncell; ci++) {
+    int g[3];
+    cfd_cell_decode(D, ci, g);
+    for (int e = 0; e < 3; e++) g[e] += D->g0[e];
+    h[D->nface + ci] = state[gnf + gcell(D, g)];
+    h[D->nface + D->ncell + ci] = state[gnf + D->gncell + gcell(D, g)];
+  }
+  int rc = state_local_set(c, h);
+  free(h);
+  return rc;
+}
+
+int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u) {
+  if (!c) return SPHDEM_ERR_ARG;
+  if (!c->decomp) return fields_local(c, eps, p, u);
+  cfd_dev *D = &c->D;
+  const int64_t nc = D->gncell;
+  double *h = host_copy(c);
+  if (!h) return SPHDEM_ERR_ALLOC;
+  double *all = (double *)calloc((size_t)(5 * nc), sizeof(double));
+  if (!all) {
+    free(h);
+    return sphdem_cfd_fail(c, SPHDEM_ERR_ALLOC, "cannot allocate the field copy");
+  }
+  FOR_OWNED_CELLS(D, l, g) {
+    int64_t ci = cfd_cellv(D, l), gi = gcell(D, g);
+    all[gi] = h[D->nface + D->ncell + ci];
+    all[nc + gi] = h[D->nface + ci];
+    for (int d = 0; d < 3; d++) {
+      int a[3] = {l[0], l[1], l[2]};
+      double lo = h[cfd_face(D, d, a)];
+      a[d]++;
+      all[2 * nc + 3 * gi + d] = 0.5 * (lo + h[cfd_face(D, d, a)]);
+    }
+  }
+  free(h);
+  int rc = comm_reduce(c, all, 5 * nc, SPHDEM_RED_SUM);
+  if (!rc) {
+    if (eps) memcpy(eps, all, sizeof(double) * (size_t)nc);
+    if (p) memcpy(p, all + nc, sizeof(double) * (size_t)nc);
+    if (u) memcpy(u, all + 2 * nc, sizeof(double) * 3 * (size_t)nc);
+  }
+  free(all);
+  return rc;
 }
 
 int sphdem_cfd_set_velocity(sphdem_cfd c, const double u[3]) {
@@ -757,7 +1389,7 @@ int sphdem_cfd_set_comm(sphdem_cfd c, const sphdem_comm *comm) {
   if (!c) return SPHDEM_ERR_ARG;
   if (comm) c->rt.comm = *comm;
   else memset(&c->rt.comm, 0, sizeof c->rt.comm);
-  if (rt_nranks(&c->rt) == 1) return SPHDEM_OK;
+  if (rt_nranks(&c->rt) == 1 || c->decomp) return SPHDEM_OK;
   /* the host buffer of the deposit sums: the face sums K and Kv (the larger stage) and the failure flag */
   int64_t need = 2 * c->D.nface > c->D.ncell ? 2 * c->D.nface : c->D.ncell;
   need += 1;

@@ -62,10 +62,33 @@ SPHDEM_HD int lv_face_decode(const cfd_level *L, int64_t f, int *ix) {
   return d;
 }
 
-SPHDEM_HD int64_t cfd_cellv(const cfd_dev *D, const int *ix) { return lv_cell(&D->L[0], ix); }
-SPHDEM_HD void cfd_cell_decode(const cfd_dev *D, int64_t ci, int *c) { lv_decode(&D->L[0], ci, c); }
-SPHDEM_HD int64_t cfd_face(const cfd_dev *D, int d, const int *ix) { return lv_face(&D->L[0], d, ix); }
-SPHDEM_HD int cfd_face_decode(const cfd_dev *D, int64_t f, int *ix) { return lv_face_decode(&D->L[0], f, ix); }
+SPHDEM_HD int64_t cfd_cellv(const cfd_dev *D, const int *ix) { return lv_cell(&D->G, ix); }
+SPHDEM_HD void cfd_cell_decode(const cfd_dev *D, int64_t ci, int *c) { lv_decode(&D->G, ci, c); }
+SPHDEM_HD int64_t cfd_face(const cfd_dev *D, int d, const int *ix) { return lv_face(&D->G, d, ix); }
+SPHDEM_HD int cfd_face_decode(const cfd_dev *D, int64_t f, int *ix) { return lv_face_decode(&D->G, f, ix); }
+
+/* Many ranks: a local cell this rank owns (not a halo copy) */
+SPHDEM_HD int cfd_owned_cell(const cfd_dev *D, int64_t ci) {
+  if (!D->split) return 1;
+  int c[3];
+  cfd_cell_decode(D, ci, c);
+  for (int d = 0; d < 3; d++)
+    if (c[d] < D->hlo[d] || c[d] >= D->hlo[d] + D->own[d]) return 0;
+  return 1;
+}
+/* a local face this rank owns: the low face of each owned cell, and the high face of an owned cell on the high
+ * side of the whole grid (each face of the grid has one owner) */
+SPHDEM_HD int cfd_owned_face(const cfd_dev *D, int64_t f) {
+  if (!D->split) return 1;
+  int c[3];
+  int d = cfd_face_decode(D, f, c);
+  for (int e = 0; e < 3; e++) {
+    int top = D->hlo[e] + D->own[e];
+    if (c[e] < D->hlo[e] || c[e] > top) return 0;
+    if (c[e] == top && !(e == d && D->g0[e] + top == D->gnc[e])) return 0;
+  }
+  return 1;
+}
 
 SPHDEM_HD double cfd_eps_use(const cfd_dev *D, const double *eps, int64_t c) {
   double e = eps[c];
@@ -348,7 +371,7 @@ SPHDEM_HD double lv_diag(const cfd_level *L, int64_t ci) {
 
 SPHDEM_HD void cfd_k_rhs(const cfd_dev *D, int64_t ci) {
   D->b[ci] = -cfd_div(D, D->us, ci);
-  D->diag[ci] = lv_diag(&D->L[0], ci);
+  D->diag[ci] = lv_diag(&D->G, ci);
 }
 
 /* ---- multigrid levels (level 0 = the grid) ------------------------------------------------------ */
@@ -371,7 +394,7 @@ SPHDEM_HD double lv_Ax(const cfd_level *L, const double *x, int64_t ci) {
   return y;
 }
 
-SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) { D->Ad[ci] = lv_Ax(&D->L[0], D->mvx, ci); }
+SPHDEM_HD void cfd_k_matvec(const cfd_dev *D, int64_t ci) { D->Ad[ci] = lv_Ax(&D->G, D->mvx, ci); }
 
 SPHDEM_HD void cfd_k_mg_af(const cfd_dev *D, int64_t f) {
   const cfd_level *C = &D->L[D->lv], *F = &D->L[D->lv - 1];
@@ -435,35 +458,62 @@ SPHDEM_HD void cfd_k_mg_prolong(const cfd_dev *D, int64_t ci) {
 SPHDEM_HD void cfd_k_pcg_res(const cfd_dev *D, int64_t i) { D->r[i] = D->b[i] - D->Ad[i]; }
 SPHDEM_HD void cfd_k_pcg_first(const cfd_dev *D, int64_t i) { D->d[i] = D->z[i]; }
 
-/* Line preconditioner: along each line of cells on axis lax, solve the tridiagonal part of A (the full
- * diagonal and the couplings along the line) for z (Thomas algorithm). Tall beds converge in far fewer
- * iterations than with a point-Jacobi preconditioner; the matrix stays symmetric positive definite. */
+/* Line preconditioner: along each line of cells on axis lax of level 0 (the grid, or the owned block of a
+ * decomposed grid), solve the tridiagonal part of A (the full diagonal and the couplings along the line) for x
+ * (Thomas algorithm, t the scratch). Tall beds converge in far fewer iterations than with a point-Jacobi
+ * preconditioner; the matrix stays symmetric positive definite. */
 SPHDEM_HD void cfd_k_precond(const cfd_dev *D, int64_t l) {
+  const cfd_level *L = &D->L[0];
   int a = D->lax;
   int e0 = a == 0 ? 1 : 0, e1 = a == 2 ? 1 : 2;
   int c[3];
-  c[e0] = (int)(l % D->nc[e0]);
-  c[e1] = (int)(l / D->nc[e0]);
+  c[e0] = (int)(l % L->nc[e0]);
+  c[e1] = (int)(l / L->nc[e0]);
   c[a] = 0;
-  int64_t st = cfd_stride(D, a), c0 = cfd_cellv(D, c);
-  int n = D->nc[a];
+  int64_t st = a == 0 ? 1 : (a == 1 ? (int64_t)L->nc[0] : (int64_t)L->nc[0] * L->nc[1]), c0 = lv_cell(L, c);
+  int n = L->nc[a];
   /* forward sweep: lower(k) = -af(low face of k), upper(k) = -af(high face of k) for k < n-1 */
   double prev_cp = 0.0, prev_z = 0.0;
   for (int k = 0; k < n; k++) {
     c[a] = k;
     int64_t ci = c0 + k * st;
-    double low = k > 0 ? -D->af[cfd_cell_face(D, c, a, 0)] : 0.0;
-    double up = k < n - 1 ? -D->af[cfd_cell_face(D, c, a, 1)] : 0.0;
-    double den = D->diag[ci] - low * prev_cp;
+    int fi[3] = {c[0], c[1], c[2]};
+    double low = k > 0 ? -L->af[lv_face(L, a, fi)] : 0.0;
+    fi[a]++;
+    double up = k < n - 1 ? -L->af[lv_face(L, a, fi)] : 0.0;
+    double den = L->diag[ci] - low * prev_cp;
     prev_cp = up / den;
-    prev_z = (D->r[ci] - low * prev_z) / den;
-    D->lcp[ci] = prev_cp;
-    D->z[ci] = prev_z;
+    prev_z = (L->r[ci] - low * prev_z) / den;
+    L->t[ci] = prev_cp;
+    L->x[ci] = prev_z;
   }
   for (int k = n - 2; k >= 0; k--) {
     int64_t ci = c0 + k * st;
-    D->z[ci] -= D->lcp[ci] * D->z[ci + st];
+    L->x[ci] -= L->t[ci] * L->x[ci + st];
   }
+}
+
+/* ---- the owned block as level 0 of the preconditioner (decomposed grid) ---------------------------- */
+SPHDEM_HD void cfd_k_blk_af(const cfd_dev *D, int64_t f) {
+  const cfd_level *L = &D->L[0];
+  int c[3];
+  int d = lv_face_decode(L, f, c);
+  for (int e = 0; e < 3; e++) c[e] += D->hlo[e];
+  L->af[f] = D->af[cfd_face(D, d, c)];
+}
+SPHDEM_HD void cfd_k_blk_r(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[0];
+  int c[3];
+  lv_decode(L, ci, c);
+  for (int e = 0; e < 3; e++) c[e] += D->hlo[e];
+  L->r[ci] = D->r[cfd_cellv(D, c)];
+}
+SPHDEM_HD void cfd_k_blk_z(const cfd_dev *D, int64_t ci) {
+  const cfd_level *L = &D->L[0];
+  int c[3];
+  lv_decode(L, ci, c);
+  for (int e = 0; e < 3; e++) c[e] += D->hlo[e];
+  D->z[cfd_cellv(D, c)] = L->x[ci];
 }
 SPHDEM_HD void cfd_k_pcg_update(const cfd_dev *D, int64_t i) {
   D->p[i] += D->alpha * D->d[i];
@@ -539,23 +589,25 @@ SPHDEM_HD void cfd_k_forces(const cfd_dev *D, int64_t g) {
 
 /* ---- reductions ------------------------------------------------------------------------------------ */
 
-SPHDEM_HD double cfd_r_rz(const cfd_dev *D, int64_t i) { return D->r[i] * D->z[i]; }
-SPHDEM_HD double cfd_r_dad(const cfd_dev *D, int64_t i) { return D->d[i] * D->Ad[i]; }
-SPHDEM_HD double cfd_r_rr(const cfd_dev *D, int64_t i) { return D->r[i] * D->r[i]; }
-SPHDEM_HD double cfd_r_bb(const cfd_dev *D, int64_t i) { return D->b[i] * D->b[i]; }
-SPHDEM_HD double cfd_r_negeps(const cfd_dev *D, int64_t i) { return -D->eps[i]; }
-SPHDEM_HD double cfd_r_eps(const cfd_dev *D, int64_t i) { return D->eps[i]; }
-SPHDEM_HD double cfd_r_u2(const cfd_dev *D, int64_t f) { return D->u[f] * D->u[f]; }
+SPHDEM_HD double cfd_r_rz(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? D->r[i] * D->z[i] : 0.0; }
+SPHDEM_HD double cfd_r_dad(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? D->d[i] * D->Ad[i] : 0.0; }
+SPHDEM_HD double cfd_r_rr(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? D->r[i] * D->r[i] : 0.0; }
+SPHDEM_HD double cfd_r_bb(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? D->b[i] * D->b[i] : 0.0; }
+SPHDEM_HD double cfd_r_negeps(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? -D->eps[i] : -1e300; }
+SPHDEM_HD double cfd_r_eps(const cfd_dev *D, int64_t i) { return cfd_owned_cell(D, i) ? D->eps[i] : 0.0; }
+SPHDEM_HD double cfd_r_u2(const cfd_dev *D, int64_t f) { return cfd_owned_face(D, f) ? D->u[f] * D->u[f] : 0.0; }
 SPHDEM_HD double cfd_r_cfl(const cfd_dev *D, int64_t f) {
   int ix[3];
   int d = cfd_face_decode(D, f, ix);
-  return fabs(D->u[f]) * D->inv_h[d];
+  return cfd_owned_face(D, f) ? fabs(D->u[f]) * D->inv_h[d] : 0.0;
 }
-SPHDEM_HD double cfd_r_mass(const cfd_dev *D, int64_t ci) { return fabs(cfd_div(D, D->u, ci)) * D->dt; }
+SPHDEM_HD double cfd_r_mass(const cfd_dev *D, int64_t ci) {
+  return cfd_owned_cell(D, ci) ? fabs(cfd_div(D, D->u, ci)) * D->dt : 0.0;
+}
 SPHDEM_HD double cfd_fsum(const cfd_dev *D, int64_t f, int axis, int boundary) {
   int ix[3];
   int d = cfd_face_decode(D, f, ix);
-  if (d != axis) return 0.0;
+  if (d != axis || !cfd_owned_face(D, f)) return 0.0;
   int b = ix[d] == 0 || ix[d] == D->nc[d];
   if (b != boundary) return 0.0;
   double t = D->K[f] * D->u[f] - D->Kv[f];
@@ -583,8 +635,8 @@ SPHDEM_HD double cfd_player(const cfd_dev *D, int64_t ci, int first) {
   cfd_cell_decode(D, ci, c);
   int a = cfd_flow_axis(D);
   int inlet_low = cfd_flow_low(D);
-  int want = (first == inlet_low) ? 0 : D->nc[a] - 1;
-  return c[a] == want ? D->p[ci] : 0.0;
+  int want = (first == inlet_low) ? 0 : D->gnc[a] - 1;
+  return c[a] + D->g0[a] == want && cfd_owned_cell(D, ci) ? D->p[ci] : 0.0;
 }
 SPHDEM_HD double cfd_r_pfirst(const cfd_dev *D, int64_t ci) { return cfd_player(D, ci, 1); }
 SPHDEM_HD double cfd_r_plast(const cfd_dev *D, int64_t ci) { return cfd_player(D, ci, 0); }

@@ -10,6 +10,15 @@
 
 #define SPHDEM_CFD_MAX_LEVELS 12
 
+/* halo width in cells where a subdomain meets another rank's: the grain stencils (a grain up to one cell
+ * beyond its subdomain, its trilinear corners and the pressure gradient at its faces) reach two cells out */
+#define CFD_HALO 2
+
+/* largest global coarse level of a decomposed grid's preconditioner: aggregates, and the flops of its banded
+ * Cholesky factorization (n bw^2, once per gas step) */
+#define CFD_GC_MAX 2048
+#define CFD_GC_FLOPS 1e7
+
 /* One level of the multigrid preconditioner. Level 0 is the grid itself (its arrays alias the solver's:
  * af, diag, r in, x = z out, t = lcp scratch); level l+1 aggregates cf[d] (1 or 2) cells per axis of level l,
  * its face coefficients are the sums of the fine ones across the coarse face (Galerkin, P piecewise constant). */
@@ -23,8 +32,12 @@ typedef struct {
  * as level 0 of the multigrid hierarchy (L[0]: cells x fastest, faces of axis d from L[0].foff[d] on). */
 typedef struct {
   sphdem_cfd_params P;
-  int nc[3];
-  int64_t ncell, nface;
+  /* Many ranks (decomposed grid): this rank stores the cells it owns plus a halo of CFD_HALO cells on every
+   * side where another rank's cells are, as a local grid of nc cells starting at global cell g0 (lo is its
+   * corner). hlo/own: the owned block's first local index and its size per axis. gnc, gncell: the whole grid.
+   * split: 0 where the local grid is the owned block (one rank, or the whole grid replicated). */
+  int nc[3], gnc[3], g0[3], hlo[3], own[3], split;
+  int64_t ncell, nface, gncell;
   double lo[3], h[3], inv_h[3], Vc;
   double dt;            /* gas step in progress */
   int first;            /* eps_old not yet valid: d eps/dt taken as 0 */
@@ -38,6 +51,10 @@ typedef struct {
   int64_t nlines;       /* ncell / nc[lax] */
   int nlev, lv;         /* multigrid levels; the level a pass works on */
   double omega;         /* Jacobi damping of the smoother */
+  cfd_level G;          /* the local grid's indexing (cells and faces of nc) */
+  /* the preconditioner's levels: level 0 is the owned block (the grid itself, aliased, where split is 0; else
+   * copies, so that the preconditioner is block Jacobi over the ranks: each block solved with the couplings to
+   * the other blocks dropped from the matrix, their coefficients kept on the diagonal) */
   cfd_level L[SPHDEM_CFD_MAX_LEVELS];
   const double *mvx;    /* matvec input (p or d); output Ad */
   /* faces */
@@ -59,7 +76,10 @@ typedef struct {
   X(rhs)          /* per cell: b = -(div(eps u*) + d eps/dt), diagonal of A */                       \
   X(matvec)       /* per cell: Ad = A mvx */                                                          \
   X(pcg_res)      /* per cell: r = b - Ad */                                                          \
-  X(precond)      /* per line along lax: z = M^-1 r, M the tridiagonal part of A along the line */     \
+  X(precond)      /* per line along lax of level 0: x = M^-1 r, M the tridiagonal part of A on the line */ \
+  X(blk_af)       /* per face of level 0 (split): its coefficient from the grid */                     \
+  X(blk_r)        /* per cell of level 0 (split): r from the grid */                                   \
+  X(blk_z)        /* per cell of level 0 (split): z of the grid from x */                               \
   X(mg_af)        /* per face of level lv >= 1: sum of the level lv-1 faces across it */             \
   X(mg_diag)      /* per cell of level lv: diagonal */                                                \
   X(mg_jacobi0)   /* per cell of level lv: x = omega r / diag */                                      \
@@ -125,9 +145,24 @@ struct sphdem_cfd_s {
   double timers[SPHDEM_CFD_NTIMERS];
   sphdem_cfd_stats st;
   void *backend_data;
-  /* many ranks (rt.comm): host copy of the per-cell and per-face sums combined over the ranks, and a flag */
+  /* many ranks (rt.comm), replicated grid: host copy of the per-cell and per-face sums combined over the ranks,
+   * and a flag */
   double *hred;
   int64_t nhred;
+  /* decomposed grid (sphdem_cfd_set_subdomain): owned global cells [slo, shi) per axis; host buffers of the halo
+   * exchange; bytes sent and exchanges made so far */
+  int decomp, slo[3], shi[3];
+  double *hsend, *hrecv, *hmirror;
+  int64_t nhx, nhmirror;
+  /* decomposed grid: the preconditioner's global coarse level, the same on every rank: the whole grid in
+   * aggregates of gc_b[d] cells per axis (gc_n of them, at most CFD_GC_MAX), its Galerkin matrix factored
+   * (banded Cholesky, gc_L: gc_n rows of the gc_bw + 1 entries left of and on the diagonal), the coarse vectors;
+   * gc_ok 0 where the factorization failed this gas step */
+  int gc_b[3], gc_nc[3], gc_ok;
+  int64_t gc_n, gc_bw;
+  double *gc_L, *gc_v, *gc_w, *gc_host;
+  double xbytes;
+  long xcalls;
 };
 
 #ifdef __cplusplus

@@ -44,6 +44,11 @@ typedef struct {
   void *user;
   int (*allreduce)(void *user, double *buf, int n, int op);
   int rank, nranks;
+  /* Halo exchange of a decomposed gas grid (sphdem_cfd_set_subdomain): send nsend doubles to the face neighbour
+   * at dir (+1: the next rank along axis 0-2, -1: the previous one) and receive nrecv doubles from the neighbour
+   * on the other side; a count of 0 means there is no message that way (no neighbour holding gas cells).
+   * Returns 0 on success. May be NULL for contexts that do not decompose. */
+  int (*exchange)(void *user, int axis, int dir, const double *send, int nsend, double *recv, int nrecv);
 } sphdem_comm;
 
 /* Physical and numerical parameters (He 2018 §2.1). Plain struct, passed by value to both backends.
@@ -725,6 +730,16 @@ int sphdem_cfd_backend(sphdem_cfd c);
 /* Change parameters between steps: everything but nc and the box (e.g. inlet_u for a sweep). */
 int sphdem_cfd_set_params(sphdem_cfd c, const sphdem_cfd_params *p);
 int sphdem_cfd_set_comm(sphdem_cfd c, const sphdem_comm *comm); /* NULL: one rank */
+/* Many ranks, decomposed grid (collective use; call after sphdem_cfd_set_comm, before the first step): this rank
+ * owns the global cells [lo[d], hi[d]) along each axis (the ranks' blocks tile the grid on a regular processor
+ * grid) and stores them plus a halo of 2 cells towards each neighbour, exchanged through comm->exchange. Without
+ * it every rank holds the whole grid (replicated: the deposits are summed with allreduce). SPHDEM_ERR_ARG for a
+ * block outside the grid or thinner than 2 cells along an axis that is cut. The gas state restarts at rest. */
+int sphdem_cfd_set_subdomain(sphdem_cfd c, const int lo[3], const int hi[3]);
+/* cells stored on this rank (owned and halo) */
+int64_t sphdem_cfd_local_cells(sphdem_cfd c);
+/* bytes this rank sent in halo exchanges, and the exchanges, since creation */
+void sphdem_cfd_halo_traffic(sphdem_cfd c, double *bytes, long *calls);
 int sphdem_cfd_get_params(sphdem_cfd c, sphdem_cfd_params *p);
 /* Advance the gas by dt with n grains (x, v 3n; radius n). Voidage and drag coefficients from the
  * grains (slip of the previous gas field), momentum predictor with implicit drag, pressure solve,
@@ -738,10 +753,13 @@ int sphdem_cfd_step(sphdem_cfd c, double dt, int n, const double *x, const doubl
 int sphdem_cfd_step_store(sphdem_cfd c, double dt, sphdem_grain_store g, int n, const int32_t *idx, double *fdrag,
                           double *fpg);
 int sphdem_cfd_stats_get(sphdem_cfd c, sphdem_cfd_stats *s);
-/* Cell fields, x fastest (index i + nx (j + ny k)): voidage (before the floor), pressure, gas
- * velocity at the cell centre (interstitial, 3 per cell, mean of the two faces). Any may be NULL. */
+/* Cell fields of the whole grid, x fastest (index i + nx (j + ny k)): voidage (before the floor), pressure, gas
+ * velocity at the cell centre (interstitial, 3 per cell, mean of the two faces). Any may be NULL. On a
+ * decomposed grid collective: every rank gets the whole grid. */
 int sphdem_cfd_get_fields(sphdem_cfd c, double *eps, double *p, double *u);
-/* Gas state for restart files: SPHDEM_CFD state_size() doubles (face velocities, pressure, voidage). */
+/* Gas state for restart files: SPHDEM_CFD state_size() doubles (face velocities, pressure, voidage) of the whole
+ * grid, the same layout at any rank count. On a decomposed grid get_state is collective (every rank gets the
+ * whole state) and set_state takes this rank's cells and halo from the whole state. */
 int64_t sphdem_cfd_state_size(sphdem_cfd c);
 int sphdem_cfd_get_state(sphdem_cfd c, double *state);
 int sphdem_cfd_set_state(sphdem_cfd c, const double *state);

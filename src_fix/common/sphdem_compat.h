@@ -17,6 +17,7 @@
 
 /* The fmt stand-in (src_fix/launch/fmt_standin) only declares what the LAMMPS headers name. */
 #include "atom.h"
+#include "comm.h"
 #include "compute.h"
 #include "error.h"
 #include "fix.h"
@@ -139,6 +140,15 @@ inline double *atom_density(LAMMPS_NS::Atom *atom) {
   return nullptr;
 #else
   return atom->density_flag ? atom->density : nullptr;
+#endif
+}
+/* the subdomains are not a regular processor grid (LAMMPS comm_style tiled; LIGGGHTS has only the grid) */
+inline bool comm_tiled(LAMMPS_NS::Comm *comm) {
+#ifdef SPHDEM_ENGINE_LAMMPS
+  return comm->style != 0 || comm->layout == LAMMPS_NS::Comm::LAYOUT_TILED;
+#else
+  (void)comm;
+  return false;
 #endif
 }
 /* before the set_arrays(i) calls for atoms created after set-up (LIGGGHTS' pre_set_arrays; nothing in LAMMPS) */

@@ -23,6 +23,7 @@ inline sphdem_comm comm(MPI_Comm *world) {
   sphdem_comm c;
   c.user = world;
   c.allreduce = allreduce_cb;
+  c.exchange = nullptr;
   MPI_Comm_rank(*world, &c.rank);
   MPI_Comm_size(*world, &c.nranks);
   return c;

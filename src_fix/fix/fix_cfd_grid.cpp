@@ -98,7 +98,7 @@ void FixCFDGrid::fail_one(const std::string &msg) {
   sphdem_compat::error_one(error, FLERR, std::string("Fix cfd/grid: ") + msg);
 }
 
-/* the core's reductions over the ranks (the deposit sums of the replicated grid), timed for the run summary */
+/* the core's reductions over the ranks (solver scalars, statistics, gathers), timed for the run summary */
 int FixCFDGrid::reduce_cb(void *user, double *buf, int n, int op) {
   Reduce *r = (Reduce *)user;
   const double t0 = MPI_Wtime();
@@ -107,6 +107,55 @@ int FixCFDGrid::reduce_cb(void *user, double *buf, int n, int op) {
   r->calls++;
   r->values += n;
   return rc;
+}
+
+/* the halo exchange of the decomposed grid: nsend doubles to the face neighbour at dir along axis, nrecv from the
+ * one opposite (a count of 0: no message that way) */
+int FixCFDGrid::exchange_cb(void *user, int axis, int dir, const double *send, int nsend, double *recv, int nrecv) {
+  Reduce *r = (Reduce *)user;
+  const double t0 = MPI_Wtime();
+  const int to = nsend > 0 ? r->neigh[axis][dir > 0 ? 1 : 0] : MPI_PROC_NULL;
+  const int from = nrecv > 0 ? r->neigh[axis][dir > 0 ? 0 : 1] : MPI_PROC_NULL;
+  const int tag = 7400 + 2 * axis + (dir > 0);
+  const int rc = MPI_Sendrecv(send, nsend, MPI_DOUBLE, to, tag, recv, nrecv, MPI_DOUBLE, from, tag, *r->world,
+                              MPI_STATUS_IGNORE);
+  r->xseconds += MPI_Wtime() - t0;
+  r->xcalls++;
+  r->xvalues += nsend;
+  return rc == MPI_SUCCESS ? 0 : 1;
+}
+
+/* This rank's block of gas cells: those whose centres lie in its subdomain (domain->sublo/subhi; the first and
+ * last rank along an axis take the cells beyond the box too). "" or what is wrong (collective check that the
+ * blocks tile the grid: a regular processor grid). */
+std::string FixCFDGrid::subdomain() {
+  if (domain->triclinic) return "a triclinic box on many ranks is not supported (the gas grid is decomposed along "
+                                "the orthogonal processor grid)";
+  if (sphdem_compat::comm_tiled(comm))
+    return "comm_style tiled (or balance rcb) is not supported: the gas grid is decomposed along a regular "
+           "processor grid (comm_style brick, processors)";
+  for (int d = 0; d < 3; d++) {
+    const double h = (prm_.boxhi[d] - prm_.boxlo[d]) / prm_.nc[d];
+    auto cell_at = [&](double x) {
+      double c = std::ceil((x - prm_.boxlo[d]) / h - 0.5);
+      return (int)std::max(0.0, std::min((double)prm_.nc[d], c));
+    };
+    slo_[d] = comm->myloc[d] == 0 ? 0 : cell_at(domain->sublo[d]);
+    shi_[d] = comm->myloc[d] == comm->procgrid[d] - 1 ? prm_.nc[d] : cell_at(domain->subhi[d]);
+    red_.neigh[d][0] = comm->procneigh[d][0];
+    red_.neigh[d][1] = comm->procneigh[d][1];
+  }
+  double mine = (double)std::max(0, shi_[0] - slo_[0]) * std::max(0, shi_[1] - slo_[1]) * std::max(0, shi_[2] - slo_[2]);
+  double all = mine;
+  MPI_Allreduce(&mine, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+  const double want = (double)prm_.nc[0] * prm_.nc[1] * prm_.nc[2];
+  if (all != want) {
+    char m[256];
+    snprintf(m, sizeof m, "the ranks' blocks of gas cells add up to %.0f cells, not the grid's %.0f: the engine's "
+             "subdomains are not a regular processor grid (comm_style tiled, balance rcb)", all, want);
+    return m;
+  }
+  return "";
 }
 
 /* Every non-OK core code ends the run with the core's message. */
@@ -430,7 +479,7 @@ void FixCFDGrid::setup(int) {
     update_inlets(false);
     char msg[512] = "";
     if (sphdem_cfd_params_check(&prm_, msg, sizeof msg) != SPHDEM_OK) fail(msg);
-    /* every rank holds the whole grid (see the doc: the grid is coarse); a device or memory failure may be
+    /* each rank holds its block of the grid (set_subdomain below); a device or memory failure may be
      * one rank's alone: every rank stops with the first such message */
     if (comm->nprocs > 1 && device_ != SPHDEM_DEVICE_CPU) { /* one GPU per rank on its node, shared when fewer */
       const std::string map = sphdem_mpi::select_gpus(world);
@@ -445,8 +494,25 @@ void FixCFDGrid::setup(int) {
       sphdem_comm c = sphdem_mpi::comm(&world);
       c.user = &red_;
       c.allreduce = reduce_cb;
+      c.exchange = exchange_cb;
       rc = sphdem_cfd_set_comm(ctx_, &c);
       if (rc != SPHDEM_OK) why = std::string("set_comm: ") + sphdem_cfd_last_error(ctx_);
+    }
+    if (comm->nprocs > 1) { /* the grid decomposed along the engine's subdomains */
+      why = sphdem_mpi::first_failure(world, rc != SPHDEM_OK, why);
+      if (!why.empty()) fail(why);
+      why = subdomain();
+      if (why.empty()) {
+        rc = sphdem_cfd_set_subdomain(ctx_, slo_, shi_);
+        if (rc != SPHDEM_OK) {
+          char pg[96];
+          snprintf(pg, sizeof pg, "processors grid %d x %d x %d (this rank at %d %d %d): ", comm->procgrid[0],
+                   comm->procgrid[1], comm->procgrid[2], comm->myloc[0], comm->myloc[1], comm->myloc[2]);
+          why = pg + std::string(sphdem_cfd_last_error(ctx_));
+        }
+      } else {
+        rc = SPHDEM_ERR_ARG;
+      }
     }
     why = sphdem_mpi::first_failure(world, rc != SPHDEM_OK, why);
     if (!why.empty()) fail(why);
@@ -472,6 +538,10 @@ void FixCFDGrid::setup(int) {
   red_.seconds = 0.0;
   red_.calls = 0;
   red_.values = 0;
+  red_.xseconds = 0.0;
+  red_.xcalls = 0;
+  red_.xvalues = 0;
+  ngas_run_ = 0;
 
   /* the held forces (an earlier run or a restart file) act from the first step on */
   const int *mask = atom->mask;
@@ -483,6 +553,8 @@ void FixCFDGrid::setup(int) {
     rmax = std::max(rmax, atom->radius[i]);
   }
   sphdem_mpi::max(world, &rmax, 1);
+  double lcells[2] = {(double)sphdem_cfd_local_cells(ctx_), (double)sphdem_cfd_device_bytes(ctx_)};
+  if (comm->nprocs > 1) sphdem_mpi::max(world, lcells, 2);
 
   if (comm->me == 0 && !announced_) {
     double hc[3];
@@ -500,6 +572,14 @@ void FixCFDGrid::setup(int) {
              BC_NAME[prm_.bc[1]], BC_NAME[prm_.bc[2]], BC_NAME[prm_.bc[3]], BC_NAME[prm_.bc[4]],
              BC_NAME[prm_.bc[5]], (double)sphdem_cfd_device_bytes(ctx_));
     sphdem_compat::logmesg(lmp, line);
+    if (comm->nprocs > 1) {
+      snprintf(line, sizeof line,
+               "Fix cfd/grid: grid decomposed over the %d x %d x %d processor grid: the largest rank stores %.0f of "
+               "the %.0f cells (its block and a 2-cell halo), %.0f device bytes\n",
+               comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], lcells[0],
+               (double)prm_.nc[0] * prm_.nc[1] * prm_.nc[2], lcells[1]);
+      sphdem_compat::logmesg(lmp, line);
+    }
     announced_ = true;
   }
 }
@@ -541,6 +621,7 @@ void FixCFDGrid::gas_step() {
   }
   check(sphdem_cfd_stats_get(ctx_, &stats_), "stats_get");
   ngas_steps_++;
+  ngas_run_++;
   if (vtk_every_ > 0 && ngas_steps_ % vtk_every_ == 0) write_vtk();
   host_time_ += (t1 - t0) + (wall_seconds() - t2);
 }
@@ -559,31 +640,7 @@ void FixCFDGrid::post_force(int) {
 
 void FixCFDGrid::post_run() {
   advance_clock(); /* before a timestep command of the next run changes dt */
-  check_replicas();
   print_timers();
-}
-
-/* Many ranks: the grid is advanced on every rank from the same sums, so the copies must be bit-identical; a
- * warning if they are not (an MPI library whose reductions give different ranks different bits). Once a run. */
-void FixCFDGrid::check_replicas() {
-  if (!ctx_ || comm->nprocs < 2) return;
-  const int64_t ns = sphdem_cfd_state_size(ctx_);
-  std::vector<double> st((size_t)std::max<int64_t>(ns, 0));
-  double v[2] = {0.0, 0.0};
-  if (ns > 0 && sphdem_cfd_get_state(ctx_, st.data()) == SPHDEM_OK)
-    for (int64_t k = 0; k < ns; k++) {
-      v[0] += st[k];
-      v[1] += std::fabs(st[k]);
-    }
-  double lo[2] = {v[0], v[1]}, hi[2] = {v[0], v[1]};
-  sphdem_mpi::min(world, lo, 2);
-  sphdem_mpi::max(world, hi, 2);
-  if ((lo[0] != hi[0] || lo[1] != hi[1]) && comm->me == 0) {
-    char m[384];
-    snprintf(m, sizeof m, "Fix cfd/grid: the copies of the gas grid on the %d ranks differ (sum of the state %.17g to "
-             "%.17g): the reductions over the ranks did not give every rank the same sums", comm->nprocs, lo[0], hi[0]);
-    sphdem_compat::warning(error, FLERR, m);
-  }
 }
 
 /* simulation time: the engines' update->atime is not kept in restart files, this clock is */
@@ -613,6 +670,10 @@ void FixCFDGrid::print_timers() {
     snprintf(buf, sizeof buf, "; sums over %d ranks (rank 0) %.4g s in %ld reductions of %.4g MB", comm->nprocs,
              red_.seconds, red_.calls, 8e-6 * (double)red_.values);
     line += buf;
+    snprintf(buf, sizeof buf, "; halo exchange (rank 0) %.4g s in %ld messages, %.4g MB sent (%.4g kB per gas step)",
+             red_.xseconds, red_.xcalls, 8e-6 * (double)red_.xvalues,
+             ngas_run_ > 0 ? 8e-3 * (double)red_.xvalues / (double)ngas_run_ : 0.0);
+    line += buf;
   }
   line += "\n";
   sphdem_compat::logmesg(lmp, line);
@@ -624,12 +685,19 @@ void FixCFDGrid::print_timers() {
  * An existing PREFIX.pvd (a run continued from a restart file) keeps its entries of earlier times. */
 void FixCFDGrid::write_vtk() {
   advance_clock();
-  if (comm->me != 0) return; /* every rank holds the same grid: rank 0 writes it */
   const int nx = prm_.nc[0], ny = prm_.nc[1], nz = prm_.nc[2];
   const size_t nc = (size_t)nx * ny * nz;
+  /* the whole grid gathered from the ranks' blocks (collective), written by rank 0 */
   std::vector<double> eps(nc), p(nc), u(3 * nc);
-  if (sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data()) != SPHDEM_OK)
+  const int frc = sphdem_cfd_get_fields(ctx_, eps.data(), p.data(), u.data());
+  if (comm->nprocs > 1) {
+    const std::string why =
+        sphdem_mpi::first_failure(world, frc != SPHDEM_OK, std::string("get_fields: ") + sphdem_cfd_last_error(ctx_));
+    if (!why.empty()) fail(why);
+  } else if (frc != SPHDEM_OK) {
     fail_one(std::string("get_fields: ") + sphdem_cfd_last_error(ctx_));
+  }
+  if (comm->me != 0) return;
   const double time = time_;
 
   const std::string file = vtk_prefix_ + "_" + std::to_string((long long)update->ntimestep) + ".vti";

@@ -63,6 +63,7 @@ class FixCFDGrid : public Fix {
   double **fa_;
   int nmax_;
   int64_t ngas_steps_;         /* gas steps since the fix was defined (restart-kept) */
+  int64_t ngas_run_ = 0;       /* gas steps this run */
   double time_;                /* simulation time at engine step clock_step_ (restart-kept: the engines do */
   int64_t clock_step_;         /* not keep the elapsed time in restart files); the times of the VTK files */
 
@@ -72,19 +73,26 @@ class FixCFDGrid : public Fix {
   sphdem_cfd_stats stats_;
   bool keep_stats_;            /* stats_ came from a restart file: keep them at the next setup */
   double host_time_;           /* fix-side time of the gas steps (gather, scatter, VTK) this run */
-  /* many ranks: every rank holds the whole grid; the core's deposit sums go through this reduction, timed */
+  /* many ranks: each rank holds its block of the grid and a halo; the core's reductions and halo exchanges with
+   * the face neighbours of the engine's processor grid go through these callbacks, timed */
   struct Reduce {
     MPI_Comm *world;
     double seconds;            /* in MPI_Allreduce this run */
     long calls;
     long long values;
+    int neigh[3][2];           /* the engine's comm->procneigh */
+    double xseconds;           /* in MPI_Sendrecv of the halo exchange this run */
+    long xcalls;
+    long long xvalues;         /* doubles sent */
   } red_;
+  int slo_[3], shi_[3];        /* this rank's gas cells [slo, shi) per axis */
   std::string restart_error_;  /* a corrupted restart record, reported by init() */
 
   [[noreturn]] void fail(const std::string &msg);
   [[noreturn]] void fail_one(const std::string &msg); /* a failure seen by this rank alone (rank 0's files) */
   static int reduce_cb(void *user, double *buf, int n, int op);
-  void check_replicas();
+  static int exchange_cb(void *user, int axis, int dir, const double *send, int nsend, double *recv, int nrecv);
+  std::string subdomain();
   void check(int rc, const char *what);
   double parse_number(const char *kw, const char *s, const char *usage);
   void parse_args(int, char **);
