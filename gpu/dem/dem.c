@@ -629,43 +629,41 @@ int sphdem_dem_compute(sphdem_dem m, int n, const int64_t *tag, const double *x,
 #define SPHDEM_DEM_CLONES
 #endif
 
-/* 1 if a position, radius or mass is inf or NaN: its exponent bits are all set, and adding 1 to them carries into
- * the top bit (integer loops the compiler vectorises) */
-SPHDEM_DEM_CLONES static uint64_t nonfinite_bits(const double *v, int64_t n) {
-  uint64_t acc = 0;
-  for (int64_t k = 0; k < n; k++) {
-    uint64_t u;
-    memcpy(&u, v + k, sizeof u);
-    acc |= (u & 0x7ff0000000000000ull) + 0x0010000000000000ull;
-  }
-  return acc >> 63;
+/* The rebuild check's sums over the grains, in one loop over radii and masses and one over positions, which the
+ * compiler vectorises: whether a position, radius or mass is inf or NaN (its exponent bits all set: adding 1 to
+ * them carries into the top bit); for finite grains the least radius and mass, the largest radius, squared
+ * displacement since x0 and radius growth since r0 (max and min of finite values are the same bits in any order,
+ * so the attribute may let the compiler reorder them). Returns 1 when a value is not finite. */
+#define SPHDEM_NONFINITE_BITS(v) ((dem_u64_bits(v) & 0x7ff0000000000000ull) + 0x0010000000000000ull)
+static inline uint64_t dem_u64_bits(double v) {
+  uint64_t u;
+  memcpy(&u, &v, sizeof u);
+  return u;
 }
-static int grains_nonfinite(const double *x, const double *radius, const double *mass, int n) {
-  return (nonfinite_bits(x, 3 * (int64_t)n) | nonfinite_bits(radius, n) | nonfinite_bits(mass, n)) != 0;
-}
-
-/* For finite grains: the least radius and mass, the largest radius, squared displacement since x0 and radius
- * growth since r0. Max and min of finite values in any order are the same bits, so the loops may be
- * vectorised (the attribute lets the compiler reorder them). */
 __attribute__((optimize("finite-math-only", "no-signed-zeros"))) SPHDEM_DEM_CLONES
-static void grains_extremes(const double *x, const double *x0, const double *radius, const double *r0,
-                            const double *mass, int n, double *rmin_, double *rmax_, double *mmin_, double *d2max_,
-                            double *drmax_) {
+static int grains_scan(const double *x, const double *x0, const double *radius, const double *r0, const double *mass,
+                       int n, double *rmin_, double *rmax_, double *mmin_, double *d2max_, double *drmax_) {
   double rmin = DBL_MAX, rmax = *rmax_, mmin = DBL_MAX, d2max = 0.0, drmax = 0.0;
+  uint64_t bad = 0;
   for (int i = 0; i < n; i++) {
-    const double r = radius[i], dr = r - r0[i];
+    const double r = radius[i], ms = mass[i], dr = r - r0[i];
+    bad |= SPHDEM_NONFINITE_BITS(r) | SPHDEM_NONFINITE_BITS(ms);
     rmax = r > rmax ? r : rmax;
     rmin = r < rmin ? r : rmin;
-    mmin = mass[i] < mmin ? mass[i] : mmin;
+    mmin = ms < mmin ? ms : mmin;
     drmax = dr > drmax ? dr : drmax;
   }
   for (int i = 0; i < n; i++) {
-    const double dx = x[3 * i] - x0[3 * i], dy = x[3 * i + 1] - x0[3 * i + 1], dz = x[3 * i + 2] - x0[3 * i + 2];
+    const double xa = x[3 * i], ya = x[3 * i + 1], za = x[3 * i + 2];
+    bad |= SPHDEM_NONFINITE_BITS(xa) | SPHDEM_NONFINITE_BITS(ya) | SPHDEM_NONFINITE_BITS(za);
+    const double dx = xa - x0[3 * i], dy = ya - x0[3 * i + 1], dz = za - x0[3 * i + 2];
     const double d2 = dx * dx + dy * dy + dz * dz; /* (may overflow for finite, far apart positions) */
     d2max = d2 > d2max ? d2 : d2max;
   }
   *rmin_ = rmin, *rmax_ = rmax, *mmin_ = mmin, *d2max_ = d2max, *drmax_ = drmax;
+  return (bad >> 63) != 0;
 }
+#undef SPHDEM_NONFINITE_BITS
 
 /* The first bad grain of sphdem_dem_compute_store, in the words of its checks (rc of sphdem_dem_fail). */
 static int grain_error(struct sphdem_dem_s *m, int n, const int64_t *tag, const double *x, const double *radius,
@@ -715,8 +713,7 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   const double lim = 0.25 * D->P.skin * D->P.skin, *x0 = same_n ? m->hx0 : x, *r0 = same_n ? m->hr0 : radius;
   /* extremes only (no test and branch per grain), in loops the compiler vectorises */
   double rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
-  const int nonfinite = grains_nonfinite(x, radius, mass, n);
-  if (!nonfinite) grains_extremes(x, x0, radius, r0, mass, n, &rmin, &rmax, &mmin, &d2max, &drmax);
+  const int nonfinite = grains_scan(x, x0, radius, r0, mass, n, &rmin, &rmax, &mmin, &d2max, &drmax);
   int bad = nonfinite | !(rmin > 0.0) | !(mmin > 0.0);
   /* the tags: unless they are those of the last call (checked then) */
   const int tags_same = m->tags_valid && n == D->n && m->htag && (!n || !memcmp(m->htag, tag, sizeof(int64_t) * n));

@@ -747,13 +747,12 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
 
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom; wall: b < 0 (fixed at
  * compile time by dem_contact_model). */
-DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const double *del, const double rsq,
-                                      const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
-                                      double *hout, double *vir, const int model, const int wall) {
-  const int32_t a = D->pa[p], b = D->pb[p];
+DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const int32_t a, const int32_t b, const double ra,
+                                      const double *del, const double rsq, const double rb, const double radsum,
+                                      double *Fa, double *Ta, double *Tb, double *hout, double *vir, const int model,
+                                      const int wall) {
   const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
-  const double ra = D->rad[a];
   double meff, vr[3], wr[3], wrel[3];
   const double r = sqrt(rsq), rinv = 1.0 / r, rsqinv = 1.0 / rsq;
   const double ma = D->mass[a];
@@ -919,11 +918,17 @@ DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const double 
 
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom: the body above
  * compiled for a grain partner and for a wall apart (no branch on the partner inside the law). */
+DEM_HD_INLINE int dem_contact_model_ab(const dem_dev *D, int64_t p, const int32_t a, const int32_t b, const double ra,
+                                       const double *del, const double rsq, const double rb, const double radsum,
+                                       double *Fa, double *Ta, double *Tb, double *hout, double *vir, const int model) {
+  if (b < 0) return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 1);
+  return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 0);
+}
 DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
                                     const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
                                     double *hout, double *vir, const int model) {
-  if (D->pb[p] < 0) return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 1);
-  return dem_contact_model_w(D, p, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 0);
+  const int32_t a = D->pa[p];
+  return dem_contact_model_ab(D, p, a, D->pb[p], D->rad[a], del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model);
 }
 
 /* The contact law of D->P.model for an overlapping pair, each model compiled with it fixed. */
@@ -1139,27 +1144,27 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
 DEM_HD_INLINE int dem_serial_pair(const dem_dev *D, int64_t p, const int32_t g, const double *xg, const double rg,
                                   unsigned char *tf, double *F, double *Ta, double *Tb, double *vir, const int model,
                                   const int uniform) {
-  double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
-  const int32_t a = uniform ? g : D->pa[p];
-  const int touch = D->gap0[p] > D->gap_thr
-                        ? 0
-                        : uniform ? dem_contact_geom_a(D, p, a, xg, rg, del, &rsq, &rb, &radsum)
-                                  : dem_contact_geom(D, p, del, &rsq, &rb, &radsum);
-  if (!touch) {
-    if (tf[p]) {
-      dem_separated_history(D, p, hout);
-      tf[p] = 0;
+  double *hout = D->hout + SPHDEM_DEM_NHIST * p;
+  if (!(D->gap0[p] > D->gap_thr)) {
+    double del[3], rsq, rb, radsum;
+    const int32_t a = uniform ? g : D->pa[p], b = D->pb[p];
+    if (uniform ? dem_contact_geom_a(D, p, a, xg, rg, del, &rsq, &rb, &radsum)
+                : dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+      if (uniform) dem_contact_model_ab(D, p, a, b, rg, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
+      else dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
+      if (b >= 0) {
+        double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
+        for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
+      }
+      tf[p] = 1; /* (a byte store may alias anything: after the law's loads) */
+      return 1;
     }
-    return 0;
   }
-  tf[p] = 1;
-  dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-  const int32_t b = D->pb[p];
-  if (b >= 0) {
-    double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
-    for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
+  if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+    dem_separated_history(D, p, hout);
+    tf[p] = 0;
   }
-  return 1;
+  return 0;
 }
 
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int model, const int uniform,

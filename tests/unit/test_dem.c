@@ -791,6 +791,66 @@ static void test_granular(void) {
   free_grains(&g);
 }
 
+/* sphdem_dem_set_accumulate: the forces are added to what f and torque hold (an engine's arrays after its force
+ * clear, and other styles' forces). Onto zeros the one-thread pass gives the same bits as overwriting; onto other
+ * values the sum differs from values + overwritten forces only by rounding. Both passes (one thread under 2048
+ * grains, the threaded particle-parallel pass above) and the pair-parallel algorithm. */
+static void test_accumulate(void) {
+  const int sizes[2] = {400, 6000};
+  for (int si = 0; si < 2; si++)
+    for (int algo = 0; algo < 2; algo++) {
+      const int n = sizes[si];
+      const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
+      double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+      grains g = make_grains(n, lo, hi, 0.1, 0.5);
+      sphdem_dem_params p;
+      sphdem_dem_params_default(&p);
+      p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+      p.skin = 0.02;
+      p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
+      p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+      for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+      sphdem_dem A = make(&p), B = make(&p), C = make(&p);
+      TEST_ASSERT(sphdem_dem_set_accumulate(B, 1) == SPHDEM_OK && sphdem_dem_set_accumulate(C, 1) == SPHDEM_OK &&
+                  sphdem_dem_set_accumulate(NULL, 1) == SPHDEM_ERR_ARG, "set_accumulate");
+      double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+      double *fC = malloc(sizeof(double) * 3 * n), *tC = malloc(sizeof(double) * 3 * n);
+      double *c = malloc(sizeof(double) * 3 * n);
+      double worst = 0.0, zero_same = 1.0;
+      int rc = 0;
+      for (int s = 0; s < 4; s++) {
+        for (int k = 0; k < 3 * n; k++) {
+          c[k] = 10.0 * (urand() - 0.5);
+          fB[k] = tB[k] = 0.0;
+          fC[k] = c[k];
+          tC[k] = -c[k];
+        }
+        rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, g.f, g.t, NULL);
+        rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, fB, tB, NULL);
+        rc |= sphdem_dem_compute(C, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, fC, tC, NULL);
+        const double fs = fmax(maxabs(g.f, 3 * n), 1e-300), ts = fmax(maxabs(g.t, 3 * n), 1e-300);
+        for (int k = 0; k < 3 * n; k++) {
+          if (si == 0 && algo == 0 && (fB[k] != g.f[k] || tB[k] != g.t[k])) zero_same = 0.0;
+          worst = fmax(worst, fabs(fC[k] - c[k] - g.f[k]) / (fs + fabs(c[k])));
+          worst = fmax(worst, fabs(tC[k] + c[k] - g.t[k]) / (ts + fabs(c[k])));
+        }
+        for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-5 * g.v[k];
+      }
+      sphdem_dem_stats st;
+      sphdem_dem_stats_get(A, &st);
+      printf("  accumulate, %d grains, %s: %lld contacts; added onto values: max rel diff %.3g%s\n", n,
+             algo ? "pair-parallel" : "particle-parallel", (long long)st.ncontacts, worst,
+             si == 0 && algo == 0 ? (zero_same == 1.0 ? "; onto zeros: the same bits" : "; onto zeros: DIFFERENT") : "");
+      TEST_ASSERT(rc == 0 && st.ncontacts > 100, "accumulate: %s (%lld contacts)", sphdem_dem_last_error(A),
+                  (long long)st.ncontacts);
+      TEST_ASSERT(worst < 1e-12, "accumulate: forces added onto values differ by %.3g", worst);
+      TEST_ASSERT(zero_same == 1.0, "accumulate onto zeros differs from overwriting");
+      sphdem_dem_destroy(&A); sphdem_dem_destroy(&B); sphdem_dem_destroy(&C);
+      free(fB); free(tB); free(fC); free(tC); free(c);
+      free_grains(&g);
+    }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -804,5 +864,6 @@ int main(void) {
   test_epsd2();
   test_cohesion();
   test_granular();
+  test_accumulate();
   return test_summary("unit_dem");
 }
