@@ -293,7 +293,7 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
   unsigned char *tf = m->cpu_tf, *bt = m->cpu_bt;
   const int serial = c_serial(n);
   if (serial && (D->gap0 || !np)) { /* one thread: each pair once in list order, b's share added at once (no reverse pass) */
-    if (!known) memset(tf, 1, (size_t)np); /* unknown: every pair may have a history to clear */
+    if (!known && np) memset(tf, 1, (size_t)np); /* unknown: every pair may have a history to clear */
     if (!m->cpu_adds) {
       memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
       memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
