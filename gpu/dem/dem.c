@@ -526,6 +526,20 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
 
 #define TRY(call) do { int rc_ = (call); if (rc_) return rc_; } while (0)
 
+/* the pair arrays with room for cap pairs (their contents are not kept) */
+static int grow_pairs(struct sphdem_dem_s *m, int64_t np, int64_t cap) {
+  dem_dev *D = &m->D;
+  TRY(grow(m, (void **)&D->pa, sizeof(int32_t), np, cap));
+  TRY(grow(m, (void **)&D->pb, sizeof(int32_t), np, cap));
+  TRY(grow(m, (void **)&D->rlist, sizeof(int32_t), np, cap));
+  TRY(grow(m, (void **)&D->rkey, sizeof(int32_t), np, cap));
+  TRY(grow(m, (void **)&D->key, sizeof(uint64_t), np, cap));
+  TRY(grow(m, (void **)&D->hin, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
+  TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
+  m->cap_p = cap;
+  return SPHDEM_OK;
+}
+
 static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
   dem_dev *D = &m->D;
   m->tf_valid = 0; /* a new list, a carried history */
@@ -562,30 +576,12 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   if (!D->pa && m->backend == SPHDEM_DEVICE_CPU && n > 0) {
     /* the first list on the CPU: room for 8 pairs a grain (a dense packing has 6-7), so that the one-thread scan
      * writes the pairs as it counts them (host pages that are never written cost no memory) */
-    const int64_t cap = 8 * n + 64;
-    TRY(grow(m, (void **)&D->pa, sizeof(int32_t), 0, cap));
-    TRY(grow(m, (void **)&D->pb, sizeof(int32_t), 0, cap));
-    TRY(grow(m, (void **)&D->rlist, sizeof(int32_t), 0, cap));
-    TRY(grow(m, (void **)&D->rkey, sizeof(int32_t), 0, cap));
-    TRY(grow(m, (void **)&D->key, sizeof(uint64_t), 0, cap));
-    TRY(grow(m, (void **)&D->hin, sizeof(double) * SPHDEM_DEM_NHIST, 0, cap));
-    TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, 0, cap));
-    m->cap_p = cap;
+    TRY(grow_pairs(m, 0, 8 * n + 64));
   }
   D->pcap = D->pa ? m->cap_p : 0;
   TRY(m->ops->count(m, &np));
   if (np > 2147483647LL) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "%lld candidate pairs exceed 2^31", (long long)np);
-  if (np > m->cap_p || !D->pa) {
-    int64_t cap = np + np / 4 + 64;
-    TRY(grow(m, (void **)&D->pa, sizeof(int32_t), np, cap));
-    TRY(grow(m, (void **)&D->pb, sizeof(int32_t), np, cap));
-    TRY(grow(m, (void **)&D->rlist, sizeof(int32_t), np, cap));
-    TRY(grow(m, (void **)&D->rkey, sizeof(int32_t), np, cap));
-    TRY(grow(m, (void **)&D->key, sizeof(uint64_t), np, cap));
-    TRY(grow(m, (void **)&D->hin, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
-    TRY(grow(m, (void **)&D->hout, sizeof(double) * SPHDEM_DEM_NHIST, np, cap));
-    m->cap_p = cap;
-  }
+  if (np > m->cap_p || !D->pa) TRY(grow_pairs(m, np, np + np / 4 + 64));
   D->pcap = m->cap_p;
   if (roll && (np > m->cap_roll || !D->rin)) {
     int64_t cap = np + np / 4 + 64;

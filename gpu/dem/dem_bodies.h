@@ -1087,26 +1087,28 @@ SPHDEM_HD double dem_pair_gap(const dem_dev *D, int64_t p) {
  * has the contact law inlined for a model fixed at compile time. */
 /* One pair of the particle-parallel passes, its grain a at xa with radius ra: 0 when it does not touch (its
  * history that of a separated pair, unless known says it is already), else the law of model into F, Ta, Tb
- * (and vir with D->want_virial) and the history in place. tf[p] marks the pair touching (1) or not (0). */
-DEM_HD_INLINE int dem_pair_step_a(const dem_dev *D, int64_t p, const int32_t a, const double *xa, const double ra,
-                                  unsigned char *tf, const int known, double *F, double *Ta, double *Tb, double *vir,
-                                  const int model) {
-  double *hout = D->hout + SPHDEM_DEM_NHIST * p, del[3], rsq, rb, radsum;
-  if ((D->gap0 && D->gap0[p] > D->gap_thr) || !dem_contact_geom_a(D, p, a, xa, ra, del, &rsq, &rb, &radsum)) {
-    if (!known || tf[p]) {
-      dem_separated_history(D, p, hout);
-      tf[p] = 0;
+ * (and vir with D->want_virial) and the history in place. tf[p] marks the pair touching (1) or not (0), stored
+ * after the law's loads (a byte store may alias anything); *b_ the partner of a touching pair. gaps (D->gap0 is
+ * set): the pairs whose gap at the build exceeds D->gap_thr are apart without a look at their grains. */
+DEM_HD_INLINE int dem_pair_step(const dem_dev *D, int64_t p, const int32_t a, const double *xa, const double ra,
+                                unsigned char *tf, const int known, const int gaps, int32_t *b_, double *F, double *Ta,
+                                double *Tb, double *vir, const int model) {
+  double *hout = D->hout + SPHDEM_DEM_NHIST * p;
+  if (!(gaps && D->gap0[p] > D->gap_thr)) {
+    double del[3], rsq, rb, radsum;
+    const int32_t b = D->pb[p];
+    if (dem_contact_geom_a(D, p, a, xa, ra, del, &rsq, &rb, &radsum)) {
+      dem_contact_model_ab(D, p, a, b, ra, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
+      *b_ = b;
+      tf[p] = 1;
+      return 1;
     }
-    return 0;
   }
-  tf[p] = 1;
-  dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-  return 1;
-}
-DEM_HD_INLINE int dem_pair_step_model(const dem_dev *D, int64_t p, unsigned char *tf, const int known, double *F,
-                                      double *Ta, double *Tb, double *vir, const int model) {
-  const int32_t a = D->pa[p];
-  return dem_pair_step_a(D, p, a, D->x + 3 * (int64_t)a, D->rad[a], tf, known, F, Ta, Tb, vir, model);
+  if (!known || tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+    dem_separated_history(D, p, hout);
+    tf[p] = 0;
+  }
+  return 0;
 }
 
 DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, double *pfb, unsigned char *tf,
@@ -1115,12 +1117,16 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   int64_t nt = 0;
   const int counted = dem_pair_counted(D, (int32_t)i);
   for (int64_t p = D->fstart[i]; p < D->fend[i]; p++) {
-    if (!dem_pair_step_model(D, p, tf, known, F, Ta, Tb, vir, model)) continue;
-    if (D->pb[p] >= 0) { /* grain b has a touching pair for the reverse half (any thread may set it: the same 1) */
+    const int32_t a = D->pa[p]; /* (i itself, or a copy of it sharing its tag) */
+    int32_t b;
+    if (!dem_pair_step(D, p, a, D->x + 3 * (int64_t)a, D->rad[a], tf, known, D->gap0 != NULL, &b, F, Ta, Tb, vir,
+                       model))
+      continue;
+    if (b >= 0) { /* grain b has a touching pair for the reverse half (any thread may set it: the same 1) */
 #ifdef __CUDA_ARCH__
-      bt[D->pb[p]] = 1;
+      bt[b] = 1;
 #else
-      __atomic_store_n(&bt[D->pb[p]], (unsigned char)1, __ATOMIC_RELAXED);
+      __atomic_store_n(&bt[b], (unsigned char)1, __ATOMIC_RELAXED);
 #endif
     }
     nt += counted;
@@ -1141,32 +1147,6 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
  * tf marks every pair as the last evaluation left it (set all to 1 when unknown), D->gap0 is set (the CPU builds).
  * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's position and
  * radius are read once per run. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
-DEM_HD_INLINE int dem_serial_pair(const dem_dev *D, int64_t p, const int32_t g, const double *xg, const double rg,
-                                  unsigned char *tf, double *F, double *Ta, double *Tb, double *vir, const int model,
-                                  const int uniform) {
-  double *hout = D->hout + SPHDEM_DEM_NHIST * p;
-  if (!(D->gap0[p] > D->gap_thr)) {
-    double del[3], rsq, rb, radsum;
-    const int32_t a = uniform ? g : D->pa[p], b = D->pb[p];
-    if (uniform ? dem_contact_geom_a(D, p, a, xg, rg, del, &rsq, &rb, &radsum)
-                : dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
-      if (uniform) dem_contact_model_ab(D, p, a, b, rg, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-      else dem_contact_model(D, p, del, rsq, rb, radsum, F, Ta, Tb, hout, vir, model);
-      if (b >= 0) {
-        double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
-        for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
-      }
-      tf[p] = 1; /* (a byte store may alias anything: after the law's loads) */
-      return 1;
-    }
-  }
-  if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
-    dem_separated_history(D, p, hout);
-    tf[p] = 0;
-  }
-  return 0;
-}
-
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int model, const int uniform,
                                              const int virial) {
   const int64_t np = D->np;
@@ -1179,7 +1159,15 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
     double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
     int64_t touched = 0;
     for (; p < end; p++) {
-      if (!dem_serial_pair(D, p, g, xg, rg, tf, F, Ta, Tb, vir, model, uniform)) continue;
+      const int32_t a = uniform ? g : D->pa[p];
+      int32_t b;
+      if (!dem_pair_step(D, p, a, uniform ? xg : D->x + 3 * (int64_t)a, uniform ? rg : D->rad[a], tf, 1, 1, &b, F, Ta,
+                         Tb, vir, model))
+        continue;
+      if (b >= 0) {
+        double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
+        for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
+      }
       touched++;
       for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
       if (virial)
