@@ -218,6 +218,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hx0);
   free(m->hr0);
   free(m->cpu_gap);
+  free(m->cpu_act);
   free(m->acc_f);
   free(m->cpu_bt);
   free(m->htag);

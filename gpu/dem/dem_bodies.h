@@ -685,19 +685,27 @@ SPHDEM_HD void dem_flag_coincident(const dem_dev *D, int32_t a, int32_t b) {
 /* Geometry of pair p of grain a (at xa, radius ra): del = x_a - x_b (minimum image; for a wall the distance
  * along its normal), |del|^2, the partner's radius (0 for a wall) and r_a + r_b. Returns 1 if the grains
  * overlap. */
+/* The same for a grain partner b (>= 0), with rsq and radsum always written. */
+DEM_HD_INLINE int dem_grain_overlap(const dem_dev *D, const int32_t a, const int32_t b, const double *xa, const double ra,
+                                    double *del, double *rsq_, double *radsum_) {
+  const double rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del), radsum = ra + D->rad[b];
+  *rsq_ = rsq;
+  *radsum_ = radsum;
+  if (!(rsq < radsum * radsum)) return 0; /* most candidate pairs of a loose packing: out first */
+  if (rsq <= 1e-24 * radsum * radsum) { /* centres within 1e-12 of the contact distance: r = 0 */
+    dem_flag_coincident(D, a, b);
+    return 0;
+  }
+  return 1;
+}
+
 DEM_HD_INLINE int dem_contact_geom_a(const dem_dev *D, int64_t p, const int32_t a, const double *xa, const double ra,
                                      double *del, double *rsq_, double *rb_, double *radsum_) {
   const int32_t b = D->pb[p];
   double rsq, rb, radsum;
   if (b >= 0) {
-    rsq = dem_sep(D, xa, D->x + 3 * (int64_t)b, del);
+    if (!dem_grain_overlap(D, a, b, xa, ra, del, &rsq, &radsum)) return 0;
     rb = D->rad[b];
-    radsum = ra + rb;
-    if (!(rsq < radsum * radsum)) return 0; /* most candidate pairs of a loose packing: out first */
-    if (rsq <= 1e-24 * radsum * radsum) { /* centres within 1e-12 of the contact distance: r = 0 */
-      dem_flag_coincident(D, a, b);
-      return 0;
-    }
   } else {
     const int w = -1 - b;
     const double dist = dem_wall_dist(D, w, xa);
@@ -725,15 +733,8 @@ DEM_HD_INLINE int dem_contact_geom(const dem_dev *D, int64_t p, double *del, dou
  * (carry_touching; LIGGGHTS' granular list build copies the history of a partner only if the two
  * overlap at that moment) a pair that does not touch starts from zero too; the core's own rebuilds
  * (a grain moved skin/2) carry every history, as the engine's list would have kept it. */
-SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
-  uint64_t k = D->key[p];
-  int64_t lo = 0, hi = D->np_old - 1, found = -1;
-  while (lo <= hi) {
-    int64_t mid = lo + (hi - lo) / 2;
-    uint64_t km = D->key_old[mid];
-    if (km == k) { found = mid; break; }
-    if (km < k) lo = mid + 1; else hi = mid - 1;
-  }
+/* pair p from pair found of the previous list (-1: none) */
+SPHDEM_HD void dem_carry_from(const dem_dev *D, int64_t p, int64_t found) {
   if (found >= 0 && D->carry_touching) {
     double del[3], rsq, rb, radsum;
     if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) found = -1;
@@ -743,6 +744,19 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
   if (D->rin)
     for (int q = 0; q < 3; q++) D->rin[3 * p + q] = found >= 0 && D->roll_carry ? D->roll_old[3 * found + q] : 0.0;
   if (found >= 0 && D->carry_touching) h[3] = 1.0; /* the engine wraps positions at its builds: image not recorded */
+}
+
+/* pair p's key looked up in the previous list by bisection */
+SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
+  uint64_t k = D->key[p];
+  int64_t lo = 0, hi = D->np_old - 1, found = -1;
+  while (lo <= hi) {
+    int64_t mid = lo + (hi - lo) / 2;
+    uint64_t km = D->key_old[mid];
+    if (km == k) { found = mid; break; }
+    if (km < k) lo = mid + 1; else hi = mid - 1;
+  }
+  dem_carry_from(D, p, found);
 }
 
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom; wall: b < 0 (fixed at
@@ -1140,41 +1154,88 @@ DEM_HD_INLINE int64_t dem_particle_forward_model(const dem_dev *D, int64_t i, do
   return nt;
 }
 
+/* The first pair of pair p's run (the pairs whose grain a has p's tag), by bisection of the key-sorted list. */
+SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
+  const uint64_t ta = D->key[p] >> 32;
+  int64_t lo = 0, hi = p;
+  while (lo < hi) {
+    const int64_t mid = lo + (hi - lo) / 2;
+    if ((D->key[mid] >> 32) < ta) lo = mid + 1; else hi = mid;
+  }
+  return lo;
+}
+
 /* The same pairs on one thread, each evaluated once, in list order (by the tags of a, then of b: the order
- * does not depend on the order of the grains): the force of each run of pairs of one grain a (fstart, fend of
- * dem_forward_range_body) summed and added to a at the run's end, -F and Tb added to grain b at once; f and tq
- * hold what is there already (zero, or the caller's forces to add to). No pair force buffer and no reverse pass.
+ * does not depend on the order of the grains): the force of each run of touching pairs of one grain a (fstart,
+ * fend of dem_forward_range_body) summed and added to a at the run's end, -F and Tb added to grain b at once; f and
+ * tq hold what is there already (zero, or the caller's forces to add to). No pair force buffer and no reverse pass.
+ * Two loops: the first tests the overlap of each pair and keeps the touching ones (index, separation, |r|^2) in
+ * tp, tdel (room for every pair visited: int32, 4 doubles each); the second applies the contact law to those.
+ * Kept apart, the first loop has few live values (no spills of the law's registers around the test of the pairs
+ * that do not touch) and the second no branch on the overlap.
  * tf marks every pair as the last evaluation left it (set all to 1 when unknown), D->gap0 is set (the CPU builds).
- * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's position and
- * radius are read once per run. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
-DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int model, const int uniform,
-                                             const int virial) {
-  const int64_t np = D->np;
+ * act (not NULL): only its nact pairs, in increasing order; every other pair is apart and marked so in tf (its
+ * gap at the build exceeds every D->gap_thr since the marks were made), so it adds nothing and its history is
+ * that of a separated pair already. The touching pairs are the same and are added in the same order, so the
+ * forces are the same bits with and without act.
+ * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's radius is read
+ * once per run. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
+DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int32_t *act,
+                                             const int64_t nact, int32_t *tp, double *tdel, const int model,
+                                             const int uniform, const int virial) {
+  const int64_t nk = act ? nact : D->np;
+  /* the overlap of each visited pair (the arrays in locals: byte stores to tf may alias anything) */
+  const int32_t *pa = D->pa, *pb = D->pb;
+  const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
+  int64_t m = 0;
+  for (int64_t k = 0; k < nk; k++) {
+    const int64_t p = act ? act[k] : k;
+    int touch = 0;
+    double del[3], rsq, radsum;
+    if (!(gap0[p] > thr)) {
+      const int32_t a = pa[p], b = pb[p];
+      if (b >= 0) {
+        touch = dem_grain_overlap(D, a, b, x + 3 * (int64_t)a, rad[a], del, &rsq, &radsum);
+      } else {
+        double rb;
+        touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, rad[a], del, &rsq, &rb, &radsum);
+      }
+    }
+    if (touch) {
+      tp[m] = (int32_t)p;
+      double *o = tdel + 4 * m;
+      o[0] = del[0], o[1] = del[1], o[2] = del[2], o[3] = rsq;
+      m++;
+    } else if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+      dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
+      tf[p] = 0;
+    }
+  }
+  /* the law of the touching pairs, in runs of one grain a */
   int64_t nt = 0;
   double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
-  for (int64_t p = 0; p < np;) {
-    const int32_t g = D->pa[p];
-    const int64_t end = D->fend[g];
-    const double *xg = D->x + 3 * (int64_t)g, rg = D->rad[g];
+  for (int64_t k = 0; k < m;) {
+    const int32_t g = uniform ? pa[tp[k]] : pa[dem_run_start(D, tp[k])]; /* (copies: the run's first pair's) */
+    const int64_t end = D->fend[g], k0 = k;
+    const double rg = rad[g];
     double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
-    int64_t touched = 0;
-    for (; p < end; p++) {
-      const int32_t a = uniform ? g : D->pa[p];
-      int32_t b;
-      if (!dem_pair_step(D, p, a, uniform ? xg : D->x + 3 * (int64_t)a, uniform ? rg : D->rad[a], tf, 1, 1, &b, F, Ta,
-                         Tb, vir, model))
-        continue;
+    for (; k < m && tp[k] < end; k++) {
+      const int64_t p = tp[k];
+      const int32_t a = uniform ? g : pa[p], b = pb[p];
+      const double *o = tdel + 4 * k, ra = uniform ? rg : rad[a];
+      const double del[3] = {o[0], o[1], o[2]}, rb = b >= 0 ? rad[b] : 0.0;
+      dem_contact_model_ab(D, p, a, b, ra, del, o[3], rb, b >= 0 ? ra + rb : ra, F, Ta, Tb,
+                           D->hout + SPHDEM_DEM_NHIST * p, vir, model);
+      tf[p] = 1; /* (after the law's loads: a byte store may alias anything) */
       if (b >= 0) {
         double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
         for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
       }
-      touched++;
       for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
       if (virial)
         for (int d = 0; d < 6; d++) vs[d] += vir[d];
     }
-    if (!touched) continue;
-    nt += dem_pair_counted(D, g) ? touched : 0;
+    nt += dem_pair_counted(D, g) ? k - k0 : 0;
     double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
     for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
     if (virial)
@@ -1227,12 +1288,7 @@ SPHDEM_HD void dem_forward_range_body(const dem_dev *D, int64_t p) {
   const uint64_t ta = D->key[p] >> 32;
   const int first = p == 0 || (D->key[p - 1] >> 32) != ta, last = p == np - 1 || (D->key[p + 1] >> 32) != ta;
   if (!first && !last) return;
-  int64_t lo = 0, hi = p; /* the run's first pair */
-  while (lo < hi) {
-    const int64_t mid = lo + (hi - lo) / 2;
-    if ((D->key[mid] >> 32) < ta) lo = mid + 1; else hi = mid;
-  }
-  const int32_t g = D->pa[lo];
+  const int32_t g = D->pa[dem_run_start(D, p)];
   if (first) D->fstart[g] = (int32_t)p;
   if (last) D->fend[g] = (int32_t)(p + 1);
 }

@@ -160,25 +160,27 @@ static int c_fill(struct sphdem_dem_s *m) {
   memcpy(D->pa, D->rkey, sizeof(int32_t) * (size_t)np);
   for (int64_t p = 0; p < np; p++) D->rkey[p] = D->pb[perm[p]];
   memcpy(D->pb, D->rkey, sizeof(int32_t) * (size_t)np);
-  return m->ops->carry(m);
+  if (!c_serial(np)) return m->ops->carry(m);
+  /* one thread: both lists are sorted by key, so one merge walk finds each pair's predecessor */
+  const int64_t nold = D->np_old;
+  int64_t j = 0;
+  for (int64_t p = 0; p < np; p++) {
+    const uint64_t k = D->key[p];
+    while (j < nold && D->key_old[j] < k) j++;
+    dem_carry_from(D, p, j < nold && D->key_old[j] == k ? j : -1);
+  }
+  return SPHDEM_OK;
 }
 
-static int c_csr(struct sphdem_dem_s *m) {
+/* The pairs in the order of their grain b, for the reverse half of the several-thread pass: rlist, rkey and the
+ * ranges rstart, rend (ties in pair order: a stable counting sort; the walls, pb < 0, first, which the reverse
+ * ranges skip). */
+static int c_reverse(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
-  int64_t n = D->n, np = D->np;
-  memset(D->fstart, 0, sizeof(int32_t) * (size_t)n);
-  memset(D->fend, 0, sizeof(int32_t) * (size_t)n);
+  const int64_t n = D->n, np = D->np;
   memset(D->rstart, 0, sizeof(int32_t) * (size_t)n);
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
-  DEM_TRY(m->ops->forward_ranges(m));
-  /* one grain a per run of pairs (no copies of one grain sharing a tag): the one-thread pass reads a once per run */
-  m->cpu_uniform = 1;
-  for (int64_t p = 0; p < np && m->cpu_uniform; p++) {
-    const int32_t a = D->pa[p];
-    m->cpu_uniform = D->fstart[a] <= p && p < D->fend[a];
-  }
-  /* the pairs in the order of their grain b, ties in pair order (a stable counting sort; the walls, pb < 0,
-   * first, which the reverse ranges skip): rend counts, rstart the offsets, both set again by reverse_ranges */
+  /* rend counts, rstart the offsets, both set again by reverse_ranges */
   int64_t nwall = 0;
   for (int64_t p = 0; p < np; p++) {
     const int32_t b = D->pb[p];
@@ -199,6 +201,34 @@ static int c_csr(struct sphdem_dem_s *m) {
   memset(D->rend, 0, sizeof(int32_t) * (size_t)n);
   for (int64_t k = 0; k < np; k++) D->rkey[k] = D->pb[D->rlist[k]];
   DEM_TRY(m->ops->reverse_ranges(m));
+  m->cpu_rev_valid = 1;
+  return SPHDEM_OK;
+}
+
+static int c_csr(struct sphdem_dem_s *m) {
+  dem_dev *D = &m->D;
+  int64_t n = D->n, np = D->np;
+  memset(D->fstart, 0, sizeof(int32_t) * (size_t)n);
+  memset(D->fend, 0, sizeof(int32_t) * (size_t)n);
+  if (c_serial(np)) { /* one thread: the runs of one tag of a, walked in order */
+    for (int64_t p = 0, s = 0; p < np; p++) {
+      if ((D->key[p] >> 32) != (D->key[s] >> 32)) s = p;
+      const int32_t g = D->pa[s]; /* (copies of one grain share a tag: the run goes to its first pair's copy) */
+      if (s == p) D->fstart[g] = (int32_t)p;
+      D->fend[g] = (int32_t)(p + 1);
+    }
+  } else {
+    DEM_TRY(m->ops->forward_ranges(m));
+  }
+  /* one grain a per run of pairs (no copies of one grain sharing a tag): the one-thread pass reads a once per run */
+  m->cpu_uniform = 1;
+  for (int64_t p = 0; p < np && m->cpu_uniform; p++) {
+    const int32_t a = D->pa[p];
+    m->cpu_uniform = D->fstart[a] <= p && p < D->fend[a];
+  }
+  /* the reverse half's lists: only when the pass that needs them runs (else when it first does) */
+  m->cpu_rev_valid = 0;
+  if (!sphdem_dem_cpu_serial_pass(m)) DEM_TRY(c_reverse(m));
   /* the gap of each pair now, for the forces to pass over the pairs that cannot touch yet */
   D->gap0 = NULL;
   if (np > m->cap_gap) {
@@ -231,13 +261,90 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
 }
 
 /* The one-thread pass with the contact law of one model inlined; a local copy of the constants and array
- * pointers, which the stores of forces and history cannot alias (kept in registers). */
-static inline __attribute__((always_inline)) int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf,
-                                                                    const int model, int uniform) {
-  const dem_dev Dl = *D;
-  if (uniform && !D->want_virial) return dem_pairs_serial_model(&Dl, tf, model, 1, 0);
-  if (uniform) return dem_pairs_serial_model(&Dl, tf, model, 1, 1);
-  return dem_pairs_serial_model(&Dl, tf, model, 0, 1);
+ * pointers, which the stores of forces and history cannot alias (kept in registers). act: the pairs to visit
+ * (NULL: all), see dem_pairs_serial_model. */
+/* Each variant of the one-thread pass is a function of its own (one copy of the contact law each): inlined into
+ * one function, the many copies make it too large for good register allocation (values kept on the stack). A local
+ * copy of the constants and array pointers, which the stores of forces and history cannot alias. */
+typedef int64_t (*c_serial_fn)(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int32_t *tp,
+                               double *tdel);
+#define C_SERIAL_FN(M, U, V, A)                                                                                      \
+  static __attribute__((noinline)) int64_t c_serial_##M##_##U##V##A(const dem_dev *D, unsigned char *tf,             \
+                                                                   const int32_t *act, int64_t nact, int32_t *tp,   \
+                                                                   double *tdel) {                                  \
+    const dem_dev Dl = *D;                                                                                           \
+    return dem_pairs_serial_model(&Dl, tf, A ? act : NULL, nact, tp, tdel, SPHDEM_DEM_##M, U, V);                    \
+  }
+/* uniform and no virial, uniform with the virial, copies sharing a tag (with the virial); each over all pairs or
+ * over a list of them */
+#define C_SERIAL_MODEL(M)                                                                                            \
+  C_SERIAL_FN(M, 1, 0, 0) C_SERIAL_FN(M, 1, 0, 1) C_SERIAL_FN(M, 1, 1, 0) C_SERIAL_FN(M, 1, 1, 1)                    \
+  C_SERIAL_FN(M, 0, 1, 0) C_SERIAL_FN(M, 0, 1, 1)                                                                    \
+  static const c_serial_fn c_serial_table_##M[6] = {c_serial_##M##_100, c_serial_##M##_101, c_serial_##M##_110,      \
+                                                    c_serial_##M##_111, c_serial_##M##_010, c_serial_##M##_011};
+C_SERIAL_MODEL(HOOKE)
+C_SERIAL_MODEL(HERTZ)
+C_SERIAL_MODEL(HERTZ_MINDLIN)
+C_SERIAL_MODEL(GRANULAR)
+C_SERIAL_MODEL(HERTZ_LIGGGHTS)
+
+static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int32_t *tp,
+                              double *tdel, int uniform) {
+  const c_serial_fn *t;
+  switch (D->P.model) {
+    case SPHDEM_DEM_HOOKE: t = c_serial_table_HOOKE; break;
+    case SPHDEM_DEM_HERTZ: t = c_serial_table_HERTZ; break;
+    case SPHDEM_DEM_HERTZ_MINDLIN: t = c_serial_table_HERTZ_MINDLIN; break;
+    case SPHDEM_DEM_GRANULAR: t = c_serial_table_GRANULAR; break;
+    default: t = c_serial_table_HERTZ_LIGGGHTS; break;
+  }
+  const int v = !uniform ? 4 : D->want_virial ? 2 : 0;
+  return t[v + (act != NULL)](D, tf, act, nact, tp, tdel);
+}
+
+/* The pairs the one-thread pass visits while the list stands (dilute scenes: most pairs of the list are
+ * further apart than the grains have moved since the build, and looking at each of them every step costs a
+ * load and a hard-to-predict branch). After the first pass over the whole list (which leaves every pair marked
+ * in tf), the pass visits only the pairs whose gap at the build is <= bound, kept in increasing order in
+ * m->cpu_act; bound never decreases and stays >= every D->gap_thr seen since that first pass, so a pair left out
+ * has been apart (and marked so) at every step since. When D->gap_thr passes bound, the list is taken again with a
+ * larger bound (at most a few times per build: each new bound at least doubles the threshold). Returns the pairs
+ * to visit, or NULL for all of them (three quarters or more of the list). */
+static const int32_t *c_active(struct sphdem_dem_s *m, int64_t *nact) {
+  const dem_dev *D = &m->D;
+  const int64_t np = D->np;
+  if (m->act_all) return NULL;
+  if (m->act_thr >= D->gap_thr && m->act_n >= 0) {
+    *nact = m->act_n;
+    return m->cpu_act;
+  }
+  if (np > m->cap_act) {
+    const int64_t cap = np + np / 4 + 64;
+    int32_t *a = (int32_t *)realloc(m->cpu_act, sizeof(int32_t) * (size_t)cap);
+    if (!a) { /* no room: visit every pair (the same forces) */
+      m->act_all = 1;
+      return NULL;
+    }
+    m->cpu_act = a;
+    m->cap_act = cap;
+  }
+  const double thr = fmax(D->gap_thr, m->act_seen);
+  const double bound = thr + fmax(thr, fmax(0.0625 * D->P.skin, 1e-6 * m->dmax_built));
+  const double *gap = D->gap0;
+  int32_t *act = m->cpu_act;
+  int64_t n = 0;
+  for (int64_t p = 0; p < np; p++) { /* (no branch: the index is written always, kept when the gap is in) */
+    act[n] = (int32_t)p;
+    n += gap[p] <= bound;
+  }
+  if (4 * n >= 3 * np) {
+    m->act_all = 1;
+    return NULL;
+  }
+  m->act_thr = bound;
+  m->act_n = n;
+  *nact = n;
+  return act;
 }
 
 /* 1 when sphdem_dem_cpu_particle_forces will take the one-thread pass, which adds to f and tq as they are */
@@ -298,18 +405,27 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
       memset(D->f, 0, sizeof(double) * 3 * (size_t)n);
       memset(D->tq, 0, sizeof(double) * 3 * (size_t)n);
     }
-    const int u = m->cpu_uniform;
-    switch (D->P.model) {
-      case SPHDEM_DEM_HOOKE: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HOOKE, u); break;
-      case SPHDEM_DEM_HERTZ: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ, u); break;
-      case SPHDEM_DEM_HERTZ_MINDLIN: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ_MINDLIN, u); break;
-      case SPHDEM_DEM_GRANULAR: nt = c_serial_pairs(D, tf, SPHDEM_DEM_GRANULAR, u); break;
-      default: nt = c_serial_pairs(D, tf, SPHDEM_DEM_HERTZ_LIGGGHTS, u); break;
+    const int32_t *act = NULL;
+    int64_t nact = 0;
+    if (!known) { /* this pass visits every pair; the visited set starts after it */
+      m->act_all = 0;
+      m->act_n = -1;
+      m->act_thr = -HUGE_VAL;
+      m->act_seen = D->gap_thr;
+    } else {
+      act = c_active(m, &nact);
+      if (D->gap_thr > m->act_seen) m->act_seen = D->gap_thr;
     }
+    const int u = m->cpu_uniform;
+    int32_t *tp = (int32_t *)m->cpu_pfb; /* the pair force buffer (unused by this pass) holds the touching pairs */
+    double *tdel = m->cpu_pfb + np; /* (6 doubles a pair: 1 for the indices, 4 for each separation) */
+    nt = c_serial_pairs(D, tf, act, nact, tp, tdel, u);
     m->cpu_ntouch = nt;
     m->tf_valid = 1;
     return SPHDEM_OK;
   }
+  m->act_all = 1; /* (the visited set of the one-thread pass is taken again after its next whole pass) */
+  if (!m->cpu_rev_valid) DEM_TRY(c_reverse(m));
   if (m->cpu_adds) /* (the pass below overwrites f and tq: dem.c asks for it only on one thread) */
     return rt_fail(&m->rt, SPHDEM_ERR_ARG, "DEM forces: the pair gaps are missing for the one-thread pass");
   switch (D->P.model) { /* each model's contact law inlined into a loop of its own */

@@ -141,6 +141,12 @@ struct sphdem_dem_s {
   int64_t cap_bt;
   double *cpu_gap;             /* D.gap0 of the CPU backend */
   int64_t cap_gap;
+  int32_t *cpu_act;            /* the pairs the one-thread pass visits (c_active in dem_cpu.c) */
+  int64_t cap_act, act_n;      /* capacity; act_n pairs in it (< 0: not taken yet) */
+  double act_thr;              /* cpu_act holds every pair of gap <= act_thr */
+  double act_seen;             /* the largest D->gap_thr since the pass over the whole list */
+  int act_all;                 /* visit every pair until the next pass over the whole list */
+  int cpu_rev_valid;           /* rlist, rstart, rend hold the current list's reverse ranges (c_reverse) */
   int hist_in_place;           /* the last forces wrote the new history over the old (hin): no swap */
   int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
                                   particle-parallel pass only since (cleared by builds and history edits) */

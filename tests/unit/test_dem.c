@@ -851,6 +851,47 @@ static void test_accumulate(void) {
     }
 }
 
+/* Copies of another rank's grain (SPHDEM_DEM_GHOST, one tag) share one run of pairs; the run's force goes to the
+ * copy of its first pair. Here the first pair (copy 1 with grain X) does not touch and the second (copy 2 with
+ * grain Y) does: the force on Y must be the one a single copy gives, in both passes. */
+static void test_ghost_copies(void) {
+  for (int algo = 0; algo < 2; algo++) {
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+    p.skin = 0.05;
+    p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
+    for (int d = 0; d < 3; d++) { p.boxlo[d] = -1.0; p.boxhi[d] = 2.0; }
+    /* X (tag 5), Y (tag 6), copy 1 of tag 1 within the skin of X, copy 2 of tag 1 overlapping Y by 0.01 */
+    const int64_t tag[4] = {5, 6, 1, 1};
+    const double x[12] = {0, 0, 0, 1, 0, 0, 0, 0.22, 0, 1, 0.19, 0};
+    const double v[12] = {0, 0.1, 0, 0, 0, 0.2, 0, 0, 0, 0.05, 0, 0}, om[12] = {0};
+    const double r[4] = {0.1, 0.1, 0.1, 0.1}, m[4] = {1, 1, 1, 1};
+    const int32_t fl[4] = {0, 0, SPHDEM_DEM_GHOST, SPHDEM_DEM_GHOST};
+    double f[12], t[12], f1[9], t1[9];
+    sphdem_dem A = make(&p), B = make(&p);
+    int rc = 0;
+    for (int s = 0; s < 3; s++) {
+      rc |= sphdem_dem_compute(A, 4, tag, x, v, om, r, m, fl, 1e-5, 1, f, t, NULL);
+      /* the single copy: grains X, Y and copy 2 only */
+      const int64_t tag1[3] = {5, 6, 1};
+      double x1[9], v1[9];
+      const int32_t fl1[3] = {0, 0, SPHDEM_DEM_GHOST};
+      for (int k = 0; k < 6; k++) x1[k] = x[k], v1[k] = v[k];
+      for (int k = 0; k < 3; k++) x1[6 + k] = x[9 + k], v1[6 + k] = v[9 + k];
+      rc |= sphdem_dem_compute(B, 3, tag1, x1, v1, om, r, m, fl1, 1e-5, 1, f1, t1, NULL);
+    }
+    printf("  ghost copies of one tag, %s: force on Y %.6g %.6g %.6g (one copy: %.6g %.6g %.6g)\n",
+           algo ? "pair-parallel" : "particle-parallel", f[3], f[4], f[5], f1[3], f1[4], f1[5]);
+    TEST_ASSERT(rc == 0, "ghost copies: %s", sphdem_dem_last_error(A));
+    TEST_ASSERT(f[4] < 0.0, "ghost copies: no contact force on Y (%g)", f[4]);
+    int same = 1;
+    for (int k = 0; k < 6; k++) same &= f[k] == f1[k] && t[k] == t1[k];
+    TEST_ASSERT(same, "ghost copies: the forces on X, Y differ from those of one copy");
+    sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+  }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -865,5 +906,6 @@ int main(void) {
   test_cohesion();
   test_granular();
   test_accumulate();
+  test_ghost_copies();
   return test_summary("unit_dem");
 }
