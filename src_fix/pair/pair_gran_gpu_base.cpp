@@ -379,8 +379,6 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */
   if (ghosts_ && neighbor->ago == 0) hand_over_history();
   if (neighbor->ago == 0) list_built();
-  fbuf_.resize(3 * (size_t)n);
-  tbuf_.resize(3 * (size_t)n);
   /* the atoms are reordered, inserted or exchanged only on the engine's list builds (and at set-up) */
   if (neighbor->ago == 0 || update->setupflag || tags_.size() != (size_t)n) {
     tags_.resize(n);
@@ -405,14 +403,21 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   /* the atoms go to the grain store in place (x, v, omega contiguous n x 3 blocks, radius and rmass) */
   std::string gerr;
   sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, gerr);
-  /* one rank: the core adds force and torque to the engine's arrays (contiguous n x 3 blocks) itself; many
-   * ranks: into fbuf_, tbuf_, then the periodic images' shares go to their atoms below */
+  /* the core adds force and torque to the engine's arrays (contiguous blocks of n x 3, ghost rows included) itself.
+   * Many ranks: the ghost rows are kept aside and zeroed first; after the call each periodic image's share goes to
+   * the atom itself, and the ghost rows get their values back (other ranks' atoms get their share there, so the
+   * engine's reverse communication must not carry it) */
   double **f = atom->f, **t = atom->torque;
-  const bool direct = !ghosts_ && nlocal > 0;
-  sphdem_dem_set_accumulate(dem_, direct ? 1 : 0);
+  const int ng = n - nlocal;
+  if (ng > 0) {
+    fbuf_.assign(f[nlocal], f[nlocal] + 3 * (size_t)ng);
+    tbuf_.assign(t[nlocal], t[nlocal] + 3 * (size_t)ng);
+    std::fill(f[nlocal], f[nlocal] + 3 * (size_t)ng, 0.0);
+    std::fill(t[nlocal], t[nlocal] + 3 * (size_t)ng, 0.0);
+  }
+  sphdem_dem_set_accumulate(dem_, 1);
   int rc = g ? sphdem_dem_compute_store(dem_, g, tags_.data(), fl, update->dt, update->setupflag ? 0 : 1,
-                                        direct ? f[0] : fbuf_.data(), direct ? t[0] : tbuf_.data(),
-                                        vflag_global ? vir : nullptr)
+                                        n > 0 ? f[0] : nullptr, n > 0 ? t[0] : nullptr, vflag_global ? vir : nullptr)
              : SPHDEM_ERR_ARG;
   if (ghosts_) {
     const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "");
@@ -421,22 +426,18 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     fail(std::string("DEM core: ") + (g ? sphdem_dem_last_error(dem_) : gerr));
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  if (!direct && nlocal > 0) { /* the engines' n x 3 arrays are contiguous blocks */
-    double *f0 = f[0], *t0 = t[0];
-    const double *fb = fbuf_.data(), *tb = tbuf_.data();
-    for (int k = 0; k < 3 * nlocal; k++) {
-      f0[k] += fb[k];
-      t0[k] += tb[k];
-    }
-  }
-  /* a periodic image's share goes to the atom itself; other ranks' atoms get theirs there */
+  /* a periodic image's share goes to the atom itself */
   for (int i = nlocal; i < n; i++) {
     const int o = image_of_[i - nlocal];
     if (o < 0) continue;
     for (int d = 0; d < 3; d++) {
-      f[o][d] += fbuf_[3 * i + d];
-      t[o][d] += tbuf_[3 * i + d];
+      f[o][d] += f[i][d];
+      t[o][d] += t[i][d];
     }
+  }
+  if (ng > 0) {
+    std::copy(fbuf_.begin(), fbuf_.end(), f[nlocal]);
+    std::copy(tbuf_.begin(), tbuf_.end(), t[nlocal]);
   }
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
