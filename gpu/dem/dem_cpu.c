@@ -260,9 +260,6 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
   return nt;
 }
 
-/* The one-thread pass with the contact law of one model inlined; a local copy of the constants and array
- * pointers, which the stores of forces and history cannot alias (kept in registers). act: the pairs to visit
- * (NULL: all), see dem_pairs_serial_model. */
 /* Each variant of the one-thread pass is a function of its own (one copy of the contact law each): inlined into
  * one function, the many copies make it too large for good register allocation (values kept on the stack). A local
  * copy of the constants and array pointers, which the stores of forces and history cannot alias. */
