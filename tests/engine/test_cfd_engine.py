@@ -611,6 +611,11 @@ def bed_scene(engine, procs="", steps=BED_STEPS, perturb="", extra="", run=None,
 PROCS = {"x": "processors 2 1 1", "z": "processors 1 1 2", "xz": "processors 2 1 2", "": ""}
 CUT = {"x": "cut along x (vertical planes)", "z": "cut along z (a horizontal plane)", "xz": "cut along x and z",
        "": "one rank"}
+# an uneven cut (LAMMPS `balance`; LIGGGHTS 3.8 has no balance command): z at 0.292 of the box, -1 mm + 0.292 *
+# 35.76 mm = 9.442 mm, which leaves 3 of the 10 gas layers (centres 1.6, 4.8, 8.0 mm) to the lower rank and 7 to the
+# upper, 42 um above a layer of grains (at 9.4 mm; so that grains cross it)
+BALANCE_Z = "balance 1.0 z 0.292"
+BALANCE_Z_CUT = -0.001 + 0.292 * 0.03576
 
 
 def compare_thermo(a, b, names, skip=()):
@@ -774,21 +779,36 @@ def test_mpi_bed(exe, engine, mpirun):
         print("FAIL: the bed did not move or felt no gas")
         return 1
     fails = 0
-    for np_, cut in [(2, "x"), (2, "z"), (4, "xz")]:
-        key = "np%d%s" % (np_, cut)
-        out = mpi_run(mpirun, np_, exe, wd + "/" + key, bed_scene(engine, PROCS[cut]))
+    cases = [(2, "x", False), (2, "z", False), (4, "xz", False)] + ([(2, "z", True)] if engine == "lammps" else [])
+    for np_, cut, uneven in cases:
+        key = "np%d%s%s" % (np_, cut, "_balance" if uneven else "")
+        out = mpi_run(mpirun, np_, exe, wd + "/" + key,
+                      bed_scene(engine, PROCS[cut], perturb=BALANCE_Z if uneven else ""))
+        if uneven and "z cuts: 0.0000000 0.29200000 1.0000000" not in out:
+            print("FAIL %s: the balance command did not cut z at 0.292" % key)
+            fails += 1
+            continue
         # grains on either side of each cut at the end, and grains that crossed a cut (they changed rank and took
         # their held gas forces with them)
         d0 = read_dump(os.path.join(wd, key, "final.0"))
         d1 = read_dump(os.path.join(wd, key, "final.%d" % BED_STEPS))
-        axes = [(0 if c == "x" else 2, BED_MID[c]) for c in cut]
+        axes = [(0 if c == "x" else 2, BALANCE_Z_CUT if uneven else BED_MID[c]) for c in cut]
         side = lambda r: tuple(r[a] > m for a, m in axes)  # noqa: E731
         moved = sum(1 for t in d1 if side(d1[t]) != side(d0[t]))
         per = {}
         for r in d1.values():
             per[side(r)] = per.get(side(r), 0) + 1
-        print("%s (%s) vs 1 rank: grains per subdomain %s, %d grains crossed a cut" %
-              (key, CUT[cut], sorted(per.values()), moved))
+        cells = local_cells(out)
+        if uneven:  # the gas layers split 3 / 7 (a cell by its centre): the upper rank stores its 7 and 2 halo layers
+            want = (4 * 2 * (7 + 2), 4 * 2 * 10)
+            if cells != want:
+                print("FAIL %s: the largest rank stores %s cells of the grid, expected %s (7 layers of 4 x 2 and 2 "
+                      "halo layers, of 10)" % (key, cells, want))
+                fails += 1
+                continue
+        print("%s (%s%s) vs 1 rank: grains per subdomain %s, %d grains crossed a cut%s" %
+              (key, CUT[cut], ", uneven: `%s`" % BALANCE_Z if uneven else "", sorted(per.values()), moved,
+               ", the largest rank stores %d of the %d gas cells" % cells if uneven else ""))
         w = compare_vec(a, bed_result(wd + "/" + key), BED_COLS)
         wt = compare_thermo(t1, thermo_rows(out), BED_THERMO, skip=(1,))
         # every subdomain holds grains, and grains cross the cuts
