@@ -435,6 +435,13 @@ int sphdem_dem_set_accumulate(sphdem_dem m, int on) {
   return SPHDEM_OK;
 }
 
+int sphdem_dem_set_ghost_once(sphdem_dem m, int on) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if ((on != 0) != m->D.ghost_once) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
+  m->D.ghost_once = on != 0;
+  return SPHDEM_OK;
+}
+
 int sphdem_dem_request_build(sphdem_dem m) {
   if (!m) return SPHDEM_ERR_ARG;
   m->need_build = 1;

@@ -153,19 +153,20 @@ SPHDEM_HD uint32_t dem_wall_code(int w) { return 0xffffffffu - (uint32_t)w; }
  * s + 1 on. */
 /* Grains of other MPI ranks (SPHDEM_DEM_GHOST) and periodic images of this rank's grains
  * (SPHDEM_DEM_IMAGE) take part only in pairs with a grain of this rank; a pair with an image is kept once,
- * as the image of the grain of higher tag (its twin, the image of the other grain, is dropped). */
+ * as the image of the grain of higher tag (its twin, the image of the other grain, is dropped). A pair with
+ * another rank's grain is kept on both ranks, or (ghost_once) on the rank of its grain of lower tag only. */
 SPHDEM_HD int dem_pair_kept(const dem_dev *D, int32_t i, int32_t j) {
   const int32_t away = SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE, fi = D->flags[i] & away, fj = D->flags[j] & away;
   if (!fi && !fj) return 1;
   if (fi && fj) return 0;
   if (fi & SPHDEM_DEM_IMAGE) return D->tag[j] < D->tag[i];
   if (fj & SPHDEM_DEM_IMAGE) return D->tag[i] < D->tag[j];
-  return 1;
+  return !D->ghost_once || (fi ? D->tag[j] < D->tag[i] : D->tag[i] < D->tag[j]);
 }
 
 /* A pair evaluated on two ranks (one grain a SPHDEM_DEM_GHOST) counts half in the virial of each. */
 SPHDEM_HD void dem_pair_virial_shared(const dem_dev *D, int32_t a, int32_t b, double *vir) {
-  if ((D->flags[a] | D->flags[b]) & SPHDEM_DEM_GHOST)
+  if (!D->ghost_once && ((D->flags[a] | D->flags[b]) & SPHDEM_DEM_GHOST))
     for (int d = 0; d < 6; d++) vir[d] *= 0.5;
 }
 

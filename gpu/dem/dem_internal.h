@@ -60,6 +60,9 @@ typedef struct {
   double *x, *v, *om, *rad, *mass, *f, *tq;
   int32_t *flags;
   int any_frozen;     /* some grain has SPHDEM_DEM_FROZEN (else the law reads no flags for it) */
+  int ghost_once;     /* a pair of this rank's grain and another rank's (SPHDEM_DEM_GHOST) is kept only when this
+                         rank's grain has the lower tag, and its force on the other grain is the engine's to send
+                         back (sphdem_dem_set_ghost_once) */
   int64_t *tag;
   /* cell grid: sorted slot -> grain, cell of each sorted slot, cell ranges */
   int32_t *sidx, *cell, *cstart, *cend;

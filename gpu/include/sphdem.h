@@ -599,6 +599,11 @@ int sphdem_dem_request_build(sphdem_dem dem);
 /* on != 0: the next sphdem_dem_compute calls add the contact forces and torques to what f and torque hold
  * (an engine's force arrays after its force clear) instead of overwriting them; 0 (the default): overwrite. */
 int sphdem_dem_set_accumulate(sphdem_dem dem, int on);
+/* Grains of other ranks (SPHDEM_DEM_GHOST): on = 0 (the default), a pair of this rank's grain and another rank's is
+ * kept and evaluated on both ranks, each taking the force on its own grain (the other grain's share is written to
+ * its row and is for the caller to drop); on != 0, it is kept only on the rank of its grain of lower tag, whose
+ * call adds the other grain's share to that grain's row for the engine to send to its rank (newton on). */
+int sphdem_dem_set_ghost_once(sphdem_dem dem, int on);
 /* Contact forces for n grains given in the caller's order. tag[i] in [1, 2^31) unique; x, v, omega 3n;
  * radius, mass n; flags n or NULL. dt: the time step that advances the tangential history (eq 13);
  * update_history 0 evaluates forces without changing the history (engine setup). f and torque (3n)

@@ -22,7 +22,7 @@ using namespace LAMMPS_NS;
 
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
-      freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), hand_rolling_(false), nall_mapped_(-1),
+      freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), ghost_once_ok_(true), hand_rolling_(false), nall_mapped_(-1),
       owned_prev_set_(false), gathered_(false) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
@@ -404,11 +404,18 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   std::string gerr;
   sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, gerr);
   /* the core adds force and torque to the engine's arrays (contiguous blocks of n x 3, ghost rows included) itself.
-   * Many ranks: the ghost rows are kept aside and zeroed first; after the call each periodic image's share goes to
-   * the atom itself, and the ghost rows get their values back (other ranks' atoms get their share there, so the
-   * engine's reverse communication must not carry it) */
+   * Split pairs evaluated once (LAMMPS, newton on): the ghost rows (periodic images included) get the other atom's
+   * share, which the engine's reverse communication adds to the atom. Else the ghost rows are kept aside and
+   * zeroed first; after the call each periodic image's share goes to the atom itself, and the ghost rows get
+   * their values back (other ranks' atoms get their share there, so the reverse communication must not carry it) */
+#ifdef SPHDEM_ENGINE_LIGGGHTS
+  const bool once = false;
+#else
+  const bool once = ghosts_ && force->newton_pair && ghost_once_ok_;
+#endif
+  sphdem_dem_set_ghost_once(dem_, once ? 1 : 0);
   double **f = atom->f, **t = atom->torque;
-  const int ng = n - nlocal;
+  const int ng = once ? 0 : n - nlocal;
   if (ng > 0) {
     fbuf_.assign(f[nlocal], f[nlocal] + 3 * (size_t)ng);
     tbuf_.assign(t[nlocal], t[nlocal] + 3 * (size_t)ng);
@@ -427,7 +434,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   /* a periodic image's share goes to the atom itself */
-  for (int i = nlocal; i < n; i++) {
+  for (int i = nlocal; i < n && !once; i++) {
     const int o = image_of_[i - nlocal];
     if (o < 0) continue;
     for (int d = 0; d < 3; d++) {

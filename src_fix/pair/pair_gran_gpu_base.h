@@ -44,10 +44,14 @@ class PairGranGPUBase : public Pair {
                                                       sph/couple, fix cfd/grid when their grains are there) */
   sphdem_restart::PendingHistory pending_history_; /* from read_restart, handed to the core in init_style */
   /* Many MPI ranks: the core gets the owned atoms and then the ghost atoms (flags SPHDEM_DEM_GHOST or
-   * SPHDEM_DEM_IMAGE); every rank evaluates each pair that has one of its own atoms and adds the force to its
-   * own atoms only, so a pair split between two ranks is evaluated on both (same atom order, the same
-   * operands unless one atom is seen through a periodic shift) and both keep its history. */
+   * SPHDEM_DEM_IMAGE). LAMMPS with newton on: a pair split between two ranks is evaluated once, on the rank of
+   * its atom of lower tag, which keeps its history and writes the other atom's share to the ghost row for the
+   * engine's reverse communication (as the stock styles evaluate it once). Else every rank evaluates each pair
+   * that has one of its own atoms and adds the force to its own atoms only, so a pair split between two ranks
+   * is evaluated on both (same atom order, the same operands unless one atom is seen through a periodic shift)
+   * and both keep its history. */
   bool ghosts_;
+  bool ghost_once_ok_;                /* false: evaluate split pairs on both ranks even with newton on */
   bool hand_rolling_;                 /* the core keeps rolling torques per contact: they go with the hand-over */
   std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, or -1 */
   int nall_mapped_;                   /* atoms when image_of_ was made */

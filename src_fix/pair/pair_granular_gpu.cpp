@@ -264,6 +264,7 @@ void PairGranularGPU::init_style() {
          "two histories for a pair across the boundary, one per atom, whose signs its history transfer can make "
          "differ); use newton on (the default)");
   track_order_ = roll_twist;
+  ghost_once_ok_ = !roll_twist; /* (the order of each pair's atoms in every rank's list is followed) */
   bool rolling = false; /* rolling sds keeps a rolling displacement per contact: it goes with the hand-over */
   for (int i = 1; i <= nt; i++)
     for (int j = i; j <= nt; j++)

@@ -892,6 +892,45 @@ static void test_ghost_copies(void) {
   }
 }
 
+/* sphdem_dem_set_ghost_once: a pair of this rank's grain and another rank's is evaluated on the rank of its grain of
+ * lower tag only, which writes the other grain's share (-F) to that grain's row; without it, on both ranks. */
+static void test_ghost_once(void) {
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+  p.skin = 0.05;
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = -1.0; p.boxhi[d] = 2.0; }
+  const double x[6] = {0, 0, 0, 0.19, 0.01, 0}, v[6] = {0.1, 0, 0, 0, 0, 0}, om[6] = {0};
+  const double r[2] = {0.1, 0.1}, m[2] = {1, 1};
+  const int32_t fl[2] = {0, SPHDEM_DEM_GHOST}; /* grain 0 this rank's, grain 1 another rank's */
+  double fref[6] = {0}, tref[6] = {0};
+  int ok = 1, rc = 0;
+  for (int once = 0; once < 2; once++)
+    for (int low = 1; low >= 0; low--) { /* low: this rank's grain has the lower tag (1 first: the reference) */
+      const int64_t tag[2] = {low ? 1 : 2, low ? 2 : 1};
+      double f[6], t[6];
+      sphdem_dem A = make(&p);
+      rc |= sphdem_dem_set_ghost_once(A, once);
+      rc |= sphdem_dem_compute(A, 2, tag, x, v, om, r, m, fl, 1e-5, 1, f, t, NULL);
+      if (!once && low)
+        for (int k = 0; k < 6; k++) fref[k] = f[k], tref[k] = t[k];
+      const int kept = !once || low;
+      for (int k = 0; k < 3; k++) {
+        ok &= f[k] == (kept ? fref[k] : 0.0) && t[k] == (kept ? tref[k] : 0.0);
+        if (once) ok &= f[3 + k] == (kept ? -fref[k] : 0.0); /* the other grain's share in its row */
+      }
+      sphdem_dem_stats st;
+      sphdem_dem_stats_get(A, &st);
+      printf("  ghost_once %d, this rank's grain has the %s tag: force on it %.6g %.6g %.6g, on the other's row "
+             "%.6g %.6g %.6g, %lld contacts\n", once, low ? "lower" : "higher", f[0], f[1], f[2], f[3], f[4], f[5],
+             (long long)st.ncontacts);
+      sphdem_dem_destroy(&A);
+    }
+  TEST_ASSERT(rc == 0 && fref[0] < 0.0, "ghost_once: no contact force (rc %d, %g)", rc, fref[0]);
+  TEST_ASSERT(ok, "ghost_once: a pair with another rank's grain is not kept by the rule (see the lines above)");
+  TEST_ASSERT(sphdem_dem_set_ghost_once(NULL, 1) == SPHDEM_ERR_ARG, "set_ghost_once(NULL)");
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -907,5 +946,6 @@ int main(void) {
   test_granular();
   test_accumulate();
   test_ghost_copies();
+  test_ghost_once();
   return test_summary("unit_dem");
 }
