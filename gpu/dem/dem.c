@@ -219,6 +219,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hr0);
   free(m->cpu_gap);
   free(m->cpu_act);
+  free(m->cpu_head);
   free(m->acc_f);
   free(m->cpu_bt);
   free(m->htag);

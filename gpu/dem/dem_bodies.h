@@ -1216,7 +1216,8 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
   int64_t nt = 0;
   double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
   for (int64_t k = 0; k < m;) {
-    const int32_t g = uniform ? pa[tp[k]] : pa[dem_run_start(D, tp[k])]; /* (copies: the run's first pair's) */
+    /* (copies sharing a tag: the copy of the run's first pair) */
+    const int32_t g = uniform ? pa[tp[k]] : D->head ? D->head[pa[tp[k]]] : pa[dem_run_start(D, tp[k])];
     const int64_t end = D->fend[g], k0 = k;
     const double rg = rad[g];
     double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};

@@ -226,6 +226,22 @@ static int c_csr(struct sphdem_dem_s *m) {
     const int32_t a = D->pa[p];
     m->cpu_uniform = D->fstart[a] <= p && p < D->fend[a];
   }
+  /* copies sharing a tag: each copy's run head, for the one-thread pass */
+  D->head = NULL;
+  if (!m->cpu_uniform) {
+    if (n > m->cap_head) {
+      const int64_t cap = n + n / 4 + 64;
+      int32_t *h = (int32_t *)realloc(m->cpu_head, sizeof(int32_t) * (size_t)cap);
+      if (!h) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the run heads (%lld grains)", (long long)n);
+      m->cpu_head = h;
+      m->cap_head = cap;
+    }
+    for (int64_t p = 0, s = 0; p < np; p++) {
+      if ((D->key[p] >> 32) != (D->key[s] >> 32)) s = p;
+      m->cpu_head[D->pa[p]] = D->pa[s];
+    }
+    D->head = m->cpu_head;
+  }
   /* the reverse half's lists: only when the pass that needs them runs (else when it first does) */
   m->cpu_rev_valid = 0;
   if (!sphdem_dem_cpu_serial_pass(m)) DEM_TRY(c_reverse(m));

@@ -60,6 +60,8 @@ typedef struct {
   double *x, *v, *om, *rad, *mass, *f, *tq;
   int32_t *flags;
   int any_frozen;     /* some grain has SPHDEM_DEM_FROZEN (else the law reads no flags for it) */
+  int32_t *head;      /* CPU one-thread pass, copies of a grain sharing a tag: per copy, the copy whose run of pairs
+                         holds its pairs (the first pair's a); NULL when each run has one grain */
   int ghost_once;     /* a pair of this rank's grain and another rank's (SPHDEM_DEM_GHOST) is kept only when this
                          rank's grain has the lower tag, and its force on the other grain is the engine's to send
                          back (sphdem_dem_set_ghost_once) */
@@ -149,6 +151,8 @@ struct sphdem_dem_s {
   double act_thr;              /* cpu_act holds every pair of gap <= act_thr */
   double act_seen;             /* the largest D->gap_thr since the pass over the whole list */
   int act_all;                 /* visit every pair until the next pass over the whole list */
+  int32_t *cpu_head;           /* D.head of the CPU backend */
+  int64_t cap_head;
   int cpu_rev_valid;           /* rlist, rstart, rend hold the current list's reverse ranges (c_reverse) */
   int hist_in_place;           /* the last forces wrote the new history over the old (hin): no swap */
   int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
