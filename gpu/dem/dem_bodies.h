@@ -1180,7 +1180,7 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
  * that of a separated pair already. The touching pairs are the same and are added in the same order, so the
  * forces are the same bits with and without act.
  * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's radius is read
- * once per run. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
+ * once per run; else D->head gives each copy its run's head. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int32_t *act,
                                              const int64_t nact, int32_t *tp, double *tdel, const int model,
                                              const int uniform, const int virial) {
@@ -1216,8 +1216,7 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
   int64_t nt = 0;
   double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
   for (int64_t k = 0; k < m;) {
-    /* (copies sharing a tag: the copy of the run's first pair) */
-    const int32_t g = uniform ? pa[tp[k]] : D->head ? D->head[pa[tp[k]]] : pa[dem_run_start(D, tp[k])];
+    const int32_t g = uniform ? pa[tp[k]] : D->head[pa[tp[k]]]; /* (copies sharing a tag: the run's head copy) */
     const int64_t end = D->fend[g], k0 = k;
     const double rg = rad[g];
     double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};

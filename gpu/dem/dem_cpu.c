@@ -172,6 +172,18 @@ static int c_fill(struct sphdem_dem_s *m) {
   return SPHDEM_OK;
 }
 
+/* *p has room for need elements of elem bytes, *cap its capacity (a growth keeps no contents: every caller fills
+ * the array afresh). Returns 0, or 1 when the room cannot be had (*p and *cap as they were). */
+static int c_room(void **p, size_t elem, int64_t need, int64_t *cap) {
+  if (need <= *cap && *p) return 0;
+  const int64_t c = need + need / 4 + 64;
+  void *q = realloc(*p, elem * (size_t)c);
+  if (!q) return 1;
+  *p = q;
+  *cap = c;
+  return 0;
+}
+
 /* The pairs in the order of their grain b, for the reverse half of the several-thread pass: rlist, rkey and the
  * ranges rstart, rend (ties in pair order: a stable counting sort; the walls, pb < 0, first, which the reverse
  * ranges skip). */
@@ -229,13 +241,8 @@ static int c_csr(struct sphdem_dem_s *m) {
   /* copies sharing a tag: each copy's run head, for the one-thread pass */
   D->head = NULL;
   if (!m->cpu_uniform) {
-    if (n > m->cap_head) {
-      const int64_t cap = n + n / 4 + 64;
-      int32_t *h = (int32_t *)realloc(m->cpu_head, sizeof(int32_t) * (size_t)cap);
-      if (!h) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the run heads (%lld grains)", (long long)n);
-      m->cpu_head = h;
-      m->cap_head = cap;
-    }
+    if (c_room((void **)&m->cpu_head, sizeof(int32_t), n, &m->cap_head))
+      return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the run heads (%lld grains)", (long long)n);
     for (int64_t p = 0, s = 0; p < np; p++) {
       if ((D->key[p] >> 32) != (D->key[s] >> 32)) s = p;
       m->cpu_head[D->pa[p]] = D->pa[s];
@@ -247,13 +254,8 @@ static int c_csr(struct sphdem_dem_s *m) {
   if (!sphdem_dem_cpu_serial_pass(m)) DEM_TRY(c_reverse(m));
   /* the gap of each pair now, for the forces to pass over the pairs that cannot touch yet */
   D->gap0 = NULL;
-  if (np > m->cap_gap) {
-    const int64_t cap = np + np / 4 + 64;
-    double *g = (double *)realloc(m->cpu_gap, sizeof(double) * (size_t)cap);
-    if (!g) return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair gaps (%lld pairs)", (long long)np);
-    m->cpu_gap = g;
-    m->cap_gap = cap;
-  }
+  if (c_room((void **)&m->cpu_gap, sizeof(double), np, &m->cap_gap))
+    return rt_fail(&m->rt, SPHDEM_ERR_ALLOC, "cannot allocate the pair gaps (%lld pairs)", (long long)np);
   for (int64_t p = 0; p < np; p++) m->cpu_gap[p] = dem_pair_gap(D, p);
   D->gap0 = m->cpu_gap;
   return SPHDEM_OK;
@@ -331,15 +333,9 @@ static const int32_t *c_active(struct sphdem_dem_s *m, int64_t *nact) {
     *nact = m->act_n;
     return m->cpu_act;
   }
-  if (np > m->cap_act) {
-    const int64_t cap = np + np / 4 + 64;
-    int32_t *a = (int32_t *)realloc(m->cpu_act, sizeof(int32_t) * (size_t)cap);
-    if (!a) { /* no room: visit every pair (the same forces) */
-      m->act_all = 1;
-      return NULL;
-    }
-    m->cpu_act = a;
-    m->cap_act = cap;
+  if (c_room((void **)&m->cpu_act, sizeof(int32_t), np, &m->cap_act)) { /* no room: visit every pair (the same forces) */
+    m->act_all = 1;
+    return NULL;
   }
   const double thr = fmax(D->gap_thr, m->act_seen);
   const double bound = thr + fmax(thr, fmax(0.0625 * D->P.skin, 1e-6 * m->dmax_built));
