@@ -524,11 +524,11 @@ static int setup_grid(struct sphdem_dem_s *m, int64_t n, const double *x, double
                              hi[2] - lo[2], SPHDEM_DEM_MAX_CELLS);
     cut *= 1.26;
   }
-  if (D->ncells > m->cap_cells) {
-    int rc = grow(m, (void **)&D->cstart, sizeof(int32_t), D->ncells, D->ncells);
-    rc |= grow(m, (void **)&D->cend, sizeof(int32_t), D->ncells, D->ncells);
+  if (D->ncells + 1 > m->cap_cells) { /* the cells, and the one of the SPHDEM_DEM_SKIP grains */
+    int rc = grow(m, (void **)&D->cstart, sizeof(int32_t), D->ncells + 1, D->ncells + 1);
+    rc |= grow(m, (void **)&D->cend, sizeof(int32_t), D->ncells + 1, D->ncells + 1);
     if (rc) return SPHDEM_ERR_ALLOC;
-    m->cap_cells = D->ncells;
+    m->cap_cells = D->ncells + 1;
   }
   return SPHDEM_OK;
 }
@@ -676,8 +676,12 @@ static int grain_error(struct sphdem_dem_s *m, int n, const int64_t *tag, const 
   for (int i = 0; i < n; i++) {
     if (tag[i] < 1 || tag[i] > SPHDEM_DEM_MAX_TAG)
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "tag[%d]: %lld outside 1..2^31-1", i, (long long)tag[i]);
-    if (!(radius[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d]: must be > 0 (got %g)", i, radius[i]);
-    if (!(mass[i] > 0.0)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d]: must be > 0 (got %g)", i, mass[i]);
+    if (!(radius[i] > 0.0))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "radius[%d] (grain %lld): must be > 0 (got %g)", i, (long long)tag[i],
+                             radius[i]);
+    if (!(mass[i] > 0.0))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "mass[%d] (grain %lld): must be > 0 (got %g)", i, (long long)tag[i],
+                             mass[i]);
     if (!isfinite(radius[i]) || !isfinite(mass[i]))
       return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "grain %lld: radius %g or mass %g is not finite", (long long)tag[i],
                              radius[i], mass[i]);
@@ -729,7 +733,7 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   if (flags)
     for (int i = 0; i < n; i++) {
       any_frozen |= (flags[i] & SPHDEM_DEM_FROZEN) != 0;
-      has_ghosts |= (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE)) != 0;
+      has_ghosts |= (flags[i] & (SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE | SPHDEM_DEM_SKIP)) != 0;
       bad |= (flags[i] < 0) | ((flags[i] >> SPHDEM_DEM_MATERIAL_SHIFT) >= nmat);
     }
   if (bad) return grain_error(m, n, tag, x, radius, mass, flags, nmat);

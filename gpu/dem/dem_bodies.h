@@ -59,9 +59,15 @@ SPHDEM_HD int32_t dem_cell_of(const dem_dev *D, const double *x) {
   return (int32_t)(((int64_t)cz * D->nc[1] + cy) * D->nc[0] + cx);
 }
 
+/* The cell of grain i: a SPHDEM_DEM_SKIP grain goes to the extra cell ncells, after every other, which no
+ * grain's neighbourhood holds. */
+SPHDEM_HD int32_t dem_grain_cell(const dem_dev *D, int64_t i) {
+  return (D->flags[i] & SPHDEM_DEM_SKIP) ? (int32_t)D->ncells : dem_cell_of(D, D->x + 3 * i);
+}
+
 /* Cell of grain i, and the unsorted slot order (the sort by cell permutes sidx). */
 SPHDEM_HD void dem_cell_body(const dem_dev *D, int64_t i) {
-  D->cell[i] = dem_cell_of(D, D->x + 3 * i);
+  D->cell[i] = dem_grain_cell(D, i);
   D->sidx[i] = (int32_t)i;
 }
 
@@ -181,6 +187,7 @@ SPHDEM_HD int64_t dem_scan_slot(const dem_dev *D, int64_t s, int write) {
   int64_t k = 0, o = write ? D->off[s] : 0;
   int32_t cells[27];
   const int32_t cs = D->cell[s];
+  if (cs == D->ncells) return 0; /* SPHDEM_DEM_SKIP */
   int nn = dem_neighbor_cells(D, cs, cells);
   for (int q = 0; q < nn; q++) {
     int32_t c = cells[q];

@@ -16,20 +16,21 @@ SPHDEM_DEM_PASSES(SPHDEM_DEM_PASS_CPU_LOOP)
 static int c_cells(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
   int64_t n = D->n;
-  memset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells);
-  memset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells);
+  const int64_t nc = D->ncells + 1; /* the cells, and the one of the SPHDEM_DEM_SKIP grains */
+  memset(D->cstart, 0, sizeof(int32_t) * (size_t)nc);
+  memset(D->cend, 0, sizeof(int32_t) * (size_t)nc);
   DEM_TRY(m->ops->cell(m)); /* (the sorted order below overwrites sidx) */
   /* cend as counts, then exclusive offsets in cstart */
   for (int64_t i = 0; i < n; i++) D->cend[D->cell[i]]++;
   int32_t acc = 0;
-  for (int64_t c = 0; c < D->ncells; c++) {
+  for (int64_t c = 0; c < nc; c++) {
     D->cstart[c] = acc;
     acc += D->cend[c];
     D->cend[c] = D->cstart[c];
   }
   for (int64_t i = 0; i < n; i++) D->sidx[D->cend[D->cell[i]]++] = (int32_t)i;
-  for (int64_t s = 0; s < n; s++) D->cell[s] = dem_cell_of(D, D->x + 3 * (int64_t)D->sidx[s]);
-  for (int64_t c = 0; c < D->ncells; c++)
+  for (int64_t s = 0; s < n; s++) D->cell[s] = dem_grain_cell(D, D->sidx[s]);
+  for (int64_t c = 0; c < nc; c++)
     if (D->cstart[c] == D->cend[c]) D->cstart[c] = D->cend[c] = 0;
   return SPHDEM_OK;
 }

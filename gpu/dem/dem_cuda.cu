@@ -30,8 +30,9 @@ __global__ void k_dem_touching(dem_dev D, unsigned long long *count) {
 static int g_cells(struct sphdem_dem_s *m) {
   dem_dev *D = &m->D;
   int64_t n = D->n;
-  RT_CK(&m->rt, cudaMemset(D->cstart, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
-  RT_CK(&m->rt, cudaMemset(D->cend, 0, sizeof(int32_t) * (size_t)D->ncells), "memset");
+  /* the cells, and the one of the SPHDEM_DEM_SKIP grains */
+  RT_CK(&m->rt, cudaMemset(D->cstart, 0, sizeof(int32_t) * (size_t)(D->ncells + 1)), "memset");
+  RT_CK(&m->rt, cudaMemset(D->cend, 0, sizeof(int32_t) * (size_t)(D->ncells + 1)), "memset");
   if (n == 0) return SPHDEM_OK;
   TRY_G(m->ops->cell(m));
   thrust::stable_sort_by_key(thrust::device, thrust::device_ptr<int32_t>(D->cell), thrust::device_ptr<int32_t>(D->cell + n),

@@ -549,6 +549,9 @@ typedef struct sphdem_dem_s *sphdem_dem;
  * pair on the rank that owns its grain of lower tag, so both sum over the ranks. */
 #define SPHDEM_DEM_GHOST 2
 #define SPHDEM_DEM_IMAGE 4
+/* Many MPI ranks: a copy that takes no part in any pair (not binned, no force), e.g. a periodic image along an
+ * axis the ranks do not cut, whose pairs the core finds itself by the minimum image (params periodic[d] = 1). */
+#define SPHDEM_DEM_SKIP 8
 /* flags >> SPHDEM_DEM_MATERIAL_SHIFT: the grain's material (0-based) in the table of
  * sphdem_dem_set_materials; 0 without a table */
 #define SPHDEM_DEM_MATERIAL_SHIFT 8

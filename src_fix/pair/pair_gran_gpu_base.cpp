@@ -23,15 +23,18 @@ using namespace LAMMPS_NS;
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
       freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), ghost_once_ok_(true), hand_rolling_(false), nall_mapped_(-1),
-      owned_prev_set_(false), gathered_(false) {
+      owned_prev_set_(false), gathered_(false), check_req_(MPI_REQUEST_NULL), check_mine_(0), check_any_(0) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
-  for (int d = 0; d < 3; d++) box_lo_[d] = box_hi_[d] = 0.0, box_per_[d] = 0;
+  for (int d = 0; d < 3; d++) box_lo_[d] = box_hi_[d] = 0.0, box_per_[d] = 0, core_per_[d] = 0;
   sphdem_dem_params_default(&prm_);
 }
 
 PairGranGPUBase::~PairGranGPUBase() {
+  int done = 0;
+  MPI_Finalized(&done);
+  if (check_req_ != MPI_REQUEST_NULL && !done) MPI_Wait(&check_req_, MPI_STATUS_IGNORE); /* every rank started it */
   sphdem_dem_destroy(&dem_);
   if (allocated) {
     memory->destroy(setflag);
@@ -119,8 +122,19 @@ void PairGranGPUBase::set_box(sphdem_dem_params &p) {
     p.boxlo[d] = box_lo_[d] = domain->boxlo[d];
     p.boxhi[d] = box_hi_[d] = domain->boxhi[d];
     box_per_[d] = domain->periodicity[d];
-    p.periodic[d] = ghosts_ ? 0 : box_per_[d]; /* many ranks: the ghost atoms are the periodic images */
+    p.periodic[d] = ghosts_ ? core_per_[d] : box_per_[d]; /* many ranks: else the ghost atoms are the images */
   }
+}
+
+void PairGranGPUBase::update_core_periodic() {
+  bool changed = false;
+  for (int d = 0; d < 3; d++) {
+    const int per = domain->periodicity[d] && !sphdem_compat::comm_tiled(comm) && comm->procgrid[d] == 1 &&
+                    domain->prd[d] >= 2.0 * neighbor->cutneighmax && neighbor->cutneighmax > 0.0;
+    changed |= per != core_per_[d];
+    core_per_[d] = per;
+  }
+  if (changed) sync_params();
 }
 
 void PairGranGPUBase::push_params(const sphdem_dem_params &p) {
@@ -147,6 +161,29 @@ void PairGranGPUBase::create_core() {
     sphdem_compat::logmesg(lmp, "Pair " + style_ + ": sphdem DEM core on the " +
                                     (sphdem_dem_backend(dem_) == SPHDEM_DEVICE_GPU ? "GPU" : "CPU") + ", " +
                                     (algo_ == SPHDEM_DEM_PAIR_PARALLEL ? "pair" : "particle") + "-parallel\n");
+}
+
+void PairGranGPUBase::check_ranks(bool bad, const std::string &why, bool now) {
+  finish_check();
+  check_mine_ = bad ? 1 : 0;
+  check_msg_ = bad ? why : std::string();
+  if (now) {
+    const std::string err = sphdem_mpi::first_failure(world, bad, check_msg_);
+    check_mine_ = 0;
+    if (!err.empty()) fail("DEM core: " + err);
+  } else {
+    MPI_Iallreduce(&check_mine_, &check_any_, 1, MPI_INT, MPI_MAX, world, &check_req_);
+  }
+}
+
+void PairGranGPUBase::finish_check() {
+  if (check_req_ == MPI_REQUEST_NULL) return;
+  MPI_Wait(&check_req_, MPI_STATUS_IGNORE);
+  if (!check_any_) return;
+  check_any_ = 0;
+  const std::string err = sphdem_mpi::first_failure(world, check_mine_ != 0, check_msg_);
+  check_mine_ = 0;
+  if (!err.empty()) fail("DEM core: " + err);
 }
 
 void PairGranGPUBase::restore_history() {
@@ -218,7 +255,18 @@ void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
   own.reserve((size_t)nlocal * 2 + 1);
   for (int i = 0; i < nlocal; i++) own.emplace((int64_t)atom->tag[i], i);
   image_of_.assign((size_t)(nall - nlocal), -1);
+  const bool skip = core_per_[0] || core_per_[1] || core_per_[2];
+  double **x = atom->x;
   for (int g = nlocal; g < nall; g++) {
+    /* the own atoms lie in the box at a build (the engine's pbc), so a copy outside it along an axis of
+     * core_per_ is an image along that axis */
+    bool out = false;
+    for (int d = 0; d < 3 && skip; d++)
+      out |= core_per_[d] && (x[g][d] < domain->boxlo[d] || x[g][d] >= domain->boxhi[d]);
+    if (out) {
+      image_of_[g - nlocal] = SKIPPED;
+      continue;
+    }
     auto it = own.find((int64_t)atom->tag[g]);
     if (it != own.end()) image_of_[g - nlocal] = it->second;
   }
@@ -375,6 +423,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
   if (box_changed) sync_params();
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
+  if (ghosts_) finish_check(); /* the last step's failure check */
+  if (ghosts_ && neighbor->ago == 0) update_core_periodic();
   if (ghosts_ && (neighbor->ago == 0 || n != nall_mapped_)) map_ghosts(nlocal, n);
   /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */
   if (ghosts_ && neighbor->ago == 0) hand_over_history();
@@ -391,7 +441,10 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     for (int i = 0; i < n; i++)
       flags_[i] = ((atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0) |
                   (material_types ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0);
-    for (int i = nlocal; i < n; i++) flags_[i] |= image_of_[i - nlocal] >= 0 ? SPHDEM_DEM_IMAGE : SPHDEM_DEM_GHOST;
+    for (int i = nlocal; i < n; i++) {
+      const int o = image_of_[i - nlocal];
+      flags_[i] |= o >= 0 ? SPHDEM_DEM_IMAGE : o == SKIPPED ? SPHDEM_DEM_SKIP : SPHDEM_DEM_GHOST;
+    }
     fl = flags_.data();
   }
   double vir[6];
@@ -427,8 +480,10 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
                                         n > 0 ? f[0] : nullptr, n > 0 ? t[0] : nullptr, vflag_global ? vir : nullptr)
              : SPHDEM_ERR_ARG;
   if (ghosts_) {
-    const std::string err = sphdem_mpi::first_failure(world, rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "");
-    if (!err.empty()) fail("DEM core: " + err);
+    /* a failure stops every rank; on the steps between the set-up, restart files and the end of the run, the check
+     * of this step ends at the next evaluation, so that the ranks do not wait for each other here */
+    check_ranks(rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "",
+                update->setupflag || gather_step());
   } else if (rc) {
     fail(std::string("DEM core: ") + (g ? sphdem_dem_last_error(dem_) : gerr));
   }

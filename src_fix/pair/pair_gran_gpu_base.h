@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <mpi.h>
+
 #include "pair.h"
 #include "pair_gran_gpu_restart.h"
 #include "pair_gran_gpu_timers.h"
@@ -53,7 +55,13 @@ class PairGranGPUBase : public Pair {
   bool ghosts_;
   bool ghost_once_ok_;                /* false: evaluate split pairs on both ranks even with newton on */
   bool hand_rolling_;                 /* the core keeps rolling torques per contact: they go with the hand-over */
-  std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, or -1 */
+  std::vector<int> image_of_;         /* per ghost (index - nlocal): the own atom it is a periodic image of, -1, or
+                                         SKIPPED (an image along an axis of core_per_) */
+  static constexpr int SKIPPED = -2;
+  /* Many ranks: the periodic axes the ranks do not cut (processors grid 1 along them; a box at least twice the
+   * neighbour cutoff), which the core treats by the minimum image as on one rank; the engine's ghost images
+   * along them are given to the core as SPHDEM_DEM_SKIP. Cut axes: the ghost atoms are the periodic images. */
+  int core_per_[3];
   int nall_mapped_;                   /* atoms when image_of_ was made */
   std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build, sorted (history hand-over) */
   bool owned_prev_set_;
@@ -61,6 +69,11 @@ class PairGranGPUBase : public Pair {
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
   std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
   bool gathered_;
+  /* many ranks: the failure check of a step's evaluation, reduced without a wait (completed at the next
+   * evaluation, or at once on the set-up, restart and last steps) */
+  MPI_Request check_req_;
+  int check_mine_, check_any_;
+  std::string check_msg_;
 
   /* the engine's arguments -> sphdem_dem_params; ends with set_box and push_params */
   virtual void sync_params() = 0;
@@ -74,12 +87,19 @@ class PairGranGPUBase : public Pair {
   void allocate();
   /* keywords device, algo, timers: true when kw is one of them (a bad value ends the run) */
   bool common_keyword(const std::string &kw, const std::string &val);
-  /* many ranks: image_of_ from the atoms' tags (after each exchange of ghost atoms) */
+  /* many ranks: image_of_ from the atoms' tags and positions (after each exchange of ghost atoms) */
   void map_ghosts(int nlocal, int nall);
+  /* many ranks, at the engine's list builds: core_per_ from the processors grid, the box and the cutoff (the
+   * core's parameters follow when they change) */
+  void update_core_periodic();
   /* many ranks, collective, at the engine's list builds (after atoms changed rank): the history of the pairs of
    * atoms that left a rank (and their rolling torques, hand_rolling_) goes to the rank they joined, where the
    * core's next build carries it */
   void hand_over_history();
+  /* many ranks: this rank's evaluation failed (bad, why) or not; every rank stops with the message of the
+   * lowest failed rank, at once (now) or at the next call (the reduction started here) */
+  void check_ranks(bool bad, const std::string &why, bool now);
+  void finish_check(); /* the reduction of the last check_ranks: stops every rank when one failed */
   /* many ranks, collective: the history of every rank to rank 0 (each pair once), for write_restart */
   void gather_history();
   /* read_restart: rank 0 reads n items, every rank gets them; false (on every rank) when the file ends */

@@ -10,7 +10,8 @@ vs stock at another rank count, printed alongside).
 
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
-                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run
+                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a
+                       grain made invalid on one rank mid-run stops every rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
                        np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) and rolling_friction
@@ -256,10 +257,29 @@ def lammps(mpirun, lmp):
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
             restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton)
             restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
+    res.append(failure_on_one_rank(r))
     moved = migrated(r.out.get("gpu_np2_on", ""))
     ok = all(res) and moved
     print("%s LAMMPS /gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
     return ok
+
+
+def failure_on_one_rank(r):
+    """a grain of one rank made invalid mid-run (fix adapt shrinks grain 5, on rank 0, to diameter 0 at step 301): the
+    core refuses it on that rank, and every rank stops with its message (no hang, no other error first), a step
+    or so later: the ranks reduce a step's failure check without waiting for it"""
+    tag = "failure_np2"
+    wd = os.path.join(r.root, tag)
+    text = r.script("gran/hertz/history/gpu", 2, "on", "group one id 5\nvariable d equal \"(step < 300) * 2e-3\"\n"
+                    "fix shrink one adapt 1 atom diameter v_d\nrun 1000\n")
+    text = text.replace("../bed.data", os.path.abspath(os.path.join(r.root, "bed.data")))
+    text = text.replace("atom_style sphere\n", "atom_style sphere 1\n")  # radii that fix adapt may change
+    rc, out = E.run(r.cmd(2), wd, text, timeout=120)
+    err = [l for l in out.splitlines() if "ERROR" in l]
+    good = rc not in (0, 124) and len(err) >= 1 and "DEM core" in err[0] and "(rank 0)" in err[0] and "(grain 5)" in err[0]
+    print("  %-58s %s" % ("a grain made invalid on rank 0 at step 301 (np 2):",
+                          "every rank stops with: " + err[0].strip() if good else "FAIL rc %d\n%s" % (rc, out[-1500:])))
+    return good
 
 
 def contacts(out):

@@ -931,6 +931,77 @@ static void test_ghost_once(void) {
   TEST_ASSERT(sphdem_dem_set_ghost_once(NULL, 1) == SPHDEM_ERR_ARG, "set_ghost_once(NULL)");
 }
 
+/* SPHDEM_DEM_SKIP: copies that take no part (periodic images along an axis the ranks do not cut, whose pairs the
+ * core finds by the minimum image) change nothing: the grains interleaved with a shifted copy of each, flagged
+ * SKIP, get the forces and torques of the grains alone, and the copies none. Both passes (one thread under 2048
+ * grains, the threaded particle-parallel pass above), both algorithms, the history advanced over four steps. */
+static void test_skipped_copies(void) {
+  const int sizes[2] = {400, 6000};
+  for (int si = 0; si < 2; si++)
+    for (int algo = 0; algo < 2; algo++) {
+      const int n = sizes[si];
+      const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
+      double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+      grains g = make_grains(n, lo, hi, 0.1, 0.5);
+      sphdem_dem_params p;
+      sphdem_dem_params_default(&p);
+      p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+      p.skin = 0.02;
+      p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
+      p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+      for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+      sphdem_dem A = make(&p), B = make(&p);
+      const int n2 = 2 * n;
+      int64_t *tag2 = malloc(sizeof(int64_t) * n2);
+      int32_t *fl2 = malloc(sizeof(int32_t) * n2);
+      double *x2 = malloc(sizeof(double) * 3 * n2), *v2 = malloc(sizeof(double) * 3 * n2);
+      double *om2 = malloc(sizeof(double) * 3 * n2), *f2 = malloc(sizeof(double) * 3 * n2);
+      double *t2 = malloc(sizeof(double) * 3 * n2), *r2 = malloc(sizeof(double) * n2), *m2 = malloc(sizeof(double) * n2);
+      double worst = 0.0, skipped = 0.0;
+      int rc = 0;
+      for (int s = 0; s < 4; s++) {
+        /* grain i at 2i, its copy (shifted by L along x, or -L along y for odd i) at 2i + 1 */
+        for (int i = 0; i < n; i++)
+          for (int c = 0; c < 2; c++) {
+            const int k = 2 * i + c;
+            tag2[k] = g.tag[i];
+            fl2[k] = c ? SPHDEM_DEM_SKIP : 0;
+            r2[k] = g.r[i];
+            m2[k] = g.m[i];
+            for (int d = 0; d < 3; d++) {
+              x2[3 * k + d] = g.x[3 * i + d] + (c && d == (i & 1) ? (i & 1 ? -L : L) : 0.0);
+              v2[3 * k + d] = g.v[3 * i + d];
+              om2[3 * k + d] = g.om[3 * i + d];
+            }
+          }
+        rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, g.f, g.t, NULL);
+        rc |= sphdem_dem_compute(B, n2, tag2, x2, v2, om2, r2, m2, fl2, 1e-5, 1, f2, t2, NULL);
+        const double fs = fmax(maxabs(g.f, 3 * n), 1e-300), ts = fmax(maxabs(g.t, 3 * n), 1e-300);
+        for (int i = 0; i < n; i++)
+          for (int d = 0; d < 3; d++) {
+            worst = fmax(worst, fabs(f2[6 * i + d] - g.f[3 * i + d]) / fs);
+            worst = fmax(worst, fabs(t2[6 * i + d] - g.t[3 * i + d]) / ts);
+            skipped = fmax(skipped, fmax(fabs(f2[6 * i + 3 + d]), fabs(t2[6 * i + 3 + d])));
+          }
+        for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-5 * g.v[k];
+      }
+      sphdem_dem_stats sa, sb;
+      sphdem_dem_stats_get(A, &sa);
+      sphdem_dem_stats_get(B, &sb);
+      printf("  skipped copies, %d grains, %s: %lld contacts (alone %lld); max rel diff %.3g, largest value on a copy %.3g\n",
+             n, algo ? "pair-parallel" : "particle-parallel", (long long)sb.ncontacts, (long long)sa.ncontacts, worst,
+             skipped);
+      TEST_ASSERT(rc == 0 && sa.ncontacts > 100, "skip: %s / %s (%lld contacts)", sphdem_dem_last_error(A),
+                  sphdem_dem_last_error(B), (long long)sa.ncontacts);
+      TEST_ASSERT(sb.ncontacts == sa.ncontacts && sb.npairs == sa.npairs, "skip: %lld contacts, %lld pairs; alone %lld, %lld",
+                  (long long)sb.ncontacts, (long long)sb.npairs, (long long)sa.ncontacts, (long long)sa.npairs);
+      TEST_ASSERT(worst < 1e-12 && skipped == 0.0, "skip: forces differ by %.3g, a copy got %.3g", worst, skipped);
+      sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+      free(tag2); free(fl2); free(x2); free(v2); free(om2); free(f2); free(t2); free(r2); free(m2);
+      free_grains(&g);
+    }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -947,5 +1018,6 @@ int main(void) {
   test_accumulate();
   test_ghost_copies();
   test_ghost_once();
+  test_skipped_copies();
   return test_summary("unit_dem");
 }
