@@ -1173,6 +1173,76 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
   return lo;
 }
 
+/* dem_pairs_serial_model in one loop (fused): the overlap test and the law of each pair together, for lists whose
+ * visited pairs mostly touch (dense beds), where keeping each touching pair's separation for a second loop costs
+ * more than it saves. The same pairs, added in the same order: the same bits as the two loops. */
+DEM_HD_INLINE int64_t dem_pairs_serial_fused(const dem_dev *D, unsigned char *tf, const int32_t *act, const int64_t nk,
+                                             int64_t *touching, const int model, const int uniform, const int virial) {
+  const int32_t *pa = D->pa, *pb = D->pb;
+  const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
+  int64_t nt = 0, m = 0;
+  int32_t g = -1;
+  int counted = 0;
+  double rg = 0.0, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+  double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
+  for (int64_t k = 0; k < nk; k++) {
+    const int64_t p = act ? act[k] : k;
+    int touch = 0;
+    double del[3], rsq, radsum;
+    const int32_t a = pa[p], b = pb[p];
+    if (!(gap0[p] > thr)) {
+      if (b >= 0) {
+        touch = dem_grain_overlap(D, a, b, x + 3 * (int64_t)a, rad[a], del, &rsq, &radsum);
+      } else {
+        double rw;
+        touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, rad[a], del, &rsq, &rw, &radsum);
+      }
+    }
+    if (!touch) {
+      if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+        dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
+        tf[p] = 0;
+      }
+      continue;
+    }
+    const int32_t h = uniform ? a : D->head[a]; /* (copies sharing a tag: the run's head copy) */
+    if (h != g) { /* a new run of touching pairs: the last one's sum to its grain */
+      if (g >= 0) {
+        double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
+        for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
+        if (virial)
+          for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
+      }
+      g = h;
+      rg = rad[g];
+      counted = dem_pair_counted(D, g);
+      for (int d = 0; d < 3; d++) f[d] = t[d] = 0.0;
+      for (int d = 0; d < 6; d++) vs[d] = 0.0;
+    }
+    const double ra = uniform ? rg : rad[a], rb = b >= 0 ? rad[b] : 0.0;
+    dem_contact_model_ab(D, p, a, b, ra, del, rsq, rb, b >= 0 ? ra + rb : ra, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p,
+                         vir, model);
+    tf[p] = 1; /* (after the law's loads: a byte store may alias anything) */
+    if (b >= 0) {
+      double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
+      for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
+    }
+    for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
+    if (virial)
+      for (int d = 0; d < 6; d++) vs[d] += vir[d];
+    nt += counted;
+    m++;
+  }
+  if (g >= 0) {
+    double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
+    for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
+    if (virial)
+      for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
+  }
+  *touching = m;
+  return nt;
+}
+
 /* The same pairs on one thread, each evaluated once, in list order (by the tags of a, then of b: the order
  * does not depend on the order of the grains): the force of each run of touching pairs of one grain a (fstart,
  * fend of dem_forward_range_body) summed and added to a at the run's end, -F and Tb added to grain b at once; f and
@@ -1189,12 +1259,13 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
  * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's radius is read
  * once per run; else D->head gives each copy its run's head. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int32_t *act,
-                                             const int64_t nact, int32_t *tp, double *tdel, const int model,
-                                             const int uniform, const int virial) {
+                                             const int64_t nact, int32_t *tp, double *tdel, int64_t *touching,
+                                             const int model, const int uniform, const int virial, const int fused) {
   const int64_t nk = act ? nact : D->np;
   /* the overlap of each visited pair (the arrays in locals: byte stores to tf may alias anything) */
   const int32_t *pa = D->pa, *pb = D->pb;
   const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
+  if (fused) return dem_pairs_serial_fused(D, tf, act, nk, touching, model, uniform, virial);
   int64_t m = 0;
   for (int64_t k = 0; k < nk; k++) {
     const int64_t p = act ? act[k] : k;
@@ -1249,6 +1320,7 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
     if (virial)
       for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
   }
+  *touching = m;
   return nt;
 }
 

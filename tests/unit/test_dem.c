@@ -5,6 +5,7 @@
 #define TEST_RNG_SEED 88172645463325252ull
 #include "dem_granular_table.h"
 #include "testlib.h"
+#include "dem_internal.h" /* (the pass choice of the one-thread pass, for test_fused) */
 
 static sphdem_dem make(const sphdem_dem_params *p) {
   char msg[256];
@@ -1002,6 +1003,66 @@ static void test_skipped_copies(void) {
     }
 }
 
+/* The one-thread pass in one loop (fused: dense beds) and in two (overlap test, then the law of the touching pairs:
+ * dilute ones) gives the same bits: forces, torques, virial and history, over steps with contacts made and lost,
+ * with and without the virial, and with copies of grains sharing a tag (SPHDEM_DEM_GHOST). */
+static void test_fused(void) {
+  for (int variant = 0; variant < 3; variant++) {
+    const int n = 500;
+    const double L = 0.1 * cbrt((double)n / 0.45 * 4.0 / 3.0 * M_PI / 8.0); /* dense: most listed pairs touch */
+    double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+    grains g = make_grains(n, lo, hi, 0.1, 2.0);
+    sphdem_dem_params p;
+    sphdem_dem_params_default(&p);
+    p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+    p.skin = 0.02;
+    p.algo = SPHDEM_DEM_PARTICLE_PARALLEL; /* (500 grains: the one-thread pass at any thread count) */
+    p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+    for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+    sphdem_dem A = make(&p), B = make(&p);
+    A->cpu_fuse = 0;
+    B->cpu_fuse = 1;
+    int32_t *fl = NULL;
+    if (variant == 2) { /* the last 50 grains: copies of another rank's grains, two per tag */
+      fl = calloc((size_t)n, sizeof(int32_t));
+      for (int i = n - 50; i < n; i++) fl[i] = SPHDEM_DEM_GHOST, g.tag[i] = g.tag[n - 50 + (i - (n - 50)) / 2];
+    }
+    double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n), vA[6], vB[6];
+    int same = 1, rc = 0;
+    int64_t contacts_first = -1, contacts_last = -1;
+    for (int s = 0; s < 30; s++) {
+      double *vir = variant ? vA : NULL, *virB = variant ? vB : NULL;
+      rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, g.f, g.t, vir);
+      rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, fB, tB, virB);
+      for (int k = 0; k < 3 * n; k++) same &= g.f[k] == fB[k] && g.t[k] == tB[k];
+      for (int k = 0; variant && k < 6; k++) same &= vA[k] == vB[k];
+      sphdem_dem_stats st;
+      sphdem_dem_stats_get(A, &st);
+      if (s == 0) contacts_first = st.ncontacts;
+      contacts_last = st.ncontacts;
+      for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-4 * g.v[k];
+    }
+    int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0), nq = sphdem_dem_get_history(B, NULL, NULL, 0);
+    uint64_t *ka = malloc(sizeof(uint64_t) * (size_t)(np + 1)), *kb = malloc(sizeof(uint64_t) * (size_t)(nq + 1));
+    double *ha = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(np + 1));
+    double *hb = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(nq + 1));
+    same &= np == nq && sphdem_dem_get_history(A, ka, ha, np) == np && sphdem_dem_get_history(B, kb, hb, nq) == nq;
+    for (int64_t k = 0; same && k < np; k++) {
+      same &= ka[k] == kb[k];
+      for (int q = 0; q < SPHDEM_DEM_HIST_DOUBLES; q++) same &= ha[SPHDEM_DEM_HIST_DOUBLES * k + q] == hb[SPHDEM_DEM_HIST_DOUBLES * k + q];
+    }
+    printf("  one-thread pass fused vs two loops, %s: %lld then %lld contacts, %lld pairs kept: %s\n",
+           variant == 0 ? "no virial" : variant == 1 ? "virial" : "virial, copies sharing a tag", (long long)contacts_first,
+           (long long)contacts_last, (long long)np, same ? "the same bits" : "DIFFERENT");
+    TEST_ASSERT(rc == 0 && contacts_first > 500 && contacts_last != contacts_first, "fused: rc %d (%s), %lld, %lld contacts",
+                rc, sphdem_dem_last_error(A), (long long)contacts_first, (long long)contacts_last);
+    TEST_ASSERT(same, "fused: the one-thread pass in one loop differs from the one in two");
+    sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+    free(fB); free(tB); free(fl); free(ka); free(kb); free(ha); free(hb);
+    free_grains(&g);
+  }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -1019,5 +1080,6 @@ int main(void) {
   test_ghost_copies();
   test_ghost_once();
   test_skipped_copies();
+  test_fused();
   return test_summary("unit_dem");
 }
