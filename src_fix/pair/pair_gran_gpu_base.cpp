@@ -46,6 +46,10 @@ void PairGranGPUBase::fail(const std::string &msg) {
   sphdem_compat::error_all(error, __FILE__, __LINE__, "Pair " + style_ + ": " + msg);
 }
 
+void PairGranGPUBase::fail_one(const std::string &msg) {
+  sphdem_compat::error_one(error, __FILE__, __LINE__, "Pair " + style_ + ": " + msg);
+}
+
 void PairGranGPUBase::allocate() {
   allocated = 1;
   int n = atom->ntypes;
@@ -251,9 +255,14 @@ void PairGranGPUBase::read_restart_tail(FILE *fp, bool head_read) {
 }
 
 void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
+  /* the engine's atom map (atom_modify map) gives the owned copy of a tag where this rank has one; without it
+   * a map of the owned tags */
+  const bool engine_map = atom->map_style != 0;
   std::unordered_map<int64_t, int> own;
-  own.reserve((size_t)nlocal * 2 + 1);
-  for (int i = 0; i < nlocal; i++) own.emplace((int64_t)atom->tag[i], i);
+  if (!engine_map) {
+    own.reserve((size_t)nlocal * 2 + 1);
+    for (int i = 0; i < nlocal; i++) own.emplace((int64_t)atom->tag[i], i);
+  }
   image_of_.assign((size_t)(nall - nlocal), -1);
   const bool skip = core_per_[0] || core_per_[1] || core_per_[2];
   double **x = atom->x;
@@ -267,8 +276,13 @@ void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
       image_of_[g - nlocal] = SKIPPED;
       continue;
     }
-    auto it = own.find((int64_t)atom->tag[g]);
-    if (it != own.end()) image_of_[g - nlocal] = it->second;
+    if (engine_map) {
+      const int i = atom->map(atom->tag[g]);
+      if (i >= 0 && i < nlocal) image_of_[g - nlocal] = i;
+    } else {
+      auto it = own.find((int64_t)atom->tag[g]);
+      if (it != own.end()) image_of_[g - nlocal] = it->second;
+    }
   }
   nall_mapped_ = nall;
 }
@@ -325,12 +339,15 @@ void PairGranGPUBase::hand_over_history() {
         sh.insert(sh.end(), roll.begin() + p * R, roll.begin() + (p + 1) * R);
       }
   }
-  const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
-                                                                    sphdem_dem_last_error(dem_));
-  if (!err.empty()) fail(err);
-  const int nr = comm->nprocs, ns = (int)sk.size();
+  /* the counts, and -1 from a rank that could not read its history (every rank then stops with its message) */
+  const int nr = comm->nprocs, ns = bad ? -1 : (int)sk.size();
   std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
   MPI_Allgather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
+  if (*std::min_element(cnt.begin(), cnt.end()) < 0) {
+    const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
+                                                                      sphdem_dem_last_error(dem_));
+    fail(err);
+  }
   int total = 0;
   for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
   if (total == 0) return;
@@ -339,12 +356,14 @@ void PairGranGPUBase::hand_over_history() {
   MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
   MPI_Allgatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
   if (arrived.empty()) return;
-  /* the pairs of atoms that joined this rank, each once, that the core does not hold already */
+  /* the pairs of atoms that joined this rank, each once, that the core does not hold already (a failure here is
+   * this rank's alone: the engine's one-rank stop, as the other ranks are past their last collective of the
+   * hand-over) */
   std::vector<std::pair<uint64_t, int>> take;
   for (int k = 0; k < total; k++)
     if (pair_has(arrived, rk[k])) take.emplace_back(rk[k], k);
   if (take.empty()) return;
-  if (!have && !read()) fail(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
+  if (!have && !read()) fail_one(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
   std::vector<uint64_t> held(keys);
   std::sort(held.begin(), held.end());
   std::stable_sort(take.begin(), take.end(),
@@ -361,7 +380,7 @@ void PairGranGPUBase::hand_over_history() {
   }
   if (added && sphdem_dem_set_history_rolling(dem_, (int64_t)keys.size(), keys.data(), hist.data(),
                                               R ? roll.data() : nullptr))
-    fail(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
+    fail_one(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
 }
 
 void PairGranGPUBase::gather_history() {

@@ -83,7 +83,8 @@ class PairGranGPUBase : public Pair {
   /* the history of every rank goes to rank 0 at this step (the last of a run, or one that writes a restart file) */
   bool gather_step() const;
 
-  [[noreturn]] void fail(const std::string &msg);
+  [[noreturn]] void fail(const std::string &msg);     /* every rank calls it (the engine's collective stop) */
+  [[noreturn]] void fail_one(const std::string &msg); /* this rank alone: the engine's one-rank stop */
   void allocate();
   /* keywords device, algo, timers: true when kw is one of them (a bad value ends the run) */
   bool common_keyword(const std::string &kw, const std::string &val);

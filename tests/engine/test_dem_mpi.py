@@ -10,8 +10,9 @@ vs stock at another rank count, printed alongside).
 
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
-                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a
-                       grain made invalid on one rank mid-run stops every rank with the core's message
+                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; /gpu
+                       without atom_modify map at np 2; a grain made invalid on one rank mid-run stops every
+                       rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
                        np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) and rolling_friction
@@ -252,6 +253,11 @@ def lammps(mpirun, lmp):
         if newton == "on":
             gp = r.final("gpu_np2_pair_on", "gran/hertz/history/gpu", 2, newton, " algo pair")
             compare(res, "/gpu algo pair np 2 vs stock np 2", gp, s2)
+            # without the engine's atom map the periodic images are found by a map of the owned tags
+            r.text = LMP.replace("atom_modify map array sort", "atom_modify sort")
+            gn = r.final("gpu_np2_nomap_on", "gran/hertz/history/gpu", 2, newton)
+            r.text = None
+            compare(res, "/gpu np 2 without atom_modify map vs stock np 2", gn, s2)
             s4 = r.final("stock_np4_on", "gran/hertz/history", 4, newton)
             g4 = r.final("gpu_np4_on", "gran/hertz/history/gpu", 4, newton)
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
