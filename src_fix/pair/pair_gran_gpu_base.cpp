@@ -284,6 +284,9 @@ void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
       if (it != own.end()) image_of_[g - nlocal] = it->second;
     }
   }
+  images_.clear();
+  for (int g = nlocal; g < nall; g++)
+    if (image_of_[g - nlocal] >= 0) images_.push_back(g);
   nall_mapped_ = nall;
 }
 
@@ -454,7 +457,10 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
   }
   const int *fl = nullptr; /* NULL: no grain frozen, one material, one rank */
-  if (freeze_group_bit_ || material_types || ghosts_) {
+  /* frozen grains and materials read the engine's mask and type at every step, as the stock styles; the ghost
+   * flags alone change only with the ghost atoms (the engine's list builds) */
+  const bool per_step = freeze_group_bit_ || material_types;
+  if (per_step || (ghosts_ && (neighbor->ago == 0 || update->setupflag || flags_.size() != (size_t)n))) {
     flags_.resize(n);
     const int *type = atom->type;
     for (int i = 0; i < n; i++)
@@ -464,8 +470,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
       const int o = image_of_[i - nlocal];
       flags_[i] |= o >= 0 ? SPHDEM_DEM_IMAGE : o == SKIPPED ? SPHDEM_DEM_SKIP : SPHDEM_DEM_GHOST;
     }
-    fl = flags_.data();
   }
+  if (per_step || ghosts_) fl = flags_.data();
   double vir[6];
   const double tp1 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   /* the core's pair list is rebuilt (and drops pairs, with their history) on the engine's build steps; many
@@ -487,12 +493,17 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
 #endif
   sphdem_dem_set_ghost_once(dem_, once ? 1 : 0);
   double **f = atom->f, **t = atom->torque;
-  const int ng = once ? 0 : n - nlocal;
+  /* the ghost rows are kept aside only where the engine adds them to their atoms (force->newton: its reverse
+   * communication); else the engine neither clears nor reads them, and they are only zeroed (the periodic images'
+   * share is moved to the atom below) */
+  const int nghost = once ? 0 : n - nlocal, ng = force->newton ? nghost : 0;
   if (ng > 0) {
     fbuf_.assign(f[nlocal], f[nlocal] + 3 * (size_t)ng);
     tbuf_.assign(t[nlocal], t[nlocal] + 3 * (size_t)ng);
-    std::fill(f[nlocal], f[nlocal] + 3 * (size_t)ng, 0.0);
-    std::fill(t[nlocal], t[nlocal] + 3 * (size_t)ng, 0.0);
+  }
+  if (nghost > 0) {
+    std::fill(f[nlocal], f[nlocal] + 3 * (size_t)nghost, 0.0);
+    std::fill(t[nlocal], t[nlocal] + 3 * (size_t)nghost, 0.0);
   }
   sphdem_dem_set_accumulate(dem_, 1);
   int rc = g ? sphdem_dem_compute_store(dem_, g, tags_.data(), fl, update->dt, update->setupflag ? 0 : 1,
@@ -508,9 +519,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   }
   const double tp2 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   /* a periodic image's share goes to the atom itself */
-  for (int i = nlocal; i < n && !once; i++) {
-    const int o = image_of_[i - nlocal];
-    if (o < 0) continue;
+  for (size_t k = 0; k < images_.size() && !once; k++) {
+    const int i = images_[k], o = image_of_[i - nlocal];
     for (int d = 0; d < 3; d++) {
       f[o][d] += f[i][d];
       t[o][d] += t[i][d];

@@ -62,6 +62,7 @@ class PairGranGPUBase : public Pair {
    * neighbour cutoff), which the core treats by the minimum image as on one rank; the engine's ghost images
    * along them are given to the core as SPHDEM_DEM_SKIP. Cut axes: the ghost atoms are the periodic images. */
   int core_per_[3];
+  std::vector<int> images_;           /* the ghosts (indices) that are periodic images of own atoms */
   int nall_mapped_;                   /* atoms when image_of_ was made */
   std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build, sorted (history hand-over) */
   bool owned_prev_set_;

@@ -11,7 +11,7 @@ vs stock at another rank count, printed alongside).
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
                        np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; /gpu
-                       without atom_modify map at np 2; a grain made invalid on one rank mid-run stops every
+                       without atom_modify map and with comm_style tiled at np 2; a grain made invalid on one rank mid-run stops every
                        rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
@@ -239,6 +239,12 @@ def lammps(mpirun, lmp):
         compare(res, "/gpu np 2 vs stock np 2", g2, s2)
         compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
         compare(res, "/gpu np 1 vs stock np 1", g1, s1)
+        # the tiled communication (no processors grid): the periodic images of a rank's own atoms along y are ghost
+        # atoms, evaluated as such (newton off: their share moved to the atom; newton on: sent back by the engine)
+        r.text = LMP.replace("processors {px} 1 1\n", "processors {px} 1 1\ncomm_style tiled\n")
+        gt = r.final("gpu_np2_tiled_" + newton, "gran/hertz/history/gpu", 2, newton)
+        r.text = None
+        compare(res, "/gpu np 2 comm_style tiled vs stock np 2", gt, s2)
         def dpress(a, b):
             pa, pb = r.press(a), r.press(b)
             return max(abs(x - y) for x, y in zip(pa, pb)) / max(abs(y) for y in pb) if pa and len(pa) == len(pb) else 1.0
