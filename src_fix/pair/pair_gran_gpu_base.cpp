@@ -23,7 +23,7 @@ using namespace LAMMPS_NS;
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
       freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), ghost_once_ok_(true), hand_rolling_(false), nall_mapped_(-1),
-      owned_prev_set_(false), gathered_(false), check_req_(MPI_REQUEST_NULL), check_mine_(0), check_any_(0) {
+      owned_prev_set_(false), own_map_valid_(false), gathered_(false), check_req_(MPI_REQUEST_NULL), check_mine_(0), check_any_(0) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
@@ -254,39 +254,44 @@ void PairGranGPUBase::read_restart_tail(FILE *fp, bool head_read) {
   }
 }
 
-void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
-  /* the engine's atom map (atom_modify map) gives the owned copy of a tag where this rank has one; without it
-   * a map of the owned tags */
-  const bool engine_map = atom->map_style != 0;
-  std::unordered_map<int64_t, int> own;
-  if (!engine_map) {
-    own.reserve((size_t)nlocal * 2 + 1);
-    for (int i = 0; i < nlocal; i++) own.emplace((int64_t)atom->tag[i], i);
+const sphdem_tagmap::TagMap &PairGranGPUBase::own_map(int nlocal) {
+  if (!own_map_valid_) {
+    const auto *tag = atom->tag;
+    own_now_.build(nlocal, [tag](int i) { return tag[i]; });
+    own_map_valid_ = true;
   }
+  return own_now_;
+}
+
+void PairGranGPUBase::map_ghosts(int nlocal, int nall) {
+  /* The own atoms lie in the box at a build (the engine's pbc), so a copy of one is outside the box along the
+   * periodic axis it was shifted along: a copy outside it along an axis of core_per_ is an image along that axis,
+   * one inside the box along every periodic axis is another rank's atom, and the others are looked up (the
+   * engine's atom map, atom_modify map, where there is one; else a map of the owned tags) */
+  const bool engine_map = atom->map_style != 0;
   image_of_.assign((size_t)(nall - nlocal), -1);
-  const bool skip = core_per_[0] || core_per_[1] || core_per_[2];
+  images_.clear();
   double **x = atom->x;
+  const double *lo = domain->boxlo, *hi = domain->boxhi;
+  const int *per = domain->periodicity;
   for (int g = nlocal; g < nall; g++) {
-    /* the own atoms lie in the box at a build (the engine's pbc), so a copy outside it along an axis of
-     * core_per_ is an image along that axis */
-    bool out = false;
-    for (int d = 0; d < 3 && skip; d++)
-      out |= core_per_[d] && (x[g][d] < domain->boxlo[d] || x[g][d] >= domain->boxhi[d]);
-    if (out) {
+    bool out = false, skip = false;
+    for (int d = 0; d < 3; d++) {
+      const bool o = per[d] && (x[g][d] < lo[d] || x[g][d] >= hi[d]);
+      out |= o;
+      skip |= o && core_per_[d];
+    }
+    if (skip) {
       image_of_[g - nlocal] = SKIPPED;
       continue;
     }
-    if (engine_map) {
-      const int i = atom->map(atom->tag[g]);
-      if (i >= 0 && i < nlocal) image_of_[g - nlocal] = i;
-    } else {
-      auto it = own.find((int64_t)atom->tag[g]);
-      if (it != own.end()) image_of_[g - nlocal] = it->second;
+    if (!out) continue;
+    const int i = engine_map ? atom->map(atom->tag[g]) : own_map(nlocal).find((int64_t)atom->tag[g]);
+    if (i >= 0 && i < nlocal) {
+      image_of_[g - nlocal] = i;
+      images_.push_back(g);
     }
   }
-  images_.clear();
-  for (int g = nlocal; g < nall; g++)
-    if (image_of_[g - nlocal] >= 0) images_.push_back(g);
   nall_mapped_ = nall;
 }
 
@@ -305,18 +310,27 @@ bool pair_has(const std::vector<int64_t> &sorted, uint64_t key) {
  * the others (its partners stayed behind, or moved too) come from the rank it left. */
 void PairGranGPUBase::hand_over_history() {
   const int nlocal = atom->nlocal, H = SPHDEM_DEM_HIST_DOUBLES, R = hand_rolling_ ? 3 : 0, W = H + R;
-  std::vector<int64_t> now((size_t)nlocal);
-  for (int i = 0; i < nlocal; i++) now[i] = (int64_t)atom->tag[i];
-  std::sort(now.begin(), now.end());
+  const auto *tag = atom->tag;
   if (!owned_prev_set_) { /* the core has no pair yet (or the one of read_restart, which every rank has) */
-    owned_prev_.swap(now);
+    owned_prev_.assign(tag, tag + nlocal);
+    prev_map_.build(nlocal, [tag](int i) { return tag[i]; });
     owned_prev_set_ = true;
     return;
   }
-  std::vector<int64_t> left, arrived;
-  std::set_difference(owned_prev_.begin(), owned_prev_.end(), now.begin(), now.end(), std::back_inserter(left));
-  std::set_difference(now.begin(), now.end(), owned_prev_.begin(), owned_prev_.end(), std::back_inserter(arrived));
-  owned_prev_.swap(now);
+  /* the atoms that left this rank and those that joined it since the last build (sorted, for pair_has) */
+  const sphdem_tagmap::TagMap &now = own_map(nlocal);
+  std::vector<int64_t> &left = left_, &arrived = arrived_;
+  left.clear();
+  arrived.clear();
+  for (const int64_t t : owned_prev_)
+    if (now.find(t) < 0) left.push_back(t);
+  for (int i = 0; i < nlocal; i++)
+    if (prev_map_.find((int64_t)tag[i]) < 0) arrived.push_back((int64_t)tag[i]);
+  std::sort(left.begin(), left.end());
+  std::sort(arrived.begin(), arrived.end());
+  owned_prev_.assign(tag, tag + nlocal);
+  prev_map_.swap(own_now_);
+  own_map_valid_ = false;
   std::vector<uint64_t> keys, sk;
   std::vector<double> hist, roll, sh;
   bool have = false;
@@ -446,6 +460,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   if (box_changed) sync_params();
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   if (ghosts_) finish_check(); /* the last step's failure check */
+  own_map_valid_ = false;
   if (ghosts_ && neighbor->ago == 0) update_core_periodic();
   if (ghosts_ && (neighbor->ago == 0 || n != nall_mapped_)) map_ghosts(nlocal, n);
   /* many ranks: after the engine moved atoms between ranks (its list builds), their contacts' history */

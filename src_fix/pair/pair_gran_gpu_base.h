@@ -15,6 +15,7 @@
 #include "pair_gran_gpu_restart.h"
 #include "pair_gran_gpu_timers.h"
 #include "sphdem_grains.h"
+#include "sphdem_tagmap.h"
 #include "sphdem.h"
 
 namespace LAMMPS_NS {
@@ -64,8 +65,12 @@ class PairGranGPUBase : public Pair {
   int core_per_[3];
   std::vector<int> images_;           /* the ghosts (indices) that are periodic images of own atoms */
   int nall_mapped_;                   /* atoms when image_of_ was made */
-  std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build, sorted (history hand-over) */
+  std::vector<int64_t> owned_prev_;   /* tags owned at the last engine list build (history hand-over) */
+  sphdem_tagmap::TagMap prev_map_;    /* and their map */
   bool owned_prev_set_;
+  sphdem_tagmap::TagMap own_now_;     /* the owned tags of this evaluation (own_map) */
+  bool own_map_valid_;
+  std::vector<int64_t> left_, arrived_; /* hand-over: tags that left and joined this rank since the last build */
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
   std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
@@ -91,6 +96,8 @@ class PairGranGPUBase : public Pair {
   bool common_keyword(const std::string &kw, const std::string &val);
   /* many ranks: image_of_ from the atoms' tags and positions (after each exchange of ghost atoms) */
   void map_ghosts(int nlocal, int nall);
+  /* the map of the owned tags, made once per evaluation */
+  const sphdem_tagmap::TagMap &own_map(int nlocal);
   /* many ranks, at the engine's list builds: core_per_ from the processors grid, the box and the cutoff (the
    * core's parameters follow when they change) */
   void update_core_periodic();
