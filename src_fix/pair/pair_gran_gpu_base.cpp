@@ -304,6 +304,39 @@ bool pair_has(const std::vector<int64_t> &sorted, uint64_t key) {
 }
 }  // namespace
 
+/* An atom moves at most one subdomain along each axis at an exchange of a brick decomposition (the engines lose
+ * it otherwise), so it joins one of the 26 subdomains around this one: their ranks, without this one and each once.
+ * Tiled decompositions: none (the hand-over then goes to every rank). */
+const std::vector<int> &PairGranGPUBase::hand_ranks() {
+  int key[7] = {comm->procgrid[0], comm->procgrid[1], comm->procgrid[2], domain->periodicity[0],
+                domain->periodicity[1], domain->periodicity[2], sphdem_compat::comm_tiled(comm) ? 1 : 0};
+  if (hand_key_valid_ && std::equal(key, key + 7, hand_key_)) return hand_ranks_;
+  std::copy(key, key + 7, hand_key_);
+  hand_key_valid_ = true;
+  hand_ranks_.clear();
+  if (key[6] || !comm->grid2proc) return hand_ranks_;
+  for (int dx = -1; dx <= 1; dx++)
+    for (int dy = -1; dy <= 1; dy++)
+      for (int dz = -1; dz <= 1; dz++) {
+        const int d[3] = {dx, dy, dz};
+        int loc[3];
+        bool in = true;
+        for (int a = 0; a < 3; a++) {
+          loc[a] = comm->myloc[a] + d[a];
+          if (loc[a] < 0 || loc[a] >= comm->procgrid[a]) {
+            if (!domain->periodicity[a]) in = false;
+            loc[a] = (loc[a] + comm->procgrid[a]) % comm->procgrid[a];
+          }
+        }
+        if (!in) continue;
+        const int r = comm->grid2proc[loc[0]][loc[1]][loc[2]];
+        if (r != comm->me) hand_ranks_.push_back(r);
+      }
+  std::sort(hand_ranks_.begin(), hand_ranks_.end());
+  hand_ranks_.erase(std::unique(hand_ranks_.begin(), hand_ranks_.end()), hand_ranks_.end());
+  return hand_ranks_;
+}
+
 /* Stock LAMMPS and LIGGGHTS keep a contact's history with the atom that owns it and move it with the atom
  * (fix neigh/history, fix contacthistory). Here a rank holds every pair with one of its own atoms; an atom
  * that changes rank finds on the new rank the pairs with that rank's atoms already (evaluated there too), and
@@ -356,22 +389,68 @@ void PairGranGPUBase::hand_over_history() {
         sh.insert(sh.end(), roll.begin() + p * R, roll.begin() + (p + 1) * R);
       }
   }
-  /* the counts, and -1 from a rank that could not read its history (every rank then stops with its message) */
-  const int nr = comm->nprocs, ns = bad ? -1 : (int)sk.size();
-  std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
-  MPI_Allgather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
-  if (*std::min_element(cnt.begin(), cnt.end()) < 0) {
-    const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
-                                                                      sphdem_dem_last_error(dem_));
-    fail(err);
-  }
+  /* the pairs go to every rank an atom of this rank can join at an exchange (hand_ranks), or to every rank */
+  const int ns = (int)sk.size();
+  std::vector<uint64_t> rk;
+  std::vector<double> rh;
   int total = 0;
-  for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
+  const std::vector<int> &nb = hand_ranks();
+  if (!nb.empty() || comm->nprocs == 1) {
+    /* a rank that could not read its history: every rank stops with its message */
+    int anybad = 0;
+    MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, world);
+    if (anybad)
+      fail(sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
+                                                     sphdem_dem_last_error(dem_)));
+    const int nn = (int)nb.size(), tag0 = 0x5d3e0; /* tags of these messages alone */
+    std::vector<int> cnt(nn, 0);
+    std::vector<MPI_Request> req;
+    req.reserve(4 * (size_t)nn);
+    for (int k = 0; k < nn; k++) {
+      req.emplace_back();
+      MPI_Irecv(&cnt[k], 1, MPI_INT, nb[k], tag0, world, &req.back());
+    }
+    for (int k = 0; k < nn; k++) {
+      req.emplace_back();
+      MPI_Isend(&ns, 1, MPI_INT, nb[k], tag0, world, &req.back());
+    }
+    MPI_Waitall((int)req.size(), req.data(), MPI_STATUSES_IGNORE);
+    for (int k = 0; k < nn; k++) total += cnt[k];
+    rk.resize((size_t)total);
+    rh.resize((size_t)total * W);
+    req.clear();
+    for (int k = 0, off = 0; k < nn; off += cnt[k], k++) {
+      if (cnt[k] == 0) continue;
+      req.emplace_back();
+      MPI_Irecv(rk.data() + off, cnt[k], MPI_UINT64_T, nb[k], tag0 + 1, world, &req.back());
+      req.emplace_back();
+      MPI_Irecv(rh.data() + (size_t)off * W, cnt[k] * W, MPI_DOUBLE, nb[k], tag0 + 2, world, &req.back());
+    }
+    for (int k = 0; k < nn && ns > 0; k++) {
+      req.emplace_back();
+      MPI_Isend(sk.data(), ns, MPI_UINT64_T, nb[k], tag0 + 1, world, &req.back());
+      req.emplace_back();
+      MPI_Isend(sh.data(), ns * W, MPI_DOUBLE, nb[k], tag0 + 2, world, &req.back());
+    }
+    MPI_Waitall((int)req.size(), req.data(), MPI_STATUSES_IGNORE);
+  } else {
+    /* the counts, and -1 from a rank that could not read its history (every rank then stops with its message) */
+    const int nr = comm->nprocs, nsb = bad ? -1 : ns;
+    std::vector<int> cnt(nr), dsp(nr), cnth(nr), dsph(nr);
+    MPI_Allgather(&nsb, 1, MPI_INT, cnt.data(), 1, MPI_INT, world);
+    if (*std::min_element(cnt.begin(), cnt.end()) < 0) {
+      const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
+                                                                        sphdem_dem_last_error(dem_));
+      fail(err);
+    }
+    for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
+    if (total == 0) return;
+    rk.resize((size_t)total);
+    rh.resize((size_t)total * W);
+    MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
+    MPI_Allgatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
+  }
   if (total == 0) return;
-  std::vector<uint64_t> rk((size_t)total);
-  std::vector<double> rh((size_t)total * W);
-  MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
-  MPI_Allgatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, world);
   if (arrived.empty()) return;
   /* the pairs of atoms that joined this rank, each once, that the core does not hold already (a failure here is
    * this rank's alone: the engine's one-rank stop, as the other ranks are past their last collective of the

@@ -71,6 +71,9 @@ class PairGranGPUBase : public Pair {
   sphdem_tagmap::TagMap own_now_;     /* the owned tags of this evaluation (own_map) */
   bool own_map_valid_;
   std::vector<int64_t> left_, arrived_; /* hand-over: tags that left and joined this rank since the last build */
+  std::vector<int> hand_ranks_;       /* hand_ranks(), for the decomposition of hand_key_ */
+  int hand_key_[7];
+  bool hand_key_valid_ = false;
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
   std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
@@ -105,6 +108,9 @@ class PairGranGPUBase : public Pair {
    * atoms that left a rank (and their rolling torques, hand_rolling_) goes to the rank they joined, where the
    * core's next build carries it */
   void hand_over_history();
+  /* the ranks whose atoms can join this rank at an exchange and which this rank's atoms can join (sorted; empty
+   * where the decomposition is tiled: the hand-over then goes to every rank) */
+  const std::vector<int> &hand_ranks();
   /* many ranks: this rank's evaluation failed (bad, why) or not; every rank stops with the message of the
    * lowest failed rank, at once (now) or at the next call (the reduction started here) */
   void check_ranks(bool bad, const std::string &why, bool now);
