@@ -226,6 +226,14 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->htag);
   free(m->cpu_pfb);
   free(m->cpu_tf);
+  free(m->add_key);
+  free(m->add_hist);
+  free(m->add_roll);
+  void *spare[] = {m->mk, m->mh, m->mr}; /* (device-side allocations on the CPU backend, host buffers else) */
+  for (size_t k = 0; k < 3; k++) {
+    if (m->backend == SPHDEM_DEVICE_CPU) rt_free(&m->rt, &spare[k], 0);
+    else free(spare[k]);
+  }
   sphdem_grains_destroy(&m->gstore);
   free(m);
   *pm = NULL;
@@ -380,7 +388,20 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
   /* the history the next build carries over: a seed (restart, hand-over between ranks) or the current list */
   const int seeded = m->seeded;
   const int64_t np = seeded ? D->np_old : m->nbuilds ? D->np : 0;
-  if (n == 0 || np == 0 || D->P.model != SPHDEM_DEM_GRANULAR) return SPHDEM_OK;
+  if (n == 0 || D->P.model != SPHDEM_DEM_GRANULAR) return SPHDEM_OK;
+  if (m->nadd > 0) { /* the pairs added since the last build (sphdem_dem_add_history) too */
+    uint64_t *ak = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
+    if (!ak) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)n);
+    memcpy(ak, keys, sizeof(uint64_t) * (size_t)n);
+    qsort(ak, (size_t)n, sizeof(uint64_t), cmp_u64);
+    for (int64_t j = 0; j < m->nadd; j++) {
+      if (!bsearch(&m->add_key[j], ak, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
+      m->add_hist[SPHDEM_DEM_NHIST * j + 4] = -m->add_hist[SPHDEM_DEM_NHIST * j + 4];
+      for (int q = 0; q < 3; q++) m->add_roll[3 * j + q] = -m->add_roll[3 * j + q];
+    }
+    free(ak);
+  }
+  if (np == 0) return SPHDEM_OK;
   uint64_t *dk = seeded ? D->key_old : D->key;
   double *dh = seeded ? D->hist_old : D->hin;
   double *dr = seeded ? (m->seed_roll ? D->roll_old : NULL) : D->rin;
@@ -550,6 +571,115 @@ static int grow_pairs(struct sphdem_dem_s *m, int64_t np, int64_t cap) {
   return SPHDEM_OK;
 }
 
+/* The pairs of sphdem_dem_add_history merged into the history the build carries over (key_old, hist_old and, for a
+ * model with rolling torques, roll_old; np_old pairs sorted by key): one walk of the two sorted lists into the
+ * spare arrays, a pair held already keeping its values. The CPU backend swaps the spare arrays in; the GPU backend
+ * copies the old list to the host and the merged one back. */
+static int merge_added(struct sphdem_dem_s *m, int roll) {
+  dem_dev *D = &m->D;
+  const int64_t no = D->np_old, na = m->nadd, cap = no + na + (no + na) / 4 + 16;
+  const int H = SPHDEM_DEM_NHIST, cpu = m->backend == SPHDEM_DEVICE_CPU;
+  const int with_roll = roll && (D->roll_carry || m->add_roll_given);
+  m->nadd = 0;
+  m->add_roll_given = 0;
+  /* host views of the old list (the CPU backend's arrays are host memory) */
+  uint64_t *ok = D->key_old;
+  double *oh = D->hist_old, *orr = D->roll_carry ? D->roll_old : NULL;
+  uint64_t *tk = NULL;
+  double *th = NULL, *tr = NULL;
+  int rc = SPHDEM_OK;
+  if (!cpu && no > 0) {
+    tk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)no);
+    th = (double *)malloc(sizeof(double) * H * (size_t)no);
+    tr = orr ? (double *)malloc(sizeof(double) * 3 * (size_t)no) : NULL;
+    if (!tk || !th || (orr && !tr)) rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)no);
+    if (!rc) rc = rt_d2h(&m->rt, tk, ok, sizeof(uint64_t) * (size_t)no);
+    if (!rc) rc = rt_d2h(&m->rt, th, oh, sizeof(double) * H * (size_t)no);
+    if (!rc && orr) rc = rt_d2h(&m->rt, tr, orr, sizeof(double) * 3 * (size_t)no);
+    ok = tk, oh = th, orr = tr;
+  }
+  /* the merged list: the spare arrays (host memory on the CPU backend; host buffers before the copy on the GPU) */
+  if (!rc && no + na > m->cap_m) {
+    void *a[] = {m->mk, m->mh};
+    for (int k = 0; k < 2; k++) (cpu ? rt_free(&m->rt, &a[k], 0) : free(a[k]));
+    m->mk = NULL, m->mh = NULL;
+    if (cpu) {
+      rc = rt_alloc(&m->rt, (void **)&m->mk, sizeof(uint64_t) * (size_t)cap);
+      if (!rc) rc = rt_alloc(&m->rt, (void **)&m->mh, sizeof(double) * H * (size_t)cap);
+    } else {
+      m->mk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)cap);
+      m->mh = (double *)malloc(sizeof(double) * H * (size_t)cap);
+      if (!m->mk || !m->mh) rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)cap);
+    }
+    m->cap_m = rc ? 0 : cap;
+  }
+  if (!rc && with_roll && no + na > m->cap_mr) {
+    void *a = m->mr;
+    cpu ? rt_free(&m->rt, &a, 0) : free(a);
+    m->mr = NULL;
+    if (cpu) rc = rt_alloc(&m->rt, (void **)&m->mr, sizeof(double) * 3 * (size_t)cap);
+    else if (!(m->mr = (double *)malloc(sizeof(double) * 3 * (size_t)cap)))
+      rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)cap);
+    m->cap_mr = rc ? 0 : cap;
+  }
+  int64_t k = 0;
+  if (!rc) {
+    int64_t i = 0, j = 0;
+    while (i < no || j < na) {
+      const int take_old = j >= na || (i < no && ok[i] <= m->add_key[j]);
+      if (take_old && j < na && i < no && ok[i] == m->add_key[j]) j++; /* held already: its own values */
+      if (take_old) {
+        m->mk[k] = ok[i];
+        memcpy(m->mh + H * k, oh + H * i, sizeof(double) * H);
+        if (with_roll) {
+          if (orr) memcpy(m->mr + 3 * k, orr + 3 * i, sizeof(double) * 3);
+          else m->mr[3 * k] = m->mr[3 * k + 1] = m->mr[3 * k + 2] = 0.0;
+        }
+        i++;
+      } else {
+        m->mk[k] = m->add_key[j];
+        memcpy(m->mh + H * k, m->add_hist + H * j, sizeof(double) * H);
+        if (with_roll) memcpy(m->mr + 3 * k, m->add_roll + 3 * j, sizeof(double) * 3);
+        j++;
+      }
+      k++;
+    }
+  }
+  free(tk);
+  free(th);
+  free(tr);
+  if (rc) return rc;
+  if (cpu) { /* the merged arrays become the old list, the old ones the spares */
+    uint64_t *k0 = D->key_old;
+    double *h0 = D->hist_old;
+    int64_t c0 = m->cap_pold;
+    D->key_old = m->mk, D->hist_old = m->mh, m->cap_pold = m->cap_m;
+    m->mk = k0, m->mh = h0, m->cap_m = c0;
+    if (with_roll) {
+      double *r0 = D->roll_old;
+      int64_t cr = m->cap_rold;
+      D->roll_old = m->mr, m->cap_rold = m->cap_mr;
+      m->mr = r0, m->cap_mr = cr;
+    }
+  } else {
+    if (k > m->cap_pold) {
+      TRY(grow(m, (void **)&D->key_old, sizeof(uint64_t), k, cap));
+      TRY(grow(m, (void **)&D->hist_old, sizeof(double) * H, k, cap));
+      m->cap_pold = cap;
+    }
+    if (with_roll && k > m->cap_rold) {
+      TRY(grow(m, (void **)&D->roll_old, sizeof(double) * 3, k, cap));
+      m->cap_rold = cap;
+    }
+    TRY(rt_h2d(&m->rt, D->key_old, m->mk, sizeof(uint64_t) * (size_t)k));
+    TRY(rt_h2d(&m->rt, D->hist_old, m->mh, sizeof(double) * H * (size_t)k));
+    if (with_roll) TRY(rt_h2d(&m->rt, D->roll_old, m->mr, sizeof(double) * 3 * (size_t)k));
+  }
+  D->np_old = k;
+  D->roll_carry = with_roll && k > 0;
+  return SPHDEM_OK;
+}
+
 static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax) {
   dem_dev *D = &m->D;
   m->tf_valid = 0; /* a new list, a carried history */
@@ -580,6 +710,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   D->np_old = npold;
   m->seeded = 0;
   m->seed_roll = 0;
+  if (m->nadd > 0) TRY(merge_added(m, roll));
   TRY(setup_grid(m, n, x, dmax));
   TRY(m->ops->cells(m));
   int64_t np = 0;
@@ -996,6 +1127,103 @@ int sphdem_dem_set_history_rolling(sphdem_dem m, int64_t n, const uint64_t *keys
   D->np_old = n;
   m->seeded = 1;
   m->seed_roll = roll != NULL;
+  m->need_build = 1;
+  return SPHDEM_OK;
+}
+
+/* a tag of key k (its grain a, and b unless it is a wall pair) in the sorted tags */
+static int key_has_tag(uint64_t k, int64_t ntags, const int64_t *tags) {
+  const int64_t ta = (int64_t)(k >> 32), tb = (int64_t)(uint32_t)k;
+  for (int s = 0; s < 2; s++) {
+    const int64_t t = s ? tb : ta;
+    if (s && t > SPHDEM_DEM_MAX_TAG) return 0; /* a wall */
+    int64_t lo = 0, hi = ntags - 1;
+    while (lo <= hi) {
+      const int64_t mid = lo + (hi - lo) / 2;
+      if (tags[mid] == t) return 1;
+      if (tags[mid] < t) lo = mid + 1;
+      else hi = mid - 1;
+    }
+  }
+  return 0;
+}
+
+int64_t sphdem_dem_get_history_of(sphdem_dem m, int64_t ntags, const int64_t *tags, uint64_t *keys, double *hist,
+                                  double *roll, int64_t max) {
+  if (!m || ntags < 0 || (ntags > 0 && !tags) || max < 0 || (max > 0 && (!keys || !hist))) return -SPHDEM_ERR_ARG;
+  const dem_dev *D = &m->D;
+  const int64_t np = m->nbuilds ? D->np : 0;
+  const int H = SPHDEM_DEM_NHIST, cpu = m->backend == SPHDEM_DEVICE_CPU;
+  if (np == 0 || ntags == 0) return 0;
+  const double *rsrc = m->roll_valid ? D->rin : NULL;
+  /* host views: the CPU backend's arrays, else copies */
+  const uint64_t *k = D->key;
+  const double *h = D->hin, *r = rsrc;
+  uint64_t *tk = NULL;
+  double *th = NULL, *tr = NULL;
+  if (!cpu) {
+    tk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)np);
+    th = (double *)malloc(sizeof(double) * H * (size_t)np);
+    tr = rsrc ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
+    int rc = (!tk || !th || (rsrc && !tr)) ? SPHDEM_ERR_ALLOC : SPHDEM_OK;
+    if (!rc) rc = rt_d2h(&m->rt, tk, D->key, sizeof(uint64_t) * (size_t)np);
+    if (!rc) rc = rt_d2h(&m->rt, th, D->hin, sizeof(double) * H * (size_t)np);
+    if (!rc && rsrc) rc = rt_d2h(&m->rt, tr, rsrc, sizeof(double) * 3 * (size_t)np);
+    if (rc) {
+      free(tk), free(th), free(tr);
+      return -sphdem_dem_fail(m, rc, "reading the history of %lld pairs", (long long)np);
+    }
+    k = tk, h = th, r = tr;
+  }
+  int64_t c = 0;
+  for (int64_t p = 0; p < np; p++) {
+    if (!key_has_tag(k[p], ntags, tags)) continue;
+    if (c < max) {
+      keys[c] = k[p];
+      memcpy(hist + H * c, h + H * p, sizeof(double) * H);
+      if (roll) {
+        if (r) memcpy(roll + 3 * c, r + 3 * p, sizeof(double) * 3);
+        else roll[3 * c] = roll[3 * c + 1] = roll[3 * c + 2] = 0.0;
+      }
+    }
+    c++;
+  }
+  free(tk), free(th), free(tr);
+  return c;
+}
+
+int sphdem_dem_add_history(sphdem_dem m, int64_t n, const uint64_t *keys, const double *hist, const double *roll) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if (n < 0 || (n > 0 && (!keys || !hist)))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "add_history: n %lld, keys/hist missing", (long long)n);
+  if (n == 0) return SPHDEM_OK;
+  const int H = SPHDEM_DEM_NHIST;
+  const int64_t na = m->nadd, need = na + n;
+  if (need > m->cap_add) {
+    const int64_t cap = need + need / 4 + 16;
+    uint64_t *k = (uint64_t *)realloc(m->add_key, sizeof(uint64_t) * (size_t)cap);
+    if (k) m->add_key = k;
+    double *h = k ? (double *)realloc(m->add_hist, sizeof(double) * H * (size_t)cap) : NULL;
+    if (h) m->add_hist = h;
+    double *r = h ? (double *)realloc(m->add_roll, sizeof(double) * 3 * (size_t)cap) : NULL;
+    if (r) m->add_roll = r;
+    if (!k || !h || !r) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "add_history: %lld pairs", (long long)need);
+    m->cap_add = cap;
+  }
+  /* appended, then the whole list put in key order by insertion from the end (a few pairs a build) */
+  for (int64_t i = 0; i < n; i++) {
+    int64_t j = m->nadd;
+    while (j > 0 && m->add_key[j - 1] > keys[i]) j--;
+    if (j > 0 && m->add_key[j - 1] == keys[i]) continue; /* given before: the first values stay */
+    memmove(m->add_key + j + 1, m->add_key + j, sizeof(uint64_t) * (size_t)(m->nadd - j));
+    memmove(m->add_hist + H * (j + 1), m->add_hist + H * j, sizeof(double) * H * (size_t)(m->nadd - j));
+    memmove(m->add_roll + 3 * (j + 1), m->add_roll + 3 * j, sizeof(double) * 3 * (size_t)(m->nadd - j));
+    m->add_key[j] = keys[i];
+    memcpy(m->add_hist + H * j, hist + H * i, sizeof(double) * H);
+    for (int q = 0; q < 3; q++) m->add_roll[3 * j + q] = roll ? roll[3 * i + q] : 0.0;
+    m->nadd++;
+  }
+  m->add_roll_given |= roll != NULL;
   m->need_build = 1;
   return SPHDEM_OK;
 }

@@ -126,6 +126,15 @@ struct sphdem_dem_s {
   int seed_roll;               /* and roll_old its rolling torques (sphdem_dem_set_history_rolling) */
   int roll_valid;              /* D->rin holds the rolling torques of the current list */
   int64_t cap_roll, cap_rold;  /* capacities (pairs) of rin/rout and roll_old */
+  /* pairs added to the history the next build carries over (sphdem_dem_add_history): host arrays sorted by key,
+   * merged into key_old/hist_old/roll_old at that build (into the spare arrays mk/mh/mr, then swapped) */
+  uint64_t *add_key;
+  double *add_hist, *add_roll; /* add_roll: 3 per pair, or zeros where none were given */
+  int64_t nadd, cap_add;
+  int add_roll_given;
+  uint64_t *mk;                /* spare key_old/hist_old/roll_old (host; the CPU backend swaps them in) */
+  double *mh, *mr;
+  int64_t cap_m, cap_mr;
   int tags_valid;              /* device tag array matches htag */
   int zero_copy;               /* CPU backend: f, tq point at the caller's arrays during sphdem_dem_compute
                                   (x, v, om, rad, mass always at the grain store's device view) */

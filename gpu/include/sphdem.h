@@ -644,6 +644,18 @@ int sphdem_dem_set_history(sphdem_dem dem, int64_t n, const uint64_t *keys, cons
 int64_t sphdem_dem_get_rolling(sphdem_dem dem, double *roll, int64_t max);
 int sphdem_dem_set_history_rolling(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist,
                                    const double *roll);
+/* The history of the pairs of the current list with a grain among the ntags tags (sorted ascending; a wall
+ * pair by its grain): keys, SPHDEM_DEM_HIST_DOUBLES per pair in hist and, where roll is not NULL, 3 rolling
+ * torques per pair (0 where none are kept), in key order. Writes at most max pairs (keys, hist, roll may be
+ * NULL with max 0); returns the count of such pairs, or a negative code. What a rank hands over when atoms leave
+ * it, without reading the whole history. */
+int64_t sphdem_dem_get_history_of(sphdem_dem dem, int64_t ntags, const int64_t *tags, uint64_t *keys, double *hist,
+                                  double *roll, int64_t max);
+/* Pairs (keys unique, any order) added to the history that the next pair-list build carries over: a pair that
+ * history holds already keeps its own values. roll: 3 rolling torques per pair, or NULL (they start from zero).
+ * Several calls before a build add up (a key given twice keeps its first values). The hand-over of the history
+ * of atoms that joined a rank, without writing the whole history again. */
+int sphdem_dem_add_history(sphdem_dem dem, int64_t n, const uint64_t *keys, const double *hist, const double *roll);
 /* Time split of the sphdem_dem_compute calls since creation or the last reset, in seconds of the
  * host clock: upload of the grains, the rebuild check (displacements against skin/2), contact
  * detection (cell grid, candidate pairs, history carry: only on calls that rebuild the pair list),

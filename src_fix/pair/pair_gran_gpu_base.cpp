@@ -364,29 +364,27 @@ void PairGranGPUBase::hand_over_history() {
   owned_prev_.assign(tag, tag + nlocal);
   prev_map_.swap(own_now_);
   own_map_valid_ = false;
-  std::vector<uint64_t> keys, sk;
-  std::vector<double> hist, roll, sh;
-  bool have = false;
+  /* the history of the pairs of the atoms that left (and with rolling_friction epsd/epsd2 their rolling torques) */
+  std::vector<uint64_t> &keys = hkeys_, &sk = hsk_;
+  std::vector<double> &hist = hhist_, &roll = hroll_, &sh = hsh_;
+  sk.clear();
+  sh.clear();
   int bad = 0;
-  /* the core's history, and with rolling_friction epsd/epsd2 its rolling torques (0 where it keeps none) */
-  auto read = [&]() {
-    have = true;
-    if (!sphdem_restart::get_history(dem_, keys, hist)) return false;
-    roll.assign(keys.size() * (size_t)R, 0.0);
-    if (R && !keys.empty()) {
-      const int64_t nr = sphdem_dem_get_rolling(dem_, roll.data(), (int64_t)keys.size());
-      if (nr < 0) return false;
-      if (nr != (int64_t)keys.size()) roll.assign(roll.size(), 0.0);
-    }
-    return true;
-  };
   if (!left.empty()) {
-    if (!read()) bad = 1;
-    for (size_t p = 0; p < keys.size(); p++)
-      if (sphdem_restart::has_history(&hist[p * H]) && pair_has(left, keys[p])) {
+    const int64_t nl = (int64_t)left.size();
+    int64_t c = sphdem_dem_get_history_of(dem_, nl, left.data(), nullptr, nullptr, nullptr, 0);
+    if (c > 0) {
+      if (keys.size() < (size_t)c) keys.resize((size_t)c);
+      if (hist.size() < (size_t)c * H) hist.resize((size_t)c * H);
+      if (roll.size() < (size_t)c * 3) roll.resize((size_t)c * 3);
+      c = sphdem_dem_get_history_of(dem_, nl, left.data(), keys.data(), hist.data(), R ? roll.data() : nullptr, c);
+    }
+    if (c < 0) bad = 1;
+    for (int64_t p = 0; p < c; p++)
+      if (sphdem_restart::has_history(&hist[p * H])) {
         sk.push_back(keys[p]);
         sh.insert(sh.end(), hist.begin() + p * H, hist.begin() + (p + 1) * H);
-        sh.insert(sh.end(), roll.begin() + p * R, roll.begin() + (p + 1) * R);
+        sh.insert(sh.end(), roll.begin() + p * 3, roll.begin() + p * 3 + R);
       }
   }
   /* the pairs go to every rank an atom of this rank can join at an exchange (hand_ranks), or to every rank */
@@ -459,23 +457,20 @@ void PairGranGPUBase::hand_over_history() {
   for (int k = 0; k < total; k++)
     if (pair_has(arrived, rk[k])) take.emplace_back(rk[k], k);
   if (take.empty()) return;
-  if (!have && !read()) fail_one(std::string("reading the contact history: ") + sphdem_dem_last_error(dem_));
-  std::vector<uint64_t> held(keys);
-  std::sort(held.begin(), held.end());
+  /* each pair once (from the lowest rank that sent it), in key order; the core keeps the pairs it holds already */
   std::stable_sort(take.begin(), take.end(),
                    [](const std::pair<uint64_t, int> &a, const std::pair<uint64_t, int> &b) { return a.first < b.first; });
-  size_t added = 0;
+  keys.clear();
+  hist.clear();
+  roll.clear();
   for (size_t t = 0; t < take.size(); t++) {
     if (t && take[t].first == take[t - 1].first) continue;
-    if (std::binary_search(held.begin(), held.end(), take[t].first)) continue;
     const size_t o = (size_t)take[t].second * W;
     keys.push_back(take[t].first);
     hist.insert(hist.end(), rh.begin() + o, rh.begin() + o + H);
     roll.insert(roll.end(), rh.begin() + o + H, rh.begin() + o + W);
-    added++;
   }
-  if (added && sphdem_dem_set_history_rolling(dem_, (int64_t)keys.size(), keys.data(), hist.data(),
-                                              R ? roll.data() : nullptr))
+  if (sphdem_dem_add_history(dem_, (int64_t)keys.size(), keys.data(), hist.data(), R ? roll.data() : nullptr))
     fail_one(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
 }
 

@@ -72,6 +72,8 @@ class PairGranGPUBase : public Pair {
   bool own_map_valid_;
   std::vector<int64_t> left_, arrived_; /* hand-over: tags that left and joined this rank since the last build */
   std::vector<int> hand_ranks_;       /* hand_ranks(), for the decomposition of hand_key_ */
+  std::vector<uint64_t> hkeys_, hsk_; /* hand-over buffers, kept from one list build to the next */
+  std::vector<double> hhist_, hroll_, hsh_;
   int hand_key_[7];
   bool hand_key_valid_ = false;
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */

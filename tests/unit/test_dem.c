@@ -1003,6 +1003,101 @@ static void test_skipped_copies(void) {
     }
 }
 
+/* The hand-over between ranks: sphdem_dem_get_history_of gives exactly the pairs of the listed tags of the
+ * whole history, in its order and with its bits; sphdem_dem_add_history gives a fresh context the history of the
+ * pairs it is handed (the first values of a key given twice, nothing for a key the new list does not hold), and a
+ * pair the carried history holds already keeps its own values. */
+static void test_history_hand_over(void) {
+  const int n = 400;
+  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
+  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+  p.skin = 0.02;
+  p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
+  p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+  sphdem_dem A = make(&p), B = make(&p);
+  int rc = 0;
+  for (int s = 0; s < 5; s++) {
+    rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, g.f, g.t, NULL);
+    for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-5 * g.v[k];
+  }
+  const int H = SPHDEM_DEM_HIST_DOUBLES;
+  const int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0);
+  uint64_t *ka = malloc(sizeof(uint64_t) * (size_t)(np + 2)), *ko = malloc(sizeof(uint64_t) * (size_t)(np + 2));
+  double *ha = malloc(sizeof(double) * H * (size_t)(np + 2)), *ho = malloc(sizeof(double) * H * (size_t)(np + 2));
+  double *ro = malloc(sizeof(double) * 3 * (size_t)(np + 2));
+  sphdem_dem_get_history(A, ka, ha, np);
+  /* the tags of the first 40 grains and of every 7th (make_grains: tag 1000 + 7 i) */
+#define LISTED(t) ((t) >= 1000 && (t) < 1000 + 7 * n && (((t) - 1000) / 7 < 40 || (((t) - 1000) / 7) % 7 == 0))
+  int64_t tags[200];
+  int nt = 0;
+  for (int i = 0; i < n; i++)
+    if (LISTED(g.tag[i])) tags[nt++] = g.tag[i];
+  const int64_t c0 = sphdem_dem_get_history_of(A, nt, tags, NULL, NULL, NULL, 0);
+  const int64_t c = sphdem_dem_get_history_of(A, nt, tags, ko, ho, ro, np);
+  int64_t want = 0, mism = 0, touching = 0;
+  for (int64_t q = 0; q < np; q++) {
+    const int64_t ta = (int64_t)(ka[q] >> 32), tb = (int64_t)(uint32_t)ka[q];
+    if (!(LISTED(ta) || LISTED(tb))) continue;
+    if (want < c && (ko[want] != ka[q] || memcmp(ho + H * want, ha + H * q, sizeof(double) * H))) mism++;
+    touching += ha[H * q + 3] != 0.0;
+    want++;
+  }
+  for (int64_t q = 0; q < 3 * c; q++) mism += ro[q] != 0.0; /* (no rolling model: zeros) */
+  printf("  history of %d tags: %lld of %lld pairs (%lld with a contact), %lld differ\n", nt, (long long)c,
+         (long long)np, (long long)touching, (long long)mism);
+  TEST_ASSERT(rc == 0 && c == want && c0 == c && mism == 0 && c > 50 && touching > 20 && c < np,
+              "get_history_of: %lld pairs (count %lld), expected %lld, %lld differ", (long long)c, (long long)c0,
+              (long long)want, (long long)mism);
+  /* B: the pairs of the listed tags handed over before its first build, one key twice (second values other),
+   * one key of no pair */
+#undef LISTED
+  ko[c] = ko[0];
+  for (int k = 0; k < H; k++) ho[H * c + k] = ho[k] + 1.0;
+  ko[c + 1] = ((uint64_t)1 << 32) | 2u; /* (tags 1 and 2: no grain) */
+  for (int k = 0; k < H; k++) ho[H * (c + 1) + k] = 7.0;
+  rc |= sphdem_dem_add_history(B, c + 2, ko, ho, NULL);
+  rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
+  /* C: the same pairs (each once, no unknown key) as the whole history to carry (sphdem_dem_set_history) */
+  sphdem_dem C = make(&p);
+  rc |= sphdem_dem_set_history(C, c, ko, ho);
+  rc |= sphdem_dem_compute(C, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
+  uint64_t *kb = malloc(sizeof(uint64_t) * (size_t)(np + 2)), *kc = malloc(sizeof(uint64_t) * (size_t)(np + 2));
+  double *hb = malloc(sizeof(double) * H * (size_t)(np + 2)), *hc = malloc(sizeof(double) * H * (size_t)(np + 2));
+  const int64_t nb = sphdem_dem_get_history(B, kb, hb, np + 2), nc = sphdem_dem_get_history(C, kc, hc, np + 2);
+  int64_t carried = 0; /* pairs of B's list with a tangential history (the handed ones that are in it) */
+  for (int64_t q = 0; q < nb; q++) carried += hb[H * q] != 0.0 || hb[H * q + 1] != 0.0 || hb[H * q + 2] != 0.0;
+  const int as_set = nb == nc && nb > 0 && !memcmp(kb, kc, sizeof(uint64_t) * (size_t)nb) &&
+                     !memcmp(hb, hc, sizeof(double) * H * (size_t)nb);
+  /* a pair held already keeps its own values */
+  for (int64_t q = 0; q < c; q++)
+    for (int k = 0; k < H; k++) ho[H * q + k] *= 2.0;
+  rc |= sphdem_dem_add_history(B, c, ko, ho, NULL);
+  rc |= sphdem_dem_request_build(B);
+  rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
+  double *hb2 = malloc(sizeof(double) * H * (size_t)(np + 2));
+  uint64_t *kb2 = malloc(sizeof(uint64_t) * (size_t)(np + 2));
+  const int64_t nb2 = sphdem_dem_get_history(B, kb2, hb2, np + 2);
+  const int same = nb2 == nb && !memcmp(kb2, kb, sizeof(uint64_t) * (size_t)nb) &&
+                   !memcmp(hb2, hb, sizeof(double) * H * (size_t)nb);
+  printf("  handed over %lld pairs (one twice, one of no grains) before the first build: %lld of %lld pairs carry a "
+         "tangential history, the same bits as the history set whole: %s; held pairs kept theirs: %s\n", (long long)c,
+         (long long)carried, (long long)nb, as_set ? "yes" : "no", same ? "yes" : "no");
+  TEST_ASSERT(rc == 0 && as_set && carried > 100 && same, "add_history: %s; as set_history %d (%lld vs %lld pairs), "
+              "%lld carried, held kept %d", sphdem_dem_last_error(B), as_set, (long long)nb, (long long)nc,
+              (long long)carried, same);
+  TEST_ASSERT(sphdem_dem_add_history(B, 1, NULL, ho, NULL) == SPHDEM_ERR_ARG &&
+                  strstr(sphdem_dem_last_error(B), "add_history") != NULL,
+              "add_history without keys: '%s'", sphdem_dem_last_error(B));
+  free(ka); free(ko); free(ha); free(ho); free(ro); free(kb); free(hb); free(kc); free(hc); free(kb2); free(hb2);
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B); sphdem_dem_destroy(&C);
+  free_grains(&g);
+}
+
 /* The one-thread pass in one loop (fused: dense beds) and in two (overlap test, then the law of the touching pairs:
  * dilute ones) gives the same bits: forces, torques, virial and history, over steps with contacts made and lost,
  * with and without the virial, and with copies of grains sharing a tag (SPHDEM_DEM_GHOST). */
@@ -1081,5 +1176,6 @@ int main(void) {
   test_ghost_once();
   test_skipped_copies();
   test_fused();
+  test_history_hand_over();
   return test_summary("unit_dem");
 }
