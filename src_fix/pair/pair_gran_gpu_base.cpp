@@ -400,7 +400,7 @@ void PairGranGPUBase::hand_over_history() {
     if (anybad)
       fail(sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
                                                      sphdem_dem_last_error(dem_)));
-    const int nn = (int)nb.size(), tag0 = 0x5d3e0; /* tags of these messages alone */
+    const int nn = (int)nb.size(), tag0 = 23870; /* tags of these messages alone (below 32767, the least MPI_TAG_UB) */
     std::vector<int> cnt(nn, 0);
     std::vector<MPI_Request> req;
     req.reserve(4 * (size_t)nn);
