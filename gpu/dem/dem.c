@@ -205,6 +205,39 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   return SPHDEM_OK;
 }
 
+/* Host memory for the history's host-side work: the backend's allocation on the CPU backend (whose arrays are host
+ * memory, so that such an array can be swapped with a device array), malloc else. */
+static int host_alloc(struct sphdem_dem_s *m, void **ptr, size_t bytes) {
+  if (m->backend == SPHDEM_DEVICE_CPU) return rt_alloc(&m->rt, ptr, bytes);
+  *ptr = malloc(bytes ? bytes : 8);
+  return *ptr ? SPHDEM_OK : sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate %zu bytes on the host", bytes);
+}
+static void host_free(struct sphdem_dem_s *m, void **ptr) {
+  if (m->backend == SPHDEM_DEVICE_CPU) {
+    rt_free(&m->rt, ptr, 0);
+  } else {
+    free(*ptr);
+    *ptr = NULL;
+  }
+}
+
+/* A host view of bytes of the device array dev: dev itself on the CPU backend, else a copy in *tmp (the caller frees
+ * *tmp, NULL on the CPU backend). NULL when the copy fails (the error set). */
+static void *host_view(struct sphdem_dem_s *m, void *dev, size_t bytes, void **tmp) {
+  *tmp = NULL;
+  if (m->backend == SPHDEM_DEVICE_CPU || !dev) return dev;
+  if (!(*tmp = malloc(bytes ? bytes : 8))) {
+    sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "cannot copy %zu bytes to the host", bytes);
+    return NULL;
+  }
+  if (rt_d2h(&m->rt, *tmp, dev, bytes)) {
+    free(*tmp);
+    *tmp = NULL;
+    return NULL;
+  }
+  return *tmp;
+}
+
 int sphdem_dem_destroy(sphdem_dem *pm) {
   if (!pm || !*pm) return SPHDEM_OK;
   struct sphdem_dem_s *m = *pm;
@@ -229,11 +262,9 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->add_key);
   free(m->add_hist);
   free(m->add_roll);
-  void *spare[] = {m->mk, m->mh, m->mr}; /* (device-side allocations on the CPU backend, host buffers else) */
-  for (size_t k = 0; k < 3; k++) {
-    if (m->backend == SPHDEM_DEVICE_CPU) rt_free(&m->rt, &spare[k], 0);
-    else free(spare[k]);
-  }
+  host_free(m, (void **)&m->mk);
+  host_free(m, (void **)&m->mh);
+  host_free(m, (void **)&m->mr);
   sphdem_grains_destroy(&m->gstore);
   free(m);
   *pm = NULL;
@@ -380,7 +411,8 @@ static int cmp_u64(const void *a, const void *b) {
   return x < y ? -1 : x > y;
 }
 
-/* A host round trip of the current history (the keys sorted, bisection), at the engine's list builds only. */
+/* Negates the rolling and twisting history of the listed pairs in the history the next build carries over and in
+ * the pairs added since the last build, at the engine's list builds only (the keys sorted once, bisection). */
 int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
   if (!m) return SPHDEM_ERR_ARG;
   dem_dev *D = &m->D;
@@ -388,50 +420,39 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
   /* the history the next build carries over: a seed (restart, hand-over between ranks) or the current list */
   const int seeded = m->seeded;
   const int64_t np = seeded ? D->np_old : m->nbuilds ? D->np : 0;
-  if (n == 0 || D->P.model != SPHDEM_DEM_GRANULAR) return SPHDEM_OK;
-  if (m->nadd > 0) { /* the pairs added since the last build (sphdem_dem_add_history) too */
-    uint64_t *ak = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
-    if (!ak) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)n);
-    memcpy(ak, keys, sizeof(uint64_t) * (size_t)n);
-    qsort(ak, (size_t)n, sizeof(uint64_t), cmp_u64);
-    for (int64_t j = 0; j < m->nadd; j++) {
-      if (!bsearch(&m->add_key[j], ak, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
-      m->add_hist[SPHDEM_DEM_NHIST * j + 4] = -m->add_hist[SPHDEM_DEM_NHIST * j + 4];
-      for (int q = 0; q < 3; q++) m->add_roll[3 * j + q] = -m->add_roll[3 * j + q];
-    }
-    free(ak);
+  if (n == 0 || D->P.model != SPHDEM_DEM_GRANULAR || (np == 0 && m->nadd == 0)) return SPHDEM_OK;
+  uint64_t *fk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
+  if (!fk) return sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)n);
+  memcpy(fk, keys, sizeof(uint64_t) * (size_t)n);
+  qsort(fk, (size_t)n, sizeof(uint64_t), cmp_u64);
+  for (int64_t j = 0; j < m->nadd; j++) { /* the pairs added since the last build (sphdem_dem_add_history) */
+    if (!bsearch(&m->add_key[j], fk, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
+    m->add_hist[SPHDEM_DEM_NHIST * j + 4] = -m->add_hist[SPHDEM_DEM_NHIST * j + 4];
+    for (int q = 0; q < 3; q++) m->add_roll[3 * j + q] = -m->add_roll[3 * j + q];
   }
-  if (np == 0) return SPHDEM_OK;
   uint64_t *dk = seeded ? D->key_old : D->key;
   double *dh = seeded ? D->hist_old : D->hin;
   double *dr = seeded ? (m->seed_roll ? D->roll_old : NULL) : D->rin;
-  uint64_t *pk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)np), *fk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)n);
-  double *h = (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  double *r = dr ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
-  int rc = (!pk || !fk || !h || (dr && !r)) ? sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "flip_history: %lld pairs", (long long)np)
-                                            : SPHDEM_OK;
-  if (!rc) rc = rt_d2h(&m->rt, pk, dk, sizeof(uint64_t) * (size_t)np);
-  if (!rc) rc = rt_d2h(&m->rt, h, dh, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  if (!rc && r) rc = rt_d2h(&m->rt, r, dr, sizeof(double) * 3 * (size_t)np);
-  int changed = 0;
-  if (!rc) {
-    memcpy(fk, keys, sizeof(uint64_t) * (size_t)n);
-    qsort(fk, (size_t)n, sizeof(uint64_t), cmp_u64);
-    for (int64_t p = 0; p < np; p++) {
-      if (!bsearch(&pk[p], fk, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
-      h[SPHDEM_DEM_NHIST * p + 4] = -h[SPHDEM_DEM_NHIST * p + 4];
-      if (r)
-        for (int q = 0; q < 3; q++) r[3 * p + q] = -r[3 * p + q];
-      changed = 1;
-    }
+  void *tk = NULL, *th = NULL, *tr = NULL;
+  const size_t hb = sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np, rb = sizeof(double) * 3 * (size_t)np;
+  const uint64_t *pk = np ? (const uint64_t *)host_view(m, dk, sizeof(uint64_t) * (size_t)np, &tk) : NULL;
+  double *h = pk ? (double *)host_view(m, dh, hb, &th) : NULL;
+  double *r = h && dr ? (double *)host_view(m, dr, rb, &tr) : NULL;
+  int rc = np && (!h || (dr && !r)) ? SPHDEM_ERR_ALLOC : SPHDEM_OK, changed = 0;
+  for (int64_t p = 0; !rc && p < np; p++) {
+    if (!bsearch(&pk[p], fk, (size_t)n, sizeof(uint64_t), cmp_u64)) continue;
+    h[SPHDEM_DEM_NHIST * p + 4] = -h[SPHDEM_DEM_NHIST * p + 4];
+    if (r)
+      for (int q = 0; q < 3; q++) r[3 * p + q] = -r[3 * p + q];
+    changed = 1;
   }
   if (changed) m->tf_valid = 0;
-  if (!rc && changed) rc = rt_h2d(&m->rt, dh, h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
-  if (!rc && changed && r) rc = rt_h2d(&m->rt, dr, r, sizeof(double) * 3 * (size_t)np);
-  free(pk);
+  if (!rc && changed && th) rc = rt_h2d(&m->rt, dh, th, hb); /* (the CPU backend changed them in place) */
+  if (!rc && changed && tr) rc = rt_h2d(&m->rt, dr, tr, rb);
   free(fk);
-  free(h);
-  free(r);
+  free(tk);
+  free(th);
+  free(tr);
   return rc;
 }
 
@@ -582,73 +603,51 @@ static int merge_added(struct sphdem_dem_s *m, int roll) {
   const int with_roll = roll && (D->roll_carry || m->add_roll_given);
   m->nadd = 0;
   m->add_roll_given = 0;
-  /* host views of the old list (the CPU backend's arrays are host memory) */
-  uint64_t *ok = D->key_old;
-  double *oh = D->hist_old, *orr = D->roll_carry ? D->roll_old : NULL;
-  uint64_t *tk = NULL;
-  double *th = NULL, *tr = NULL;
-  int rc = SPHDEM_OK;
-  if (!cpu && no > 0) {
-    tk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)no);
-    th = (double *)malloc(sizeof(double) * H * (size_t)no);
-    tr = orr ? (double *)malloc(sizeof(double) * 3 * (size_t)no) : NULL;
-    if (!tk || !th || (orr && !tr)) rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)no);
-    if (!rc) rc = rt_d2h(&m->rt, tk, ok, sizeof(uint64_t) * (size_t)no);
-    if (!rc) rc = rt_d2h(&m->rt, th, oh, sizeof(double) * H * (size_t)no);
-    if (!rc && orr) rc = rt_d2h(&m->rt, tr, orr, sizeof(double) * 3 * (size_t)no);
-    ok = tk, oh = th, orr = tr;
+  /* the merged list goes to the spare arrays */
+  if (no + na > m->cap_m) {
+    host_free(m, (void **)&m->mk);
+    host_free(m, (void **)&m->mh);
+    m->cap_m = 0;
+    TRY(host_alloc(m, (void **)&m->mk, sizeof(uint64_t) * (size_t)cap));
+    TRY(host_alloc(m, (void **)&m->mh, sizeof(double) * H * (size_t)cap));
+    m->cap_m = cap;
   }
-  /* the merged list: the spare arrays (host memory on the CPU backend; host buffers before the copy on the GPU) */
-  if (!rc && no + na > m->cap_m) {
-    void *a[] = {m->mk, m->mh};
-    for (int k = 0; k < 2; k++) (cpu ? rt_free(&m->rt, &a[k], 0) : free(a[k]));
-    m->mk = NULL, m->mh = NULL;
-    if (cpu) {
-      rc = rt_alloc(&m->rt, (void **)&m->mk, sizeof(uint64_t) * (size_t)cap);
-      if (!rc) rc = rt_alloc(&m->rt, (void **)&m->mh, sizeof(double) * H * (size_t)cap);
-    } else {
-      m->mk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)cap);
-      m->mh = (double *)malloc(sizeof(double) * H * (size_t)cap);
-      if (!m->mk || !m->mh) rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)cap);
-    }
-    m->cap_m = rc ? 0 : cap;
+  if (with_roll && no + na > m->cap_mr) {
+    host_free(m, (void **)&m->mr);
+    m->cap_mr = 0;
+    TRY(host_alloc(m, (void **)&m->mr, sizeof(double) * 3 * (size_t)cap));
+    m->cap_mr = cap;
   }
-  if (!rc && with_roll && no + na > m->cap_mr) {
-    void *a = m->mr;
-    cpu ? rt_free(&m->rt, &a, 0) : free(a);
-    m->mr = NULL;
-    if (cpu) rc = rt_alloc(&m->rt, (void **)&m->mr, sizeof(double) * 3 * (size_t)cap);
-    else if (!(m->mr = (double *)malloc(sizeof(double) * 3 * (size_t)cap)))
-      rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "history hand-over: %lld pairs", (long long)cap);
-    m->cap_mr = rc ? 0 : cap;
+  void *tk = NULL, *th = NULL, *tr = NULL;
+  const uint64_t *ok = no ? (const uint64_t *)host_view(m, D->key_old, sizeof(uint64_t) * (size_t)no, &tk) : NULL;
+  const double *oh = ok ? (const double *)host_view(m, D->hist_old, sizeof(double) * H * (size_t)no, &th) : NULL;
+  const double *orr = oh && D->roll_carry ? (const double *)host_view(m, D->roll_old, sizeof(double) * 3 * (size_t)no, &tr)
+                                          : NULL;
+  if (no && (!oh || (D->roll_carry && !orr))) {
+    free(tk), free(th), free(tr);
+    return SPHDEM_ERR_ALLOC;
   }
-  int64_t k = 0;
-  if (!rc) {
-    int64_t i = 0, j = 0;
-    while (i < no || j < na) {
-      const int take_old = j >= na || (i < no && ok[i] <= m->add_key[j]);
-      if (take_old && j < na && i < no && ok[i] == m->add_key[j]) j++; /* held already: its own values */
-      if (take_old) {
-        m->mk[k] = ok[i];
-        memcpy(m->mh + H * k, oh + H * i, sizeof(double) * H);
-        if (with_roll) {
-          if (orr) memcpy(m->mr + 3 * k, orr + 3 * i, sizeof(double) * 3);
-          else m->mr[3 * k] = m->mr[3 * k + 1] = m->mr[3 * k + 2] = 0.0;
-        }
-        i++;
-      } else {
-        m->mk[k] = m->add_key[j];
-        memcpy(m->mh + H * k, m->add_hist + H * j, sizeof(double) * H);
-        if (with_roll) memcpy(m->mr + 3 * k, m->add_roll + 3 * j, sizeof(double) * 3);
-        j++;
+  int64_t i = 0, j = 0, k = 0;
+  while (i < no || j < na) {
+    const int take_old = j >= na || (i < no && ok[i] <= m->add_key[j]);
+    if (take_old && j < na && i < no && ok[i] == m->add_key[j]) j++; /* held already: its own values */
+    if (take_old) {
+      m->mk[k] = ok[i];
+      memcpy(m->mh + H * k, oh + H * i, sizeof(double) * H);
+      if (with_roll) {
+        if (orr) memcpy(m->mr + 3 * k, orr + 3 * i, sizeof(double) * 3);
+        else m->mr[3 * k] = m->mr[3 * k + 1] = m->mr[3 * k + 2] = 0.0;
       }
-      k++;
+      i++;
+    } else {
+      m->mk[k] = m->add_key[j];
+      memcpy(m->mh + H * k, m->add_hist + H * j, sizeof(double) * H);
+      if (with_roll) memcpy(m->mr + 3 * k, m->add_roll + 3 * j, sizeof(double) * 3);
+      j++;
     }
+    k++;
   }
-  free(tk);
-  free(th);
-  free(tr);
-  if (rc) return rc;
+  free(tk), free(th), free(tr);
   if (cpu) { /* the merged arrays become the old list, the old ones the spares */
     uint64_t *k0 = D->key_old;
     double *h0 = D->hist_old;
@@ -1151,29 +1150,18 @@ static int key_has_tag(uint64_t k, int64_t ntags, const int64_t *tags) {
 int64_t sphdem_dem_get_history_of(sphdem_dem m, int64_t ntags, const int64_t *tags, uint64_t *keys, double *hist,
                                   double *roll, int64_t max) {
   if (!m || ntags < 0 || (ntags > 0 && !tags) || max < 0 || (max > 0 && (!keys || !hist))) return -SPHDEM_ERR_ARG;
-  const dem_dev *D = &m->D;
+  dem_dev *D = &m->D;
   const int64_t np = m->nbuilds ? D->np : 0;
-  const int H = SPHDEM_DEM_NHIST, cpu = m->backend == SPHDEM_DEVICE_CPU;
+  const int H = SPHDEM_DEM_NHIST;
   if (np == 0 || ntags == 0) return 0;
-  const double *rsrc = m->roll_valid ? D->rin : NULL;
-  /* host views: the CPU backend's arrays, else copies */
-  const uint64_t *k = D->key;
-  const double *h = D->hin, *r = rsrc;
-  uint64_t *tk = NULL;
-  double *th = NULL, *tr = NULL;
-  if (!cpu) {
-    tk = (uint64_t *)malloc(sizeof(uint64_t) * (size_t)np);
-    th = (double *)malloc(sizeof(double) * H * (size_t)np);
-    tr = rsrc ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
-    int rc = (!tk || !th || (rsrc && !tr)) ? SPHDEM_ERR_ALLOC : SPHDEM_OK;
-    if (!rc) rc = rt_d2h(&m->rt, tk, D->key, sizeof(uint64_t) * (size_t)np);
-    if (!rc) rc = rt_d2h(&m->rt, th, D->hin, sizeof(double) * H * (size_t)np);
-    if (!rc && rsrc) rc = rt_d2h(&m->rt, tr, rsrc, sizeof(double) * 3 * (size_t)np);
-    if (rc) {
-      free(tk), free(th), free(tr);
-      return -sphdem_dem_fail(m, rc, "reading the history of %lld pairs", (long long)np);
-    }
-    k = tk, h = th, r = tr;
+  double *rsrc = m->roll_valid ? D->rin : NULL;
+  void *tk = NULL, *th = NULL, *tr = NULL;
+  const uint64_t *k = (const uint64_t *)host_view(m, D->key, sizeof(uint64_t) * (size_t)np, &tk);
+  const double *h = k ? (const double *)host_view(m, D->hin, sizeof(double) * H * (size_t)np, &th) : NULL;
+  const double *r = h && rsrc ? (const double *)host_view(m, rsrc, sizeof(double) * 3 * (size_t)np, &tr) : NULL;
+  if (!h || (rsrc && !r)) {
+    free(tk), free(th), free(tr);
+    return -SPHDEM_ERR_ALLOC;
   }
   int64_t c = 0;
   for (int64_t p = 0; p < np; p++) {

@@ -364,20 +364,24 @@ void PairGranGPUBase::hand_over_history() {
   owned_prev_.assign(tag, tag + nlocal);
   prev_map_.swap(own_now_);
   own_map_valid_ = false;
-  /* the history of the pairs of the atoms that left (and with rolling_friction epsd/epsd2 their rolling torques) */
+  /* the history of the pairs of the atoms that left (and with rolling_friction epsd/epsd2 their rolling torques);
+   * keys, hist, roll keep their size from one build to the next */
   std::vector<uint64_t> &keys = hkeys_, &sk = hsk_;
   std::vector<double> &hist = hhist_, &roll = hroll_, &sh = hsh_;
   sk.clear();
   sh.clear();
   int bad = 0;
   if (!left.empty()) {
+    /* into the buffers as large as the last time; again, larger, where they were too small */
     const int64_t nl = (int64_t)left.size();
-    int64_t c = sphdem_dem_get_history_of(dem_, nl, left.data(), nullptr, nullptr, nullptr, 0);
-    if (c > 0) {
-      if (keys.size() < (size_t)c) keys.resize((size_t)c);
-      if (hist.size() < (size_t)c * H) hist.resize((size_t)c * H);
-      if (roll.size() < (size_t)c * 3) roll.resize((size_t)c * 3);
-      c = sphdem_dem_get_history_of(dem_, nl, left.data(), keys.data(), hist.data(), R ? roll.data() : nullptr, c);
+    int64_t c = -1;
+    for (int pass = 0; pass < 2; pass++) {
+      const int64_t cap = (int64_t)keys.size();
+      c = sphdem_dem_get_history_of(dem_, nl, left.data(), keys.data(), hist.data(), R ? roll.data() : nullptr, cap);
+      if (c <= cap) break;
+      keys.resize((size_t)c);
+      hist.resize((size_t)c * H);
+      roll.resize((size_t)c * 3);
     }
     if (c < 0) bad = 1;
     for (int64_t p = 0; p < c; p++)
@@ -393,7 +397,7 @@ void PairGranGPUBase::hand_over_history() {
   std::vector<double> rh;
   int total = 0;
   const std::vector<int> &nb = hand_ranks();
-  if (!nb.empty() || comm->nprocs == 1) {
+  if (!nb.empty()) {
     /* a rank that could not read its history: every rank stops with its message */
     int anybad = 0;
     MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, world);
@@ -442,7 +446,6 @@ void PairGranGPUBase::hand_over_history() {
       fail(err);
     }
     for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
-    if (total == 0) return;
     rk.resize((size_t)total);
     rh.resize((size_t)total * W);
     MPI_Allgatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, world);
@@ -460,17 +463,16 @@ void PairGranGPUBase::hand_over_history() {
   /* each pair once (from the lowest rank that sent it), in key order; the core keeps the pairs it holds already */
   std::stable_sort(take.begin(), take.end(),
                    [](const std::pair<uint64_t, int> &a, const std::pair<uint64_t, int> &b) { return a.first < b.first; });
-  keys.clear();
-  hist.clear();
-  roll.clear();
+  std::vector<uint64_t> ak;
+  std::vector<double> ah, ar;
   for (size_t t = 0; t < take.size(); t++) {
     if (t && take[t].first == take[t - 1].first) continue;
     const size_t o = (size_t)take[t].second * W;
-    keys.push_back(take[t].first);
-    hist.insert(hist.end(), rh.begin() + o, rh.begin() + o + H);
-    roll.insert(roll.end(), rh.begin() + o + H, rh.begin() + o + W);
+    ak.push_back(take[t].first);
+    ah.insert(ah.end(), rh.begin() + o, rh.begin() + o + H);
+    ar.insert(ar.end(), rh.begin() + o + H, rh.begin() + o + W);
   }
-  if (sphdem_dem_add_history(dem_, (int64_t)keys.size(), keys.data(), hist.data(), R ? roll.data() : nullptr))
+  if (sphdem_dem_add_history(dem_, (int64_t)ak.size(), ak.data(), ah.data(), R ? ar.data() : nullptr))
     fail_one(std::string("handing the contact history over: ") + sphdem_dem_last_error(dem_));
 }
 

@@ -15,6 +15,22 @@ static sphdem_dem make(const sphdem_dem_params *p) {
   return d;
 }
 
+/* The Hertz grains of most tests below: kn 2e5, kt 5e4, gamma_n 50, gamma_t 25, mu 0.5, the given skin and algorithm
+ * (< 0: the default), in the box lo..hi, periodic along every axis where periodic != 0. */
+static sphdem_dem_params hertz_params(double skin, int algo, const double *lo, const double *hi, int periodic) {
+  sphdem_dem_params p;
+  sphdem_dem_params_default(&p);
+  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
+  p.skin = skin;
+  if (algo >= 0) p.algo = algo;
+  for (int d = 0; d < 3; d++) {
+    p.periodic[d] = periodic != 0;
+    p.boxlo[d] = lo[d];
+    p.boxhi[d] = hi[d];
+  }
+  return p;
+}
+
 static void expect_arg(sphdem_dem_params p, const char *field) {
   char msg[256] = "";
   int rc = sphdem_dem_params_check(&p, msg, sizeof msg);
@@ -329,12 +345,8 @@ static void test_single_contacts(void) {
 static void test_threaded(void) {
   double lo[3] = {0, 0, 0}, hi[3] = {3, 3, 3};
   grains g = make_grains(6000, lo, hi, 0.1, 0.5);
-  sphdem_dem_params p;
-  sphdem_dem_params_default(&p);
-  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5; p.mu_r = 0.01;
-  p.skin = 0.02;
-  p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
-  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+  sphdem_dem_params p = hertz_params(0.02, -1, lo, hi, 1);
+  p.mu_r = 0.01;
   check_detection("6000 grains, threaded", p, &g, 0, NULL);
   sphdem_dem A = make(&p);
   p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
@@ -804,13 +816,8 @@ static void test_accumulate(void) {
       const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
       double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
       grains g = make_grains(n, lo, hi, 0.1, 0.5);
-      sphdem_dem_params p;
-      sphdem_dem_params_default(&p);
-      p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-      p.skin = 0.02;
-      p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
-      p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
-      for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+      sphdem_dem_params p =
+          hertz_params(0.02, algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
       sphdem_dem A = make(&p), B = make(&p), C = make(&p);
       TEST_ASSERT(sphdem_dem_set_accumulate(B, 1) == SPHDEM_OK && sphdem_dem_set_accumulate(C, 1) == SPHDEM_OK &&
                   sphdem_dem_set_accumulate(NULL, 1) == SPHDEM_ERR_ARG, "set_accumulate");
@@ -857,12 +864,9 @@ static void test_accumulate(void) {
  * grain Y) does: the force on Y must be the one a single copy gives, in both passes. */
 static void test_ghost_copies(void) {
   for (int algo = 0; algo < 2; algo++) {
-    sphdem_dem_params p;
-    sphdem_dem_params_default(&p);
-    p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-    p.skin = 0.05;
-    p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
-    for (int d = 0; d < 3; d++) { p.boxlo[d] = -1.0; p.boxhi[d] = 2.0; }
+    const double blo[3] = {-1, -1, -1}, bhi[3] = {2, 2, 2};
+    sphdem_dem_params p =
+        hertz_params(0.05, algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, blo, bhi, 0);
     /* X (tag 5), Y (tag 6), copy 1 of tag 1 within the skin of X, copy 2 of tag 1 overlapping Y by 0.01 */
     const int64_t tag[4] = {5, 6, 1, 1};
     const double x[12] = {0, 0, 0, 1, 0, 0, 0, 0.22, 0, 1, 0.19, 0};
@@ -896,11 +900,8 @@ static void test_ghost_copies(void) {
 /* sphdem_dem_set_ghost_once: a pair of this rank's grain and another rank's is evaluated on the rank of its grain of
  * lower tag only, which writes the other grain's share (-F) to that grain's row; without it, on both ranks. */
 static void test_ghost_once(void) {
-  sphdem_dem_params p;
-  sphdem_dem_params_default(&p);
-  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-  p.skin = 0.05;
-  for (int d = 0; d < 3; d++) { p.boxlo[d] = -1.0; p.boxhi[d] = 2.0; }
+  const double blo[3] = {-1, -1, -1}, bhi[3] = {2, 2, 2};
+  sphdem_dem_params p = hertz_params(0.05, -1, blo, bhi, 0);
   const double x[6] = {0, 0, 0, 0.19, 0.01, 0}, v[6] = {0.1, 0, 0, 0, 0, 0}, om[6] = {0};
   const double r[2] = {0.1, 0.1}, m[2] = {1, 1};
   const int32_t fl[2] = {0, SPHDEM_DEM_GHOST}; /* grain 0 this rank's, grain 1 another rank's */
@@ -944,13 +945,8 @@ static void test_skipped_copies(void) {
       const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
       double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
       grains g = make_grains(n, lo, hi, 0.1, 0.5);
-      sphdem_dem_params p;
-      sphdem_dem_params_default(&p);
-      p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-      p.skin = 0.02;
-      p.algo = algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL;
-      p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
-      for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+      sphdem_dem_params p =
+          hertz_params(0.02, algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
       sphdem_dem A = make(&p), B = make(&p);
       const int n2 = 2 * n;
       int64_t *tag2 = malloc(sizeof(int64_t) * n2);
@@ -1012,13 +1008,7 @@ static void test_history_hand_over(void) {
   const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
   double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
   grains g = make_grains(n, lo, hi, 0.1, 0.5);
-  sphdem_dem_params p;
-  sphdem_dem_params_default(&p);
-  p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-  p.skin = 0.02;
-  p.algo = SPHDEM_DEM_PARTICLE_PARALLEL;
-  p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
-  for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+  sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
   sphdem_dem A = make(&p), B = make(&p);
   int rc = 0;
   for (int s = 0; s < 5; s++) {
@@ -1107,13 +1097,8 @@ static void test_fused(void) {
     const double L = 0.1 * cbrt((double)n / 0.45 * 4.0 / 3.0 * M_PI / 8.0); /* dense: most listed pairs touch */
     double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
     grains g = make_grains(n, lo, hi, 0.1, 2.0);
-    sphdem_dem_params p;
-    sphdem_dem_params_default(&p);
-    p.model = SPHDEM_DEM_HERTZ; p.kn = 2e5; p.kt = 5e4; p.gamman = 50; p.gammat = 25; p.mu = 0.5;
-    p.skin = 0.02;
-    p.algo = SPHDEM_DEM_PARTICLE_PARALLEL; /* (500 grains: the one-thread pass at any thread count) */
-    p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
-    for (int d = 0; d < 3; d++) { p.boxlo[d] = lo[d]; p.boxhi[d] = hi[d]; }
+    /* (500 grains: the one-thread pass at any thread count) */
+    sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
     sphdem_dem A = make(&p), B = make(&p);
     A->cpu_fuse = 0;
     B->cpu_fuse = 1;

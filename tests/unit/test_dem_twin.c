@@ -10,6 +10,17 @@
 #include "dem_granular_table.h"
 #include "testlib.h"
 
+/* Grain k: radius 0.03-0.05, density 2500, at a uniform random place in 0..L, random velocity and spin. */
+static void random_grain(int k, const double *L, double *x, double *v, double *om, double *r, double *m) {
+  r[k] = 0.05 * (0.6 + 0.4 * urand());
+  m[k] = 2500 * 4.0 / 3.0 * M_PI * r[k] * r[k] * r[k];
+  for (int d = 0; d < 3; d++) {
+    x[3 * k + d] = L[d] * urand();
+    v[3 * k + d] = 0.5 * (urand() - 0.5);
+    om[3 * k + d] = 10 * (urand() - 0.5);
+  }
+}
+
 /* Several ranks' grain flags on both backends: a rank's own grains in a box periodic in x (the core's minimum image)
  * and cut along z; copies of them shifted by L along x (SPHDEM_DEM_SKIP: the engine's images along an axis the
  * ranks do not cut), shifted by L along z (SPHDEM_DEM_IMAGE: periodic images across a cut axis) and another
@@ -29,13 +40,7 @@ static void twin_ranks(sphdem_device gdev) {
   for (int i = 0; i < n0; i++, n++) {
     tag[n] = 2 * i + 1;
     fl[n] = 0;
-    r[n] = 0.05 * (0.6 + 0.4 * urand());
-    m[n] = 2500 * 4.0 / 3.0 * M_PI * r[n] * r[n] * r[n];
-    for (int d = 0; d < 3; d++) {
-      x[3 * n + d] = L[d] * urand();
-      v[3 * n + d] = 0.5 * (urand() - 0.5);
-      om[3 * n + d] = 10 * (urand() - 0.5);
-    }
+    random_grain(n, L, x, v, om, r, m);
   }
   /* another rank's grains just above the cut at z = L: new (even) tags */
   for (int i = 0; i < 300; i++, n++) {
@@ -132,13 +137,7 @@ int main(void) {
   double *fg = malloc(sizeof(double) * 3 * n), *tg = malloc(sizeof(double) * 3 * n);
   for (int i = 0; i < n; i++) {
     tag[i] = 3 * i + 11;
-    r[i] = 0.05 * (0.6 + 0.4 * urand());
-    m[i] = 2500 * 4.0 / 3.0 * M_PI * r[i] * r[i] * r[i];
-    for (int d = 0; d < 3; d++) {
-      x[3 * i + d] = L[d] * urand();
-      v[3 * i + d] = 0.5 * (urand() - 0.5);
-      om[3 * i + d] = 10 * (urand() - 0.5);
-    }
+    random_grain(i, L, x, v, om, r, m);
   }
   sphdem_dem_wall walls[2] = {{{0, 0.02, 0}, {0, 1, 0}}, {{0, 1.45, 0}, {0, -1, 0}}};
   /* the granular model: two grain types, every sub-model family (rolling and twisting history included) */
