@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # gpu_check.sh - (bench/gpu/) GPU verification on a machine with an NVIDIA GPU: every unit/verification test
-# on the CUDA backend, the CPU-vs-CUDA twin tests under compute-sanitizer memcheck and racecheck, the 3D
+# on the CUDA backend, the CPU-vs-CUDA twin tests under compute-sanitizer memcheck and racecheck (and the fluid's
+# two-rank exchange test under memcheck), the 3D
 # dam-break, CFD and DEM benchmarks, and (with the packed engines) the coupled drum benchmark.
 #   usage: bench/gpu/gpu_check.sh BIN_DIR OUT_DIR [bench sizes...]
 # BIN_DIR holds the test binaries and bench_dambreak (built with -DSPHDEM_CUDA=ON): either a build's tests/ folder
@@ -47,7 +48,10 @@ for part in $PARTS; do
       (cd "$OUT" && step "$n" 300 "$t")
       (cd "$OUT" && step "memcheck_$n" 150 compute-sanitizer --tool memcheck --leak-check full "$t")
       (cd "$OUT" && step "racecheck_$n" 150 compute-sanitizer --tool racecheck "$t")
-    done ;;
+    done
+    # two ranks as threads on one GPU: the device gathers of the boundary rows and scatters into the ghost slots
+    [ -x "$BIN/unit_fluid_comm" ] && (cd "$OUT" && step memcheck_unit_fluid_comm 150 env SPHDEM_TEST_DEVICE=gpu \
+      compute-sanitizer --tool memcheck --leak-check full "$BIN/unit_fluid_comm") ;;
   tests)
     if [ -f "$BIN/CTestTestfile.cmake" ]; then
       step ctest_gpu "$DEADLINE" ctest --test-dir "$BIN" -L gpu -LE twin --output-on-failure --timeout 300 \

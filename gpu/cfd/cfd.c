@@ -334,75 +334,80 @@ static void xrange(const cfd_dev *D, int kind, int e, int d, int *r0, int *r1) {
   else { *r0 = D->hlo[e]; *r1 = n - hh; }
 }
 
-/* pack (dir 0) or unpack (1: assign, 2: add) the layers [l0, l0 + nl) along d of the items into buf */
-static int64_t xcopy(const cfd_dev *D, int ni, double *const *hp, const int *kinds, int d, int l0, int nl, double *buf,
-                     int mode) {
-  int64_t k = 0;
-  for (int it = 0; it < ni; it++) {
-    const int kind = kinds[it];
-    int r0[3], r1[3], n[3];
-    for (int e = 0; e < 3; e++) {
-      n[e] = D->nc[e] + (kind == e);
-      if (e == d) { r0[e] = l0; r1[e] = l0 + nl; }
-      else xrange(D, kind, e, d, &r0[e], &r1[e]);
-    }
-    double *a = hp[it];
-    for (int z = r0[2]; z < r1[2]; z++)
-      for (int y = r0[1]; y < r1[1]; y++)
-        for (int x = r0[0]; x < r1[0]; x++) {
-          double *v = a + x + (int64_t)n[0] * (y + (int64_t)n[1] * z);
-          if (mode == 0) buf[k++] = *v;
-          else if (mode == 1) *v = buf[k++];
-          else *v += buf[k++];
-        }
+/* The cells of the layers [l0, l0 + nl) along d of an item of kind kind, as offsets within the item in message
+ * order (z, y, x), into out (NULL: the count only). */
+static int64_t layer_cells(const cfd_dev *D, int kind, int d, int l0, int nl, int32_t *out) {
+  int r0[3], r1[3], n[3];
+  for (int e = 0; e < 3; e++) {
+    n[e] = D->nc[e] + (kind == e);
+    if (e == d) { r0[e] = l0; r1[e] = l0 + nl; }
+    else xrange(D, kind, e, d, &r0[e], &r1[e]);
   }
+  int64_t k = 0;
+  for (int z = r0[2]; z < r1[2]; z++)
+    for (int y = r0[1]; y < r1[1]; y++)
+      for (int x = r0[0]; x < r1[0]; x++, k++)
+        if (out) out[k] = (int32_t)(x + (int64_t)n[0] * (y + (int64_t)n[1] * z));
   return k;
 }
 
-static int64_t item_len(const cfd_dev *D, int kind) {
-  return (int64_t)(D->nc[0] + (kind == 0)) * (D->nc[1] + (kind == 1)) * (D->nc[2] + (kind == 2));
+/* The first layer sent (recv 0) or received (recv 1) along d towards / from the neighbour at dir. */
+static int halo_layer0(const cfd_dev *D, int d, int dir, int H, int reverse, int recv) {
+  const int hl = D->hlo[d], top = D->hlo[d] + D->own[d];
+  if (!reverse) return recv ? (dir > 0 ? hl - H : top) : (dir > 0 ? top - H : hl);
+  return recv ? (dir > 0 ? hl : top - H) : (dir > 0 ? top : 0);
 }
 
+/* The device index list of one message part (made on first use for this layout). */
+static int halo_list(struct sphdem_cfd_s *m, int kind, int d, int dir, int H, int reverse, int recv,
+                     struct cfd_halo_list **out) {
+  struct cfd_halo_list *L = &m->hl[kind + 1][d][dir > 0][H == CFD_HALO][reverse][recv];
+  *out = L;
+  if (L->made) return SPHDEM_OK;
+  const int l0 = halo_layer0(&m->D, d, dir, H, reverse, recv);
+  const int64_t n = layer_cells(&m->D, kind, d, l0, H, NULL);
+  int32_t *h = (int32_t *)malloc(sizeof(int32_t) * (size_t)(n > 0 ? n : 1));
+  if (!h) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate a halo index list of %lld cells", (long long)n);
+  layer_cells(&m->D, kind, d, l0, H, h);
+  int rc = rt_alloc(&m->rt, (void **)&L->idx, sizeof(int32_t) * (size_t)(n > 0 ? n : 1));
+  if (!rc) rc = rt_h2d(&m->rt, L->idx, h, sizeof(int32_t) * (size_t)n);
+  free(h);
+  if (rc) return rc;
+  L->n = n;
+  L->made = 1;
+  return SPHDEM_OK;
+}
+
+static void free_halo_lists(struct sphdem_cfd_s *m) {
+  struct cfd_halo_list *L = &m->hl[0][0][0][0][0][0];
+  const size_t nl = sizeof m->hl / sizeof m->hl[0][0][0][0][0][0];
+  for (size_t k = 0; k < nl; k++) {
+    rt_free(&m->rt, (void **)&L[k].idx, sizeof(int32_t) * (size_t)(L[k].n > 0 ? L[k].n : 1));
+    L[k].n = 0, L[k].made = 0;
+  }
+  rt_free(&m->rt, (void **)&m->hstage, sizeof(double) * (size_t)m->nhstage);
+  rt_free(&m->rt, (void **)&m->hzero, sizeof(double) * (size_t)m->nhzero);
+  m->nhstage = m->nhzero = 0;
+}
+
+/* The halo exchange of the items: per axis and direction the layers are gathered from the device arrays into one
+ * message (only they cross to the host on a GPU), sent, and the received layers scattered into the arrays
+ * (forward: assigned; reverse: added, the sent deposits zeroed). The CPU backend runs the same gathers and
+ * scatters on host memory. */
 static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int reverse, int layers) {
   cfd_dev *D = &m->D;
   if (!m->decomp || !D->split) return SPHDEM_OK;
   if (!m->rt.comm.exchange)
     return sphdem_cfd_fail(m, SPHDEM_ERR_STATE, "decomposed gas grid without a halo-exchange callback");
-  double *hp[12];
-  int kinds[12];
   int rc = SPHDEM_OK;
-  /* host view of the items: the arrays themselves on the CPU backend, copies on a GPU */
-  int64_t tot = 0, big = 0;
-  for (int it = 0; it < ni; it++) tot += item_len(D, items[it].kind);
-  if (m->backend != SPHDEM_DEVICE_CPU && m->nhmirror < tot) {
-    free(m->hmirror);
-    m->hmirror = (double *)malloc(sizeof(double) * (size_t)tot);
-    m->nhmirror = m->hmirror ? tot : 0;
-    if (!m->hmirror) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the halo host copy");
-  }
-  int64_t off = 0;
-  for (int it = 0; it < ni; it++) {
-    kinds[it] = items[it].kind;
-    int64_t len = item_len(D, kinds[it]);
-    if (m->backend == SPHDEM_DEVICE_CPU) hp[it] = items[it].a;
-    else {
-      hp[it] = m->hmirror + off;
-      if ((rc = rt_d2h(&m->rt, hp[it], items[it].a, sizeof(double) * (size_t)len))) return rc;
-    }
-    off += len;
-  }
-  /* the largest message: CFD_HALO layers along any axis */
+  /* the largest message: CFD_HALO layers along any axis; the largest part of one */
+  int64_t big = 0, part = 0;
   for (int d = 0; d < 3; d++) {
     int64_t sz = 0;
     for (int it = 0; it < ni; it++) {
-      int64_t t = CFD_HALO;
-      for (int e = 0; e < 3; e++) {
-        if (e == d) continue;
-        int r0, r1;
-        xrange(D, kinds[it], e, d, &r0, &r1);
-        t *= r1 - r0;
-      }
+      const int64_t t = layer_cells(D, items[it].kind, d, 0, CFD_HALO, NULL);
       sz += t;
+      if (t > part) part = t;
     }
     if (sz > big) big = sz;
   }
@@ -414,50 +419,57 @@ static int halo_pass(struct sphdem_cfd_s *m, int ni, const cfd_item *items, int 
     m->nhx = m->hsend && m->hrecv ? big : 0;
     if (!m->nhx) return sphdem_cfd_fail(m, SPHDEM_ERR_ALLOC, "cannot allocate the halo buffers");
   }
+  if (m->nhstage < big) {
+    rt_free(&m->rt, (void **)&m->hstage, sizeof(double) * (size_t)m->nhstage);
+    m->nhstage = 0;
+    if ((rc = rt_alloc(&m->rt, (void **)&m->hstage, sizeof(double) * (size_t)big))) return rc;
+    m->nhstage = big;
+  }
+  if (reverse && m->nhzero < part) {
+    rt_free(&m->rt, (void **)&m->hzero, sizeof(double) * (size_t)m->nhzero);
+    m->nhzero = 0;
+    if ((rc = rt_alloc(&m->rt, (void **)&m->hzero, sizeof(double) * (size_t)part)) ||
+        (rc = rt_zero(&m->rt, m->hzero, sizeof(double) * (size_t)part)))
+      return rc;
+    m->nhzero = part;
+  }
   for (int s = 0; s < 3 && !rc; s++) {
     const int d = reverse ? 2 - s : s;
     const int H = layers, hl = D->hlo[d], top = D->hlo[d] + D->own[d], hh = D->nc[d] - top;
     for (int dir = 1; dir >= -1 && !rc; dir -= 2) {
       /* the layers sent to the neighbour at dir and those received from the one opposite */
-      int snd = dir > 0 ? hh > 0 : hl > 0, rcv = dir > 0 ? hl > 0 : hh > 0;
-      int s0, r0;
-      if (!reverse) {
-        s0 = dir > 0 ? top - H : hl;
-        r0 = dir > 0 ? hl - H : top;
-      } else {
-        s0 = dir > 0 ? top : 0;
-        r0 = dir > 0 ? hl : top - H;
-      }
-      int64_t ns = snd ? xcopy(D, ni, hp, kinds, d, s0, H, m->hsend, 0) : 0;
-      int64_t nr = 0;
-      if (rcv) { /* the count only */
-        nr = 0;
-        for (int it = 0; it < ni; it++) {
-          int64_t t = H;
-          for (int e = 0; e < 3; e++)
-            if (e != d) {
-              int a0, a1;
-              xrange(D, kinds[it], e, d, &a0, &a1);
-              t *= a1 - a0;
-            }
-          nr += t;
+      const int snd = dir > 0 ? hh > 0 : hl > 0, rcv = dir > 0 ? hl > 0 : hh > 0;
+      struct cfd_halo_list *L;
+      int64_t ns = 0, nr = 0;
+      for (int it = 0; snd && it < ni && !rc; it++)
+        if (!(rc = halo_list(m, items[it].kind, d, dir, H, reverse, 0, &L))) {
+          rc = rt_gather(&m->rt, m->hstage + ns, items[it].a, L->idx, L->n, 1);
+          ns += L->n;
         }
-      }
-      if (reverse && snd) { /* the deposits sent are the owner's now: zeros over the sent layers */
-        for (int64_t k = 0; k < ns; k++) m->hrecv[k] = 0.0;
-        xcopy(D, ni, hp, kinds, d, s0, H, m->hrecv, 1);
-      }
-      if (m->rt.comm.exchange(m->rt.comm.user, d, dir, m->hsend, (int)ns, m->hrecv, (int)nr) != 0)
+      if (!rc && snd) rc = rt_d2h(&m->rt, m->hsend, m->hstage, sizeof(double) * (size_t)ns);
+      /* the deposits sent are the owner's now: zeros over the sent layers */
+      for (int it = 0; reverse && snd && it < ni && !rc; it++)
+        if (!(rc = halo_list(m, items[it].kind, d, dir, H, reverse, 0, &L)))
+          rc = rt_scatter(&m->rt, items[it].a, m->hzero, L->idx, L->n, 1);
+      for (int it = 0; rcv && it < ni && !rc; it++)
+        if (!(rc = halo_list(m, items[it].kind, d, dir, H, reverse, 1, &L))) nr += L->n;
+      if (rc) break;
+      if (m->rt.comm.exchange(m->rt.comm.user, d, dir, m->hsend, (int)ns, m->hrecv, (int)nr) != 0) {
         rc = sphdem_cfd_fail(m, SPHDEM_ERR_STATE, "the halo exchange along axis %d with the neighbour rank failed", d);
-      else if (rcv)
-        xcopy(D, ni, hp, kinds, d, r0, H, m->hrecv, reverse ? 2 : 1);
+        break;
+      }
+      if (rcv) rc = rt_h2d(&m->rt, m->hstage, m->hrecv, sizeof(double) * (size_t)nr);
+      int64_t off = 0;
+      for (int it = 0; rcv && it < ni && !rc; it++)
+        if (!(rc = halo_list(m, items[it].kind, d, dir, H, reverse, 1, &L))) {
+          rc = reverse ? rt_scatter_add(&m->rt, items[it].a, m->hstage + off, L->idx, L->n, 1)
+                       : rt_scatter(&m->rt, items[it].a, m->hstage + off, L->idx, L->n, 1);
+          off += L->n;
+        }
       m->xbytes += 8.0 * (double)ns;
     }
   }
   m->xcalls++;
-  if (!rc && m->backend != SPHDEM_DEVICE_CPU)
-    for (int it = 0; it < ni && !rc; it++)
-      rc = rt_h2d(&m->rt, items[it].a, hp[it], sizeof(double) * (size_t)item_len(D, kinds[it]));
   return rc;
 }
 
@@ -569,6 +581,7 @@ static int alloc_grid(struct sphdem_cfd_s *m) {
 /* (with their sizes, so that the device bytes held stay right when a subdomain replaces the whole grid) */
 static void free_grid(struct sphdem_cfd_s *m) {
   cfd_dev *D = &m->D;
+  free_halo_lists(m); /* they follow the local layout */
 #define FC_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->ncell);
 #define FF_(a) rt_free(&m->rt, (void **)&D->a, sizeof(double) * (size_t)D->nface);
   CELL_ARRAYS(FC_)
@@ -646,7 +659,6 @@ int sphdem_cfd_destroy(sphdem_cfd *c) {
   free(m->hred);
   free(m->hsend);
   free(m->hrecv);
-  free(m->hmirror);
   free(m->gc_L);
   free(m->gc_v);
   free(m->gc_w);

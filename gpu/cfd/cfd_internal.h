@@ -152,8 +152,14 @@ struct sphdem_cfd_s {
   /* decomposed grid (sphdem_cfd_set_subdomain): owned global cells [slo, shi) per axis; host buffers of the halo
    * exchange; bytes sent and exchanges made so far */
   int decomp, slo[3], shi[3];
-  double *hsend, *hrecv, *hmirror;
-  int64_t nhx, nhmirror;
+  double *hsend, *hrecv;
+  int64_t nhx;
+  /* decomposed grid: the halo messages' cell offsets within an item (cells, or the faces of one axis), in message
+   * order, on the device, made when first used for the local layout: [kind + 1][axis][dir > 0][layers ==
+   * CFD_HALO][reverse][0 sent, 1 received]; device staging of one message, and zeros for the deposits sent */
+  struct cfd_halo_list { int32_t *idx; int64_t n; int made; } hl[4][3][2][2][2][2];
+  double *hstage, *hzero;
+  int64_t nhstage, nhzero;
   /* decomposed grid: the preconditioner's global coarse level, the same on every rank: the whole grid in
    * aggregates of gc_b[d] cells per axis (gc_n of them, at most CFD_GC_MAX), its Galerkin matrix factored
    * (banded Cholesky, gc_L: gc_n rows of the gc_bw + 1 entries left of and on the diagonal), the coarse vectors;

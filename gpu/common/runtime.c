@@ -46,9 +46,20 @@ static int cpu_gather(sphdem_rt *rt, double *dst, const double *src, const int32
     for (int j = 0; j < width; j++) dst[k * width + j] = src[(int64_t)idx[k] * width + j];
   return SPHDEM_OK;
 }
+static int cpu_scatter(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width,
+                       int add) {
+  (void)rt;
+  if (add)
+    for (int64_t k = 0; k < n; k++)
+      for (int j = 0; j < width; j++) dst[(int64_t)idx[k] * width + j] += src[k * width + j];
+  else
+    for (int64_t k = 0; k < n; k++)
+      for (int j = 0; j < width; j++) dst[(int64_t)idx[k] * width + j] = src[k * width + j];
+  return SPHDEM_OK;
+}
 
 const sphdem_rt_mem sphdem_rt_cpu_mem = {"cpu", cpu_alloc, cpu_free, cpu_copy, cpu_copy, cpu_copy, cpu_zero, cpu_sync,
-                                         cpu_gather};
+                                         cpu_gather, cpu_scatter};
 
 void sphdem_rt_init(sphdem_rt *rt, int dev) {
   rt->mem = &sphdem_rt_cpu_mem;

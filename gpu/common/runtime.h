@@ -27,6 +27,8 @@ typedef struct {
   int (*sync)(sphdem_rt *rt);
   /* dst[k width + j] = src[idx[k] width + j] for k < n, j < width (idx on the device) */
   int (*gather)(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width);
+  /* dst[idx[k] width + j] = src[k width + j] (add: +=) for k < n, j < width (idx on the device, no index twice) */
+  int (*scatter)(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width, int add);
 } sphdem_rt_mem;
 
 /* One per context (embedded): which memory the context's arrays live in, how much of it they hold, and the
@@ -95,6 +97,15 @@ static inline int rt_zero(sphdem_rt *rt, void *ptr, size_t bytes) {
 /* Rows of src picked by the device index list idx (width doubles a row); nothing for n = 0. */
 static inline int rt_gather(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
   return n > 0 ? rt->mem->gather(rt, dst, src, idx, n, width) : SPHDEM_OK;
+}
+/* Rows of src written to the rows of dst named by the device index list idx (the inverse of rt_gather). */
+static inline int rt_scatter(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width) {
+  return n > 0 ? rt->mem->scatter(rt, dst, src, idx, n, width, 0) : SPHDEM_OK;
+}
+/* The same, added to the rows of dst. */
+static inline int rt_scatter_add(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n,
+                                 int width) {
+  return n > 0 ? rt->mem->scatter(rt, dst, src, idx, n, width, 1) : SPHDEM_OK;
 }
 /* Wait for the device's queued work (a kernel's error surfaces here). */
 static inline int rt_sync(sphdem_rt *rt) { return rt->mem->sync(rt); }

@@ -38,11 +38,24 @@ static int cu_gather(sphdem_rt *rt, double *dst, const double *src, const int32_
   RT_LAUNCHED(rt, "grain gather");
   return SPHDEM_OK;
 }
+__global__ void k_scatter_rows(double *dst, const double *src, const int32_t *idx, int64_t n, int width, int add) {
+  const int64_t t = RT_THREAD_INDEX();
+  if (t >= n * width) return;
+  double *d = dst + (int64_t)idx[t / width] * width + t % width;
+  *d = add ? *d + src[t] : src[t];
+}
+static int cu_scatter(sphdem_rt *rt, double *dst, const double *src, const int32_t *idx, int64_t n, int width,
+                      int add) {
+  const int64_t m = n * width;
+  k_scatter_rows<<<(unsigned)((m + 255) / 256), 256>>>(dst, src, idx, n, width, add);
+  RT_LAUNCHED(rt, "row scatter");
+  return SPHDEM_OK;
+}
 
 extern "C" {
 
 const sphdem_rt_mem sphdem_rt_cuda_mem = {"cuda", cu_alloc, cu_free, cu_h2d, cu_d2h, cu_d2d, cu_zero, cu_sync,
-                                          cu_gather};
+                                          cu_gather, cu_scatter};
 
 int sphdem_rt_gpu_probe(char *msg, size_t msglen) {
   int n = 0;

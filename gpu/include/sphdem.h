@@ -173,6 +173,20 @@ typedef enum {
 typedef int (*sphdem_exchange_fn)(void *user, int what, int ncomp, int nown, int nghost, const double *own,
                                   double *ghost);
 int sphdem_set_exchange(sphdem_ctx ctx, sphdem_exchange_fn fn, void *user);
+/* Many ranks: the owned particles of a set (0: the fluid, in the order of sphdem_set_fluid; 1: the walls, in the
+ * order of sphdem_set_walls) whose values the exchange function reads, n caller indices below the set's owned count
+ * (those the engine sends to other ranks); n < 0: every owned one (the default, and again after each
+ * sphdem_set_fluid for the fluid). The exchanges then move only these rows and the ghosts between the device and
+ * the host, and own holds the values of these rows only. */
+int sphdem_set_exchange_rows(sphdem_ctx ctx, int set, int n, const int *rows);
+/* Many ranks: x, v, rho and state (SPHDEM_NSTATE per particle) of the fluid rows of sphdem_set_exchange_rows, written
+ * at their caller indices into arrays laid out as for sphdem_get_fluid (the other entries are left as they are);
+ * any pointer may be NULL. The slice of the fluid that the engine's forward communication sends each step. */
+int sphdem_get_fluid_rows(sphdem_ctx ctx, double *x, double *v, double *rho, double *state);
+/* The largest squared distance an owned fluid particle has moved since the last sphdem_set_fluid (a wrap through a
+ * periodic boundary counts as the period, as the engine counts it), on this rank: the test for the engine's next
+ * neighbour build without a download of every position. */
+int sphdem_fluid_moved(sphdem_ctx ctx, double *d2max);
 /* Upload wall (dummy) particles: positions, prescribed velocity, acceleration (NULL = 0), mass. */
 int sphdem_set_walls(sphdem_ctx ctx, int n, const double *x, const double *v, const double *a,
                      const double *mass);

@@ -142,7 +142,7 @@ static void free_fluid(sphdem_ctx c) {
   if (!n) return;
   DFREE(c, D->x, 24 * n); DFREE(c, D->v, 24 * n); DFREE(c, D->rho, 8 * n); DFREE(c, D->mass, 8 * n);
   DFREE(c, D->drho, 8 * n); DFREE(c, D->a, 24 * n); DFREE(c, D->u, 24 * n); DFREE(c, D->p, 8 * n);
-  DFREE(c, D->x0, 24 * n); DFREE(c, D->rhop, 8 * n); DFREE(c, D->ve, 24 * n); DFREE(c, D->pr2, 8 * n); DFREE(c, D->tag, 8 * n); DFREE(c, D->uidx, 4 * n); DFREE(c, D->cell, 4 * n);
+  DFREE(c, D->x0, 24 * n); DFREE(c, D->xe, 24 * n); DFREE(c, D->rhop, 8 * n); DFREE(c, D->ve, 24 * n); DFREE(c, D->pr2, 8 * n); DFREE(c, D->tag, 8 * n); DFREE(c, D->uidx, 4 * n); DFREE(c, D->cell, 4 * n);
   c->cap_f = 0;
 }
 
@@ -180,6 +180,7 @@ static int ensure_fluid(sphdem_ctx c, int64_t n) {
   TRY(sphdem_dalloc(c, (void **)&D->drho, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->a, 24 * m));
   TRY(sphdem_dalloc(c, (void **)&D->u, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->p, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->x0, 24 * m)); TRY(sphdem_dalloc(c, (void **)&D->tag, 8 * m));
+  TRY(sphdem_dalloc(c, (void **)&D->xe, 24 * m));
   TRY(sphdem_dalloc(c, (void **)&D->rhop, 8 * m)); TRY(sphdem_dalloc(c, (void **)&D->ve, 24 * m));
   TRY(sphdem_dalloc(c, (void **)&D->pr2, 8 * m));
   TRY(sphdem_dalloc(c, (void **)&D->uidx, 4 * m)); TRY(sphdem_dalloc(c, (void **)&D->cell, 4 * m));
@@ -248,6 +249,7 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
     if (msg && msglen) snprintf(msg, msglen, "cannot allocate the context");
     return SPHDEM_ERR_ALLOC;
   }
+  c->xm[SPHDEM_SET_FLUID].nrows = c->xm[SPHDEM_SET_WALL].nrows = -1; /* every owned row */
   c->D.P = *p;
   sphdem_rederive(c);
   c->ops = &sphdem_cpu_ops;
@@ -297,6 +299,7 @@ int sphdem_destroy(sphdem_ctx *pc) {
   free_fluid(c);
   free_walls(c);
   sphdem_free_scratch(c);
+  sphdem_free_xmaps(c);
   free_cells(c);
 #ifdef SPHDEM_WITH_CUDA
   if (c->backend == SPHDEM_DEVICE_GPU) sphdem_cuda_fini(c);
@@ -369,9 +372,9 @@ static int sort_set(sphdem_ctx c, int set) {
   if (n == 0) return SPHDEM_OK;
   TRY(c->ops->sort_perm(c, set));
   if (set == SPHDEM_SET_FLUID) {
-    void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx};
-    int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4};
-    for (int k = 0; k < 9; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
+    void *arr[] = {D->x, D->v, D->a, D->u, D->rho, D->mass, D->drho, D->tag, D->uidx, D->xe};
+    int eb[] = {24, 24, 24, 24, 8, 8, 8, 8, 4, 24};
+    for (int k = 0; k < 10; k++) TRY(c->ops->gather(c, arr[k], eb[k], n));
     TRY(rt_d2d(&c->rt, D->x0, D->x, 24 * (size_t)n));
   } else {
     void *arr[] = {D->wx, D->wv, D->wa, D->wmass, D->wtag};
@@ -390,6 +393,7 @@ static int sort_set(sphdem_ctx c, int set) {
   }
   for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* the features' arrays follow their particles */
     if ((*f)->sorted) TRY((*f)->sorted(c, set, n));
+  sphdem_slots_changed(c, set);
   c->wl_dirty = 1;
   if (set == SPHDEM_SET_FLUID) c->nl_dirty = 1;
   return c->ops->cell_ranges(c, set);
@@ -536,14 +540,18 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
     TRY(up(c, D->uidx, order, 4 * (size_t)n));
   }
   D->nown = n;
+  sphdem_slots_changed(c, SPHDEM_SET_FLUID);
+  c->xm[SPHDEM_SET_FLUID].nrows = -1; /* a new caller order: every owned row until sphdem_set_exchange_rows */
   if (n > 0) {
     TRY(upload_vec(c, D->x, x, n, 3, order));
+    TRY(rt_d2d(&c->rt, D->xe, D->x, 24 * (size_t)n));
     TRY(upload_vec(c, D->v, v, n, 3, order));
     TRY(upload_vec(c, D->rho, rho, n, 1, order));
     TRY(upload_vec(c, D->mass, mass, n, 1, order));
     TRY(upload_state(c, n, order, state));
   }
   c->have_rates = state != NULL;
+  c->edisp2 = 0.0, c->edisp_ok = 1;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   if (!order) {
     c->need_sort = 1;
@@ -639,6 +647,7 @@ int sphdem_set_walls(sphdem_ctx c, int n, const double *x, const double *v, cons
     TRY(up(c, D->wtag, c->htag, 8 * (size_t)n));
     c->host_tags_valid = 0;
   }
+  sphdem_slots_changed(c, SPHDEM_SET_WALL);
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   c->need_wall_sort = 1;
   for (const sphdem_feature *const *f = sphdem_features; *f; f++) /* ghost walls: Adami walls until set_wall_mirror */
@@ -671,8 +680,8 @@ int sphdem_set_ghosts(sphdem_ctx c, int nghost, int nwghost) {
   return SPHDEM_OK;
 }
 
-/* The ghost slots get new values: download, replace the ghosts' entries (device slot s holds caller index
- * uidx[s]), upload. Whole arrays travel (simple and backend-independent); the owned entries are unchanged. */
+/* The ghost slots get new values through the fluid's ghost map: only the ghosts' values cross to the device; the
+ * owned entries are unchanged. */
 int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double *v, const double *rho,
                          const double *state) {
   if (!c) return SPHDEM_ERR_ARG;
@@ -685,32 +694,20 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
   if (!x || !v || !rho) return sphdem_fail(c, SPHDEM_ERR_ARG, "update_ghosts: x, v and rho are required");
   TRY(check_positions(c, "update_ghosts", nghost, NULL, x));
   double t0 = rt_now();
-  TRY(ensure_host(c, n));
   TRY(rt_sync(&c->rt));
-  const int direct = c->backend == SPHDEM_DEVICE_CPU; /* the CPU's arrays are host memory: written in place */
-  if (!direct) TRY(down(c, c->huidx, D->uidx, 4 * (size_t)n));
-  const int32_t *ui = direct ? D->uidx : c->huidx;
   fluid_field f[6];
   const int nfld = fluid_fields(D, (double *)x, (double *)v, (double *)rho, (double *)state, 0, f); /* read only */
-  for (int k = 0; k < nfld; k++) {
-    if (!f[k].host) continue;
-    double *h = direct ? f[k].dev : c->hbuf;
-    if (!direct) TRY(down(c, h, f[k].dev, 8 * (size_t)f[k].ncomp * (size_t)n));
-    for (int64_t s = 0; s < n; s++) {
-      const int64_t g = (int64_t)ui[s] - n0;
-      if (g < 0) continue;
-      for (int d = 0; d < f[k].ncomp; d++) h[f[k].ncomp * s + d] = f[k].host[g * f[k].stride + f[k].off + d];
-    }
-    if (!direct) TRY(up(c, f[k].dev, h, 8 * (size_t)f[k].ncomp * (size_t)n));
-  }
+  for (int k = 0; k < nfld; k++)
+    if (f[k].host) TRY(sphdem_scatter_ghosts(c, SPHDEM_SET_FLUID, f[k].dev, f[k].ncomp, f[k].host, f[k].stride, f[k].off));
   D->iso.ok = 0;
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   /* the ghosts moved (the owned particles were checked after their drift): resort when one went beyond skin/2 */
   double d2max = 0.0;
-  if (direct) {
-    for (int64_t s = 0; s < n; s++) {
-      if (ui[s] < n0) continue;
+  if (c->backend == SPHDEM_DEVICE_CPU) { /* the ghost map is host memory here */
+    const int32_t *gs = c->xm[SPHDEM_SET_FLUID].ghost_slot;
+    for (int64_t g = 0; g < nghost; g++) {
       double r[3];
+      const int64_t s = gs[g];
       const double *xs = D->x + 3 * s;
       const double d2 = isfinite(xs[0] + xs[1] + xs[2]) ? separation(D, xs, D->x0 + 3 * s, r) : 1e300;
       if (!(d2 <= d2max)) d2max = d2;

@@ -526,7 +526,7 @@ SPHDEM_HD void rk_stage_body(const sphdem_dev *D, int64_t i, int mode, double wk
 /* ---- reductions ---------------------------------------------------------------------------- */
 
 SPHDEM_HD void red_init(sphdem_red *r) {
-  r->v2max = r->a2max = r->rhoerr = r->ke = r->disp2max = 0.0;
+  r->v2max = r->a2max = r->rhoerr = r->ke = r->disp2max = r->edisp2max = 0.0;
   for (int d = 0; d < 3; d++) { r->lo[d] = 1e300; r->hi[d] = -1e300; }
   r->nnan = r->nlost = 0;
   for (int k = 0; k < SPHDEM_MAX_PHASES; k++) r->v2ph[k] = 0.0;
@@ -538,6 +538,7 @@ SPHDEM_HD void red_combine(sphdem_red *r, const sphdem_red *o) {
   r->a2max = fmax(r->a2max, o->a2max);
   r->rhoerr = fmax(r->rhoerr, o->rhoerr);
   r->disp2max = fmax(r->disp2max, o->disp2max);
+  r->edisp2max = fmax(r->edisp2max, o->edisp2max);
   r->ke += o->ke;
   for (int d = 0; d < 3; d++) { r->lo[d] = fmin(r->lo[d], o->lo[d]); r->hi[d] = fmax(r->hi[d], o->hi[d]); }
   r->nnan += o->nnan;
@@ -579,10 +580,14 @@ SPHDEM_HD void red_body(const sphdem_dev *D, int set, int64_t i, sphdem_red *r) 
     if (D->mp.mu_p) r->numax = red_max(r->numax, D->mp.mu_p[i] / D->rho[i]);
   }
   r->disp2max = red_max(r->disp2max, s2);
+  double e2 = 0.0; /* no minimum image: a particle wrapped through a periodic boundary has moved by the period, as the
+                    * engine, whose ghosts are images made at the build, counts it */
+  for (int d = 0; d < D->P.dim; d++) e2 += (x[d] - D->xe[3 * i + d]) * (x[d] - D->xe[3 * i + d]);
+  r->edisp2max = red_max(r->edisp2max, e2);
   r->ke += 0.5 * D->mass[i] * v2;
   r->nnan += bad;
   r->nlost += lost;
-  if (bad) r->disp2max = 1e300; /* force a resort attempt to be safe */
+  if (bad) r->disp2max = r->edisp2max = 1e300; /* force a resort attempt (and a neighbour build) to be safe */
 }
 
 /* Cell-range tables from a cell-sorted cell array (cstart/cend zeroed beforehand). */

@@ -69,5 +69,6 @@ int sphdem_timed_reduce(struct sphdem_ctx_s *c, int set, sphdem_red *r) {
   double t0 = rt_now();
   int rc = c->ops->reduce(c, set, r);
   c->timers[SPHDEM_T_REDUCE] += rt_now() - t0;
+  if (rc == SPHDEM_OK && set == SPHDEM_SET_FLUID) c->edisp2 = r->edisp2max, c->edisp_ok = 1;
   return rc;
 }

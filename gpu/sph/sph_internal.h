@@ -54,6 +54,7 @@ typedef struct {
   int xwall;           /* 1: the wall pass too (owned walls: wtag <= nwown; the plain fluid's Adami walls) */
   int64_t nwown;       /* owned wall particles (device mirror of the context's nwown) */
   double *x, *v, *rho, *mass, *drho, *a, *u, *p, *x0;
+  double *xe;          /* positions of the last sphdem_set_fluid (the engine's neighbour build) */
   double *rhop, *ve;   /* density and velocity predicted to the force time (velocity Verlet) */
   double *pr2;         /* P / rho^2 at the force time */
   double pred_dth;     /* half step used by the prediction; 0 when state is at a full step */
@@ -81,6 +82,7 @@ typedef struct {
 /* Reduction record: stats of fluid (or bounding box of walls). */
 typedef struct {
   double v2max, a2max, rhoerr, ke, disp2max;
+  double edisp2max;               /* owned fluid: largest squared move since sphdem_set_fluid (x - xe) */
   double lo[3], hi[3];
   int64_t nnan, nlost;
   double v2ph[SPHDEM_MAX_PHASES]; /* multiphase: max |v|^2 per phase */
@@ -163,6 +165,27 @@ struct sphdem_ctx_s {
   void *xuser;
   double *xbuf;                 /* its host staging */
   int64_t xbuf_cap;
+  /* many ranks, per set (fluid, walls): the owned rows the exchange function reads (sphdem_set_exchange_rows;
+   * caller indices, nrows < 0: every owned one) and the slot maps of those rows and of the ghosts on the device,
+   * valid while the set's slots, count and owned count stay as they were when made (slot_gen counts changes) */
+  struct sphdem_xmap {
+    int32_t *rows;              /* host, nrows caller indices */
+    int64_t nrows, cap_rows;
+    int32_t *row_slot, *ghost_slot; /* device: slot of each row, slot of each ghost (caller index n0 + g) */
+    int64_t cap_row_slot, cap_ghost_slot, nmapped_rows;
+    int64_t n, n0;
+    uint64_t gen;
+    int valid;
+  } xm[2];
+  uint64_t slot_gen[2];
+  int32_t *xinv;                /* host scratch: caller index -> slot */
+  int64_t xinv_cap;
+  double *xio;                  /* host: the owned and ghost values handed to the exchange function */
+  size_t xio_cap;
+  double *xstage;               /* device staging of gathered rows */
+  int64_t xstage_cap;
+  double edisp2;                /* largest squared move of an owned fluid particle since sphdem_set_fluid */
+  int edisp_ok;                 /* edisp2 is that of the current positions */
   void *backend_data;
   /* the features' host state */
   sphdem_couple_host couple;    /* couple.c, couple_cpu.c */
@@ -178,13 +201,21 @@ extern "C" {
 int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what);
 /* The plain fluid's wall state (SPHDEM_XCHG_WALL) likewise (exchange.c). */
 int sphdem_exchange_walls(struct sphdem_ctx_s *c);
-/* The general exchange of device arrays arr[0..narr) (nc[k] values per element) of n elements in sorted slots,
+/* The exchange of whole device arrays arr[0..narr) (nc[k] values per element) of n elements in sorted slots,
  * slot s holding caller index uidx_dev[s] (or tag_dev[s] - 1 when uidx_dev is NULL), owned below n0 (exchange.c;
- * the grains' exchange in couple.c uses it). Collective. */
+ * the grains' exchange in couple.c; the fluid and the walls move their boundary slices only). Collective. */
 int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
                           const int64_t *tag_dev, double *const *arr, const int *nc, int narr, const char *what_name);
 /* Host staging of n doubles for the exchanges (exchange.c). */
 double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n);
+/* The slots of a set (SPHDEM_SET_FLUID, _WALL) changed: its exchange maps are made again when next used. */
+static inline void sphdem_slots_changed(struct sphdem_ctx_s *c, int set) { c->slot_gen[set]++; }
+/* The ghosts' values vals (ncomp per ghost, ghost g at vals[stride g + off ..]) into their slots of the device
+ * array dev (ncomp per slot), through the set's ghost map (exchange.c). */
+int sphdem_scatter_ghosts(struct sphdem_ctx_s *c, int set, double *dev, int ncomp, const double *vals, int stride,
+                          int off);
+/* The exchange maps' memory (exchange.c). */
+void sphdem_free_xmaps(struct sphdem_ctx_s *c);
 /* Set the context error message (printf-style); returns code. */
 int sphdem_fail(struct sphdem_ctx_s *c, int code, const char *fmt, ...);
 /* Device scratch (perm, scratch_d, scratch_i) for sorts of n entries (sph_ctx.c). */

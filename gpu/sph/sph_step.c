@@ -33,6 +33,7 @@ int sphdem_drift(sphdem_ctx c, double dt) {
   if (c->D.nf == 0) return SPHDEM_OK;
   if (!c->have_rates) return sphdem_fail(c, SPHDEM_ERR_STATE, "drift before the rates were computed (call sphdem_compute_rates first)");
   double t0 = rt_now();
+  c->edisp_ok = 0; /* the positions move: the next fluid reduction finds their move since the upload */
   TRY(c->ops->drift(c, dt));
   TRY(rt_sync(&c->rt));
   c->timers[SPHDEM_T_INTEGRATE] += rt_now() - t0;
@@ -70,6 +71,7 @@ int sphdem_step_rk4(sphdem_ctx c, double dt) {
     if (rc != SPHDEM_OK) { c->rk_stepping = 0; return rc; }
     if (D->nf == 0) continue;
     double t0 = rt_now();
+    c->edisp_ok = 0;
     if (s == 0) TRY(c->ops->rk(c, 0, 0.0, 0.0));
     TRY(c->ops->rk(c, s == 3 ? 2 : 1, wk[s], s < 3 ? cst[s] : 0.0));
     TRY(rt_sync(&c->rt));

@@ -912,6 +912,10 @@ void FixSPHFluid::build_map() {
       else if (mask[i] & wall_groupbit_) widx_.push_back(i);
     }
   }
+  if (multi_) { /* the next forward communication finds the atoms in the send lists */
+    record_sends_ = true;
+    sent_.assign((size_t)nlocal, 0);
+  }
   /* the positions of this neighbour build (the engine's pre_exchange download made the fluid's current), for
    * check_displacement on one rank and on many alike */
   xhold_.resize(3 * (size_t)nlocal);
@@ -1032,7 +1036,10 @@ bool FixSPHFluid::upload_fluid() {
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(),
                          all_valid ? fstate_.data() : nullptr),
         "set_fluid");
-  if (multi_) check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
+  if (multi_) {
+    check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
+    check(sphdem_set_exchange_rows(ctx_, 0, (int)frows_.size(), frows_.data()), "set_exchange_rows");
+  }
   if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   return all_valid;
 }
@@ -1040,18 +1047,20 @@ bool FixSPHFluid::upload_fluid() {
 /* Many ranks: the owned entries of the forward-communication buffer from the staging arrays (fluid: v, rho,
  * drho, a, mass of the last upload or download; walls: v, acceleration, mass of the last staging), then the
  * engine's forward communication fills the ghosts' entries. Collective. */
-void FixSPHFluid::fill_gcomm(bool fluid, bool walls) {
+void FixSPHFluid::fill_gcomm(bool fluid, bool walls, bool rows_only) {
   const size_t nall = (size_t)(atom->nlocal + atom->nghost);
   if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
-  if (fluid)
-    for (size_t k = 0; k < nfown_; k++) {
-      double *g = &gcomm_[(size_t)GCOMM * fidx_[k]];
-      for (int d = 0; d < 3; d++) g[G_V + d] = fv_[3 * k + d], g[G_A + d] = fstate_[SPHDEM_NSTATE * k + 1 + d];
-      g[G_RHO] = frho_[k];
-      g[G_DRHO] = fstate_[SPHDEM_NSTATE * k];
-      g[G_MASS] = fmass_[k];
-      g[G_EPS] = sa_[fidx_[k]][C_EPS];
-    }
+  rows_only = rows_only && !record_sends_;
+  const size_t nf = fluid ? (rows_only ? frows_.size() : nfown_) : 0;
+  for (size_t r = 0; r < nf; r++) {
+    const size_t k = rows_only ? (size_t)frows_[r] : r;
+    double *g = &gcomm_[(size_t)GCOMM * fidx_[k]];
+    for (int d = 0; d < 3; d++) g[G_V + d] = fv_[3 * k + d], g[G_A + d] = fstate_[SPHDEM_NSTATE * k + 1 + d];
+    g[G_RHO] = frho_[k];
+    g[G_DRHO] = fstate_[SPHDEM_NSTATE * k];
+    g[G_MASS] = fmass_[k];
+    g[G_EPS] = sa_[fidx_[k]][C_EPS];
+  }
   if (walls)
     for (size_t k = 0; k < nwown_; k++) {
       double *g = &gcomm_[(size_t)GCOMM * widx_[k]];
@@ -1060,10 +1069,26 @@ void FixSPHFluid::fill_gcomm(bool fluid, bool walls) {
       g[G_MASS] = wmass_[k];
     }
   comm->forward_comm_fix(this);
+  if (record_sends_) make_rows();
+}
+
+/* The owned fluid and wall atoms in this build's send lists (recorded by the forward communication just made). */
+void FixSPHFluid::make_rows() {
+  record_sends_ = false;
+  frows_.clear();
+  wrows_.clear();
+  for (size_t k = 0; k < nfown_; k++)
+    if (sent_[(size_t)fidx_[k]]) frows_.push_back((int)k);
+  for (size_t k = 0; k < nwown_; k++)
+    if (sent_[(size_t)widx_[k]]) wrows_.push_back((int)k);
+  wrows_new_ = true;
 }
 
 int FixSPHFluid::sphdem_pack_forward(int n, int *list, double *buf, int, int *) {
   int m = 0;
+  if (record_sends_) /* ghosts sent on (a later swap) are not this rank's */
+    for (int j = 0; j < n; j++)
+      if ((size_t)list[j] < sent_.size()) sent_[(size_t)list[j]] = 1;
   for (int j = 0; j < n; j++) {
     const double *g = &gcomm_[(size_t)GCOMM * list[j]];
     for (int c = 0; c < GCOMM; c++) buf[m++] = g[c];
@@ -1083,7 +1108,7 @@ void FixSPHFluid::sphdem_unpack_forward(int n, int first, double *buf) {
  * core, positions from the engine's forward communication. Collective. */
 void FixSPHFluid::ghost_state_to_core() {
   const size_t n = fidx_.size(), ng = n - nfown_;
-  fill_gcomm(true, false);
+  fill_gcomm(true, false, true); /* the rows sent: download_rows made theirs current */
   std::vector<double> gx(3 * ng), gv(3 * ng), gr(ng), gs(SPHDEM_NSTATE * ng, 0.0);
   double **x = atom->x;
   for (size_t j = 0; j < ng; j++) {
@@ -1119,17 +1144,18 @@ int FixSPHFluid::exchange(int what, int ncomp, int nown, int nghost, const doubl
   else if (what == SPHDEM_XCHG_ACC && ncomp == 3) slot[0] = G_A, slot[1] = G_A + 1, slot[2] = G_A + 2;
   else if (what == SPHDEM_XCHG_EPS && ncomp == 1) slot[0] = G_EPS;
   const bool ok = slot[0] >= 0 && (size_t)nown == nfown_ && (size_t)nghost == fidx_.size() - nfown_;
-  return exchange_slots(fidx_, nfown_, slot, ok, ncomp, own, ghost);
+  return exchange_slots(fidx_, frows_, nfown_, slot, ok, ncomp, own, ghost);
 }
 
-/* The values of the atoms idx[0..nown) into their slots of the forward-communication buffer, the engine's forward
- * communication, the ghosts' (idx[nown..]) back; ok false: the communication only (it is collective), and 1. */
-int FixSPHFluid::exchange_slots(const std::vector<int> &idx, size_t nown, const int *slot, bool ok, int ncomp,
-                                const double *own, double *ghost) {
+/* The values of the sent rows of the atoms idx[0..nown) (the core hands those only: sphdem_set_exchange_rows) into
+ * their slots of the forward-communication buffer, the engine's forward communication, the ghosts' (idx[nown..])
+ * back; ok false: the communication only (it is collective), and 1. */
+int FixSPHFluid::exchange_slots(const std::vector<int> &idx, const std::vector<int> &rows, size_t nown,
+                                const int *slot, bool ok, int ncomp, const double *own, double *ghost) {
   const size_t nall = (size_t)(atom->nlocal + atom->nghost);
   if (gcomm_.size() < (size_t)GCOMM * nall) gcomm_.resize((size_t)GCOMM * nall, 0.0);
   if (ok)
-    for (size_t k = 0; k < nown; k++)
+    for (int k : rows)
       for (int c = 0; c < ncomp; c++) gcomm_[(size_t)GCOMM * idx[k] + slot[c]] = own[(size_t)ncomp * k + c];
   comm->forward_comm_fix(this);
   if (!ok) return 1;
@@ -1144,7 +1170,7 @@ int FixSPHFluid::exchange_walls(int ncomp, int nown, int nghost, const double *o
   if (!wall_groupbit_) return nown == 0 && nghost == 0 ? 0 : 1;
   static const int slot[6] = {G_DRHO, G_RHO, G_V, G_V + 1, G_V + 2, G_EPS};
   const bool ok = (ncomp == 5 || ncomp == 6) && (size_t)nown == nwown_ && (size_t)nghost == widx_.size() - nwown_;
-  return exchange_slots(widx_, nwown_, slot, ok, ncomp, own, ghost);
+  return exchange_slots(widx_, wrows_, nwown_, slot, ok, ncomp, own, ghost);
 }
 
 /* After the drift of each fluid step: an owned atom that moved more than skin/2 since the last neighbour build asks
@@ -1162,20 +1188,17 @@ void FixSPHFluid::check_displacement() {
     for (int d = 0; d < 3; d++) d2 += (xi[d] - xhold_[3 * (size_t)i + d]) * (xi[d] - xhold_[3 * (size_t)i + d]);
     if (!(d2 <= d2max)) d2max = std::isfinite(d2) ? d2 : 1e300;
   };
-  if (multi_) { /* the fluid was just downloaded: every owned atom from the engine's arrays */
+  if (!multi_ && !force->pair) return; /* one rank without grains: the build steps change nothing */
+  /* the fluid's move since the build (its upload then) from the core, without a download of every position; the
+   * host rows of the fluid are stale between builds */
+  check(sphdem_fluid_moved(ctx_, &d2max), "fluid_moved");
+  if (!std::isfinite(d2max)) d2max = 1e300;
+  if (multi_) { /* walls and grains from the engine's arrays (one rank: the engine's own check sees them) */
     double **x = atom->x;
-    const int bits = groupbit | wall_groupbit_ | (coupler_ ? coupler_->couple_groupbit() : 0);
+    const int bits = wall_groupbit_ | (coupler_ ? coupler_->couple_groupbit() : 0);
     for (int i = 0; i < n; i++)
-      if (atom->mask[i] & bits) take(i, x[i]);
+      if (!(atom->mask[i] & groupbit) && (atom->mask[i] & bits)) take(i, x[i]);
     sphdem_mpi::max(world, &d2max, 1);
-  } else { /* one rank: the host rows of the fluid are stale, its positions come from the core (the engine's own
-            * check sees the walls and grains, whose host rows are current). Without a pair style (a fluid without
-            * grains) the build steps change nothing: no download (on a GPU, a copy of every position per step) */
-    if (!force->pair) return;
-    xchk_.resize(3 * nfown_);
-    check(sphdem_get_fluid(ctx_, xchk_.data(), nullptr, nullptr, nullptr, nullptr), "get_fluid");
-    for (size_t k = 0; k < nfown_; k++)
-      if (fidx_[k] < n) take(fidx_[k], &xchk_[3 * k]);
   }
   if (d2max > 0.25 * neighbor->skin * neighbor->skin) next_reneighbor = update->ntimestep;
 }
@@ -1212,7 +1235,10 @@ void FixSPHFluid::start_superficial() {
   /* x, v are unchanged since the upload; the state stays zero (it was not valid) */
   check(sphdem_set_fluid(ctx_, (int)n, ftag_.data(), fx_.data(), fv_.data(), frho_.data(), fmass_.data(), nullptr),
         "set_fluid");
-  if (multi_) check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
+  if (multi_) {
+    check(sphdem_set_ghosts(ctx_, (int)(n - nfown_), -1), "set_ghosts");
+    check(sphdem_set_exchange_rows(ctx_, 0, (int)frows_.size(), frows_.data()), "set_exchange_rows");
+  }
   if (mp_.enabled) check(sphdem_set_fluid_phase(ctx_, (int)n, fphase_.data()), "set_fluid_phase");
   rates();
 }
@@ -1273,6 +1299,10 @@ void FixSPHFluid::upload_walls(bool each_step) {
   }
   check(sphdem_set_walls(ctx_, (int)n, wx_.data(), wv_.data(), wa_.data(), wmass_.data()), "set_walls");
   if (multi_) check(sphdem_set_ghosts(ctx_, -1, (int)(n - nwown_)), "set_ghosts");
+  if (multi_ && wrows_new_) { /* the rows stay with the walls' upload order, which changes at builds only */
+    check(sphdem_set_exchange_rows(ctx_, 1, (int)wrows_.size(), wrows_.data()), "set_exchange_rows");
+    wrows_new_ = false;
+  }
   if (!ghost_) return;
   /* fixed ghost walls (Shi & Huang §3.4): each wall particle's interpolation point is its mirror image
    * across the faces of the fluid box it lies outside of */
@@ -1292,6 +1322,19 @@ void FixSPHFluid::upload_walls(bool each_step) {
   }
   fail_any(!bad.empty(), bad);
   check(sphdem_set_wall_mirror(ctx_, (int)n, wxi_.data()), "set_wall_mirror");
+}
+
+/* Many ranks, each fluid step: x, v, rho and state of the owned fluid in the send lists (the rest of the host rows
+ * stay as they were until download(): pre_exchange, output steps, the end of a run), x and v into the engine's
+ * arrays for its forward communication. */
+void FixSPHFluid::download_rows() {
+  if (host_current_ || !ctx_) return;
+  check(sphdem_get_fluid_rows(ctx_, fx_.data(), fv_.data(), frho_.data(), fstate_.data()), "get_fluid_rows");
+  double **x = atom->x, **v = atom->v;
+  for (int k : frows_) {
+    const int i = fidx_[(size_t)k];
+    for (int d = 0; d < 3; d++) x[i][d] = fx_[3 * (size_t)k + d], v[i][d] = fv_[3 * (size_t)k + d];
+  }
 }
 
 /* Device -> host: x, v and the per-atom columns of the fluid, in the order of the last upload. */
@@ -1353,13 +1396,13 @@ void FixSPHFluid::initial_integrate(int) {
   if (rk4_) { /* the whole step here: four rate evaluations with the walls as they are now */
     if (walls_move_) upload_walls(true);
     check(sphdem_step_rk4(ctx_, dt_fluid_), "step_rk4");
-    if (multi_) download(); /* the engine's forward communication and exchange read the moved fluid */
+    if (multi_) download_rows(); /* the engine's forward communication reads the moved fluid it sends */
     check_displacement();
     return;
   }
   check(sphdem_kick(ctx_, 0.5 * dt_fluid_), "kick");
   check(sphdem_drift(ctx_, dt_fluid_), "drift");
-  if (multi_) download(); /* the engine's forward communication and exchange read the moved fluid */
+  if (multi_) download_rows(); /* the engine's forward communication reads the moved fluid it sends */
   check_displacement();
 }
 

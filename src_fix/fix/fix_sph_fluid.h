@@ -138,18 +138,25 @@ class FixSPHFluid : public Fix {
   size_t nfown_ = 0, nwown_ = 0; /* owned entries at the front of fidx_ / widx_ */
   std::vector<double> gcomm_; /* GCOMM values per local + ghost atom */
   std::vector<double> xhold_; /* owned atoms' positions at the last neighbour build */
-  std::vector<double> xchk_;  /* one rank: the fluid's positions from the core for check_displacement */
+  /* the owned fluid and wall atoms (positions k in fidx_ / widx_) that the engine sends to other ranks, found
+   * by the first forward communication after each neighbour build (its send lists are fixed until the next):
+   * only their values travel between the core and the host each step and in the core's exchanges */
+  std::vector<int> frows_, wrows_;
+  std::vector<char> sent_;    /* per local atom: in a send list */
+  bool record_sends_ = false, wrows_new_ = false;
+  void make_rows();
+  void download_rows();
   double cut_need_ = 0.0;     /* the communication cutoff the ghost fluid needs */
   sphdem_comm comm_;
   int ghost_levels() const;
-  void fill_gcomm(bool fluid, bool walls);
+  void fill_gcomm(bool fluid, bool walls, bool rows_only = false);
   void ghost_state_to_core();
   /* sphdem_set_exchange's function: the owners' values of a field to the ghosts (forward communication) */
   static int exchange_cb(void *user, int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
   int exchange(int what, int ncomp, int nown, int nghost, const double *own, double *ghost);
   int exchange_walls(int ncomp, int nown, int nghost, const double *own, double *ghost);
-  int exchange_slots(const std::vector<int> &idx, size_t nown, const int *slot, bool ok, int ncomp, const double *own,
-                     double *ghost);
+  int exchange_slots(const std::vector<int> &idx, const std::vector<int> &rows, size_t nown, const int *slot, bool ok,
+                     int ncomp, const double *own, double *ghost);
   void check_displacement();
   void fail_any(bool bad, const std::string &msg); /* collective: every rank stops with the first message */
 
