@@ -179,9 +179,10 @@ int sphdem_set_exchange(sphdem_ctx ctx, sphdem_exchange_fn fn, void *user);
  * sphdem_set_fluid for the fluid). The exchanges then move only these rows and the ghosts between the device and
  * the host, and own holds the values of these rows only. */
 int sphdem_set_exchange_rows(sphdem_ctx ctx, int set, int n, const int *rows);
-/* Many ranks: x, v, rho and state (SPHDEM_NSTATE per particle) of the fluid rows of sphdem_set_exchange_rows, written
- * at their caller indices into arrays laid out as for sphdem_get_fluid (the other entries are left as they are);
- * any pointer may be NULL. The slice of the fluid that the engine's forward communication sends each step. */
+/* Many ranks: x, v, rho and the state's drho and a (its first four of SPHDEM_NSTATE columns) of the fluid rows of
+ * sphdem_set_exchange_rows, written at their caller indices into arrays laid out as for sphdem_get_fluid (every
+ * other entry is left as it is); any pointer may be NULL. The slice of the fluid that the engine's forward
+ * communication sends each step. */
 int sphdem_get_fluid_rows(sphdem_ctx ctx, double *x, double *v, double *rho, double *state);
 /* The largest squared distance an owned fluid particle has moved since the last sphdem_set_fluid (a wrap through a
  * periodic boundary counts as the period, as the engine counts it), on this rank: the test for the engine's next

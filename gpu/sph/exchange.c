@@ -311,10 +311,10 @@ int sphdem_get_fluid_rows(sphdem_ctx c, double *x, double *v, double *rho, doubl
   struct sphdem_xmap *m;
   TRY(xmap_ready(c, SPHDEM_SET_FLUID, &m));
   TRY(rt_sync(&c->rt));
-  const struct { const double *dev; double *host; int ncomp, off, stride; } f[6] = {
+  const struct { const double *dev; double *host; int ncomp, off, stride; } f[5] = {
     {D->x, x, 3, 0, 3}, {D->v, v, 3, 0, 3}, {D->rho, rho, 1, 0, 1},
-    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE}, {D->u, state, 3, 4, SPHDEM_NSTATE}};
-  for (int k = 0; k < 6; k++)
+    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE}};
+  for (int k = 0; k < 5; k++)
     if (f[k].host) TRY(gather_rows(c, m, f[k].dev, f[k].ncomp, f[k].host, f[k].stride, f[k].off));
   c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
   return SPHDEM_OK;

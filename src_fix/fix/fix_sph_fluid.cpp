@@ -1324,7 +1324,7 @@ void FixSPHFluid::upload_walls(bool each_step) {
   check(sphdem_set_wall_mirror(ctx_, (int)n, wxi_.data()), "set_wall_mirror");
 }
 
-/* Many ranks, each fluid step: x, v, rho and state of the owned fluid in the send lists (the rest of the host rows
+/* Many ranks, each fluid step: x, v, rho, drho and a of the owned fluid in the send lists (the rest of the host rows
  * stay as they were until download(): pre_exchange, output steps, the end of a run), x and v into the engine's
  * arrays for its forward communication. */
 void FixSPHFluid::download_rows() {
@@ -1658,6 +1658,13 @@ void FixSPHFluid::post_run() {
              t[SPHDEM_T_SORT], t[SPHDEM_T_WALL], t[SPHDEM_T_RATES], t[SPHDEM_T_COUPLE], t[SPHDEM_T_INTEGRATE],
              t[SPHDEM_T_TRANSFER], t[SPHDEM_T_REDUCE], tot, (long)nfluid_steps_);
     sphdem_compat::logmesg(lmp, line);
+    if (multi_) {
+      snprintf(line, sizeof line,
+               "Fix sph/fluid: rank 0 moves the boundary slice between the core and the host each fluid step: %zu of "
+               "%zu owned fluid atoms (those other ranks see), %zu ghost fluid atoms\n",
+               frows_.size(), nfown_, fidx_.size() - nfown_);
+      sphdem_compat::logmesg(lmp, line);
+    }
   }
 }
 

@@ -168,10 +168,10 @@ static void *rank_main(void *arg) {
       for (int d = 0; d < 3; d++)
         if (in[k] ? memcmp(&rx[3 * k + d], &x[3 * k + d], 8) != 0 : rx[3 * k + d] != sentinel)
           in[k] ? (me->rows_same = 0) : (me->rows_kept = 0);
-      for (int j = 0; j < SPHDEM_NSTATE; j++)
-        if (in[k] ? memcmp(&rst[SPHDEM_NSTATE * k + j], &st[SPHDEM_NSTATE * k + j], 8) != 0
-                  : rst[SPHDEM_NSTATE * k + j] != sentinel)
-          in[k] ? (me->rows_same = 0) : (me->rows_kept = 0);
+      for (int j = 0; j < SPHDEM_NSTATE; j++) /* drho and a at the rows; the rest (u) left alone */
+        if (in[k] && j < 4 ? memcmp(&rst[SPHDEM_NSTATE * k + j], &st[SPHDEM_NSTATE * k + j], 8) != 0
+                           : rst[SPHDEM_NSTATE * k + j] != sentinel)
+          in[k] && j < 4 ? (me->rows_same = 0) : (me->rows_kept = 0);
     }
     free(in); free(rx); free(rst);
   }
