@@ -12,15 +12,16 @@
 # in a .gpubin/ copy it runs each unit_*/verify_* binary with SPHDEM_TEST_DEVICE=gpu. SPHDEM_REQUIRE_GPU=1 is set:
 # a test that finds no usable GPU fails here instead of skipping.
 # Environment:
-#   GPU_CHECK_PARTS     which parts, in this order (default: "twins tests bench cfd dem drum"); the twins come
-#                       first because they are what a short GPU run must not miss
+#   GPU_CHECK_PARTS     which parts, in this order (default: "twins tests mpi bench cfd dem drum"); the twins come
+#                       first because they are what a short GPU run must not miss; mpi runs the engines' rank
+#                       tests on the GPU with the packed launchers and mpirun (orterun)
 #   GPU_CHECK_DEADLINE  seconds after the start past which no new step starts (default 540, for a machine that
 #                       stops a command at 600 s); the steps left out are listed as "skipped (deadline)"
 #   GPU_CHECK_ENGINES   the packed engines (default: .englibs next to BIN_DIR) for the drum part
 set -u
 BIN=${1:?bin dir}; OUT=${2:?out dir}; shift 2
 SIZES=${*:-1e5 1e6}
-PARTS=${GPU_CHECK_PARTS:-twins tests bench cfd dem drum}
+PARTS=${GPU_CHECK_PARTS:-twins tests mpi bench cfd dem drum}
 DEADLINE=${GPU_CHECK_DEADLINE:-540}
 ENG=${GPU_CHECK_ENGINES:-$(dirname "$BIN")/.englibs}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -100,7 +101,33 @@ for part in $PARTS; do
     else
       echo "drum: no packed engines at $ENG (bash bench/gpu/pack_engines.sh) or no python3: skipped"
     fi ;;
-  *) echo "unknown part '$part' (parts: twins tests bench cfd dem drum)" ;;
+  mpi) # several ranks sharing the GPU: the engine rank tests through the packed launchers and mpirun (every style's
+       # device is auto, so each rank takes the GPU); each compares 2 and 4 ranks with 1, as in ctest
+    if [ -x "$ENG/run.sh" ] && [ -x "$ENG/orterun" ] && command -v python3 >/dev/null; then
+      W=$(mktemp -d /tmp/gpu_mpi.XXXX)
+      printf '#!/bin/sh\nexec "%s" lmp_sphdem "$@"\n' "$ENG/run.sh" > "$W/lmp_gpu.sh"
+      printf '#!/bin/sh\nexec "%s" liggghts_sphdem "$@"\n' "$ENG/run.sh" > "$W/liggghts_gpu.sh"
+      printf '#!/bin/sh\nexec "%s" orterun "$@"\n' "$ENG/run.sh" > "$W/mpirun_gpu.sh"
+      chmod +x "$W"/*.sh
+      T=$ROOT/tests/engine
+      (cd "$W" && step mpi_fluid_tworuns 120 python3 "$T/test_fluid_mpi.py" tworuns "$W/lmp_gpu.sh" lammps "$W/mpirun_gpu.sh")
+      for t in ranks couple dambreak3d; do
+        (cd "$W" && step "mpi_fluid_$t" 300 python3 "$T/test_fluid_mpi.py" "$t" "$W/lmp_gpu.sh" lammps "$W/mpirun_gpu.sh" \
+          "$ROOT/examples")
+      done
+      (cd "$W" && step mpi_cfd_bed 300 python3 "$T/test_cfd_engine.py" mpi_bed "$W/lmp_gpu.sh" lammps "$W/mpirun_gpu.sh")
+      (cd "$W" && step mpi_dem_lammps 300 python3 "$T/test_dem_mpi.py" lammps "$W/mpirun_gpu.sh" "$W/lmp_gpu.sh")
+      (cd "$W" && step mpi_dem_liggghts 300 python3 "$T/test_dem_mpi.py" liggghts "$W/mpirun_gpu.sh" "$W/liggghts_gpu.sh")
+      # which device each run took, and the ranks' GPU mapping
+      grep -rhoE "(Fix sph/fluid|Fix cfd/grid): [A-Z]+ backend|Pair [^:]+: sphdem DEM core on the [A-Z]+|rank 0 -> .*" \
+        "$W" 2>/dev/null |
+        sort | uniq -c | head -20 > "$OUT/mpi_devices.log"
+      cat "$OUT/mpi_devices.log"
+      rm -rf "$W"
+    else
+      echo "mpi: no packed engines with orterun at $ENG (bash bench/gpu/pack_engines.sh) or no python3: skipped"
+    fi ;;
+  *) echo "unknown part '$part' (parts: twins tests mpi bench cfd dem drum)" ;;
   esac
 done
 ls "$OUT"/twin_*.log >/dev/null 2>&1 && tail -n 4 "$OUT"/twin_*.log
