@@ -245,6 +245,7 @@ int sphdem_set_grains_store(sphdem_ctx c, sphdem_grain_store g, int n, const int
     int rc = rt_h2d(&c->rt, D->couple.gtag, tag, 8 * (size_t)n);
     free(tag);
     TRYC(rc);
+    sphdem_slots_changed(c, SPHDEM_SET_GRAIN);
     const int32_t *id = NULL;
     TRYC(sphdem_grains_device(g, &c->rt));
     TRYC(sphdem_idx_upload(&c->rt, &c->couple.gidx_buf, idx, n, &id));
@@ -341,6 +342,7 @@ static int sort_grains(struct sphdem_ctx_s *c) {
     void *arr[] = {D->couple.gx, D->couple.gv, D->couple.gom, D->couple.grad, D->couple.gtag};
     int eb[] = {24, 24, 24, 8, 8};
     for (int k = 0; k < 5; k++) TRYC(c->ops->gather(c, arr[k], eb[k], n));
+    sphdem_slots_changed(c, SPHDEM_SET_GRAIN);
     TRYC(c->ops->cell_ranges(c, SPHDEM_SET_GRAIN));
   } else {
     TRYC(rt_zero(&c->rt, D->couple.gcstart, 4 * (size_t)D->couple.gncells));
@@ -368,8 +370,7 @@ static int exchange_grains(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   double *const arr[2] = {D->couple.gf, D->couple.grain_shepard};
   const int nc[2] = {3, 1};
-  const int64_t n = D->couple.ng, n0 = c->couple.ngown < n ? c->couple.ngown : n;
-  return sphdem_exchange_slots(c, SPHDEM_XCHG_GRAIN, n, n0, NULL, D->couple.gtag, arr, nc, 2, "grain forces");
+  return sphdem_exchange_set(c, SPHDEM_XCHG_GRAIN, SPHDEM_SET_GRAIN, arr, nc, 2, "grain forces");
 }
 
 static int couple_prepare(struct sphdem_ctx_s *c) {

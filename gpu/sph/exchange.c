@@ -4,7 +4,7 @@
  * host: the owned rows the engine sends (sphdem_set_exchange_rows) are gathered on the device, the ghosts' values
  * scattered into their cell-sorted slots, through slot maps made again after each sort; the same maps serve the
  * ghosts' updates between steps (sphdem_update_ghosts) and the per-step download of the sent rows
- * (sphdem_get_fluid_rows). The grains' exchange is the coupling's (couple.c, through sphdem_exchange_slots). */
+ * (sphdem_get_fluid_rows). The coupled grains' forces go the same way (couple.c): every owned grain, the ghosts. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,64 +28,6 @@ double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n) {
     if (!c->xbuf) c->xbuf_cap = 0;
   }
   return c->xbuf;
-}
-
-/* The exchange of the device arrays arr[0..narr) (nc[k] values per element, n elements in sorted slots; slot s
- * holds caller index uidx[s], or tag[s] - 1): the owned elements' values (caller index < n0) to fn in caller
- * order, the ghosts' values back into their slots. The CPU backend's arrays are host memory and are read and
- * written in place; the GPU's travel whole through the staging. Used for the coupled grains, which the coupling
- * uploads whole from the host at every rate evaluation anyway. Collective: every rank calls it at the same points,
- * with or without elements. */
-int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
-                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr,
-                          const char *what_name) {
-  int ncomp = 0;
-  for (int k = 0; k < narr; k++) ncomp += nc[k];
-  const int64_t ng = n - n0;
-  const int direct = c->backend == SPHDEM_DEVICE_CPU;
-  const double t0 = rt_now(); /* the whole exchange, the shim's communication included, is transfer time */
-  double *own = sphdem_xbuf(c, (n + 1) * (int64_t)(ncomp + 4));
-  if (!own) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "exchange: cannot allocate %lld host values", (long long)n);
-  double *ghost = own + (size_t)ncomp * (size_t)n0, *h = ghost + (size_t)ncomp * (size_t)ng;
-  int64_t *cidx = (int64_t *)(h + 3 * (size_t)n); /* slot -> caller index, in the last n doubles */
-  if (n > 0) {
-    TRY(rt_sync(&c->rt));
-    if (uidx_dev) {
-      const int32_t *ui = uidx_dev;
-      if (!direct) { TRY(rt_d2h(&c->rt, h, uidx_dev, 4 * (size_t)n)); ui = (const int32_t *)h; }
-      for (int64_t s = 0; s < n; s++) cidx[s] = ui[s];
-    } else {
-      if (direct) for (int64_t s = 0; s < n; s++) cidx[s] = tag_dev[s] - 1;
-      else {
-        TRY(rt_d2h(&c->rt, cidx, tag_dev, 8 * (size_t)n));
-        for (int64_t s = 0; s < n; s++) cidx[s] -= 1;
-      }
-    }
-    for (int k = 0, off = 0; k < narr; off += nc[k], k++) {
-      const double *src = arr[k];
-      if (!direct) { TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n)); src = h; }
-      for (int64_t s = 0; s < n; s++)
-        if (cidx[s] < n0)
-          for (int d = 0; d < nc[k]; d++) own[(size_t)ncomp * cidx[s] + off + d] = src[(size_t)nc[k] * s + d];
-    }
-  }
-  if (c->xfn(c->xuser, what, ncomp, (int)n0, (int)ng, own, ghost) != 0)
-    return sphdem_fail(c, SPHDEM_ERR_STATE, "exchange: the owners' %s did not reach the ghosts", what_name);
-  if (ng > 0)
-    for (int k = 0, off = 0; k < narr; off += nc[k], k++) {
-      double *dst = arr[k];
-      if (!direct) { TRY(rt_d2h(&c->rt, h, arr[k], 8 * (size_t)nc[k] * (size_t)n)); dst = h; }
-      for (int64_t s = 0; s < n; s++) {
-        const int64_t g = cidx[s] - n0;
-        if (g >= 0)
-          for (int d = 0; d < nc[k]; d++) dst[(size_t)nc[k] * s + d] = ghost[(size_t)ncomp * g + off + d];
-      }
-      if (!direct) TRY(rt_h2d(&c->rt, arr[k], h, 8 * (size_t)nc[k] * (size_t)n));
-    }
-  const double dt = rt_now() - t0;
-  c->timers[SPHDEM_T_TRANSFER] += dt;
-  c->xtime += dt;
-  return SPHDEM_OK;
 }
 
 /* ---- the slot maps of the owned rows and of the ghosts ---------------------------------------------------- */
@@ -126,7 +68,7 @@ static int grow_dev(sphdem_ctx c, void **p, int64_t *cap, int64_t n, size_t eb) 
 }
 
 void sphdem_free_xmaps(sphdem_ctx c) {
-  for (int set = 0; set < 2; set++) {
+  for (int set = 0; set < 3; set++) {
     struct sphdem_xmap *m = &c->xm[set];
     free(m->rows);
     m->rows = NULL, m->cap_rows = 0;
@@ -143,6 +85,17 @@ void sphdem_free_xmaps(sphdem_ctx c) {
   c->xstage_cap = 0;
 }
 
+/* A set's slots (n) and owned ones (n0), and its slot -> caller index (uidx, or a tag array: tag - 1). */
+static void set_counts(sphdem_ctx c, int set, int64_t *n, int64_t *n0, const int64_t **tag) {
+  sphdem_dev *D = &c->D;
+  *tag = NULL;
+  if (set == SPHDEM_SET_FLUID) *n = D->nf, *n0 = D->nown;
+  else if (set == SPHDEM_SET_WALL) *n = D->nw, *n0 = D->nwown, *tag = D->wtag;
+  else *n = D->couple.ng, *n0 = c->couple.ngown < *n ? c->couple.ngown : *n, *tag = D->couple.gtag;
+}
+
+static const char *set_name(int set) { return set == SPHDEM_SET_FLUID ? "fluid" : set == SPHDEM_SET_WALL ? "wall" : "grain"; }
+
 /* The set's maps on the device: the slot of each owned row (of sphdem_set_exchange_rows, or every owned one) and of
  * each ghost (caller index n0 + g), made again after the slots, the count or the owned count changed. */
 static int xmap_ready(sphdem_ctx c, int set, struct sphdem_xmap **out) {
@@ -150,12 +103,15 @@ static int xmap_ready(sphdem_ctx c, int set, struct sphdem_xmap **out) {
   struct sphdem_xmap *m = &c->xm[set];
   *out = m;
   const int fluid = set == SPHDEM_SET_FLUID;
-  const int64_t n = fluid ? D->nf : D->nw, n0 = fluid ? D->nown : D->nwown, ng = n - n0;
+  int64_t n, n0;
+  const int64_t *tag_dev;
+  set_counts(c, set, &n, &n0, &tag_dev);
+  const int64_t ng = n - n0;
   if (m->valid && m->gen == c->slot_gen[set] && m->n == n && m->n0 == n0) return SPHDEM_OK;
   const int64_t nr = m->nrows < 0 ? n0 : m->nrows;
   if (m->nrows > n0)
     return sphdem_fail(c, SPHDEM_ERR_STATE, "exchange: %lld rows set for %lld owned %s particles",
-                       (long long)m->nrows, (long long)n0, fluid ? "fluid" : "wall");
+                       (long long)m->nrows, (long long)n0, set_name(set));
   const int64_t need = 2 * n + nr + 1;
   if (need > c->xinv_cap) {
     free(c->xinv);
@@ -171,11 +127,11 @@ static int xmap_ready(sphdem_ctx c, int set, struct sphdem_xmap **out) {
       if (direct) memcpy(caller, D->uidx, 4 * (size_t)n);
       else TRY(rt_d2h(&c->rt, caller, D->uidx, 4 * (size_t)n));
     } else {
-      const int64_t *wt = D->wtag;
+      const int64_t *wt = tag_dev;
       if (!direct) {
         int64_t *h = (int64_t *)sphdem_xbuf(c, n);
         if (!h) return sphdem_fail(c, SPHDEM_ERR_ALLOC, "exchange: cannot allocate %lld host values", (long long)n);
-        TRY(rt_d2h(&c->rt, h, D->wtag, 8 * (size_t)n));
+        TRY(rt_d2h(&c->rt, h, tag_dev, 8 * (size_t)n));
         wt = h;
       }
       for (int64_t s = 0; s < n; s++) caller[s] = (int32_t)(wt[s] - 1);
@@ -234,15 +190,16 @@ int sphdem_scatter_ghosts(sphdem_ctx c, int set, double *dev, int ncomp, const d
   return rt_scatter(&c->rt, dev, st, m->ghost_slot, ng, ncomp);
 }
 
-/* The exchange of the fluid's or the walls' device arrays arr[0..narr) (nc[k] values per slot): the owned rows'
- * values (sphdem_set_exchange_rows; every owned one by default) to fn in caller order, the ghosts' values back into
- * their slots. Only these rows and the ghosts cross between device and host. Collective: every rank calls it at
- * the same points, with or without particles. */
-static int exchange_set(sphdem_ctx c, int what, int set, double *const *arr, const int *nc, int narr,
+/* The exchange of a set's device arrays arr[0..narr) (nc[k] values per slot): the owned rows' values
+ * (sphdem_set_exchange_rows; every owned one by default) to fn in caller order, the ghosts' values back into their
+ * slots. Only these rows and the ghosts cross between device and host. Collective: every rank calls it at the same
+ * points, with or without particles. */
+int sphdem_exchange_set(sphdem_ctx c, int what, int set, double *const *arr, const int *nc, int narr,
                         const char *what_name) {
-  sphdem_dev *D = &c->D;
-  const int fluid = set == SPHDEM_SET_FLUID;
-  const int64_t n = fluid ? D->nf : D->nw, n0 = fluid ? D->nown : D->nwown, ng = n - n0;
+  int64_t n, n0;
+  const int64_t *tag_dev;
+  set_counts(c, set, &n, &n0, &tag_dev);
+  const int64_t ng = n - n0;
   int ncomp = 0;
   for (int k = 0; k < narr; k++) ncomp += nc[k];
   const double t0 = rt_now(); /* the whole exchange, the shim's communication included, is transfer time */
@@ -279,7 +236,7 @@ int sphdem_exchange_walls(struct sphdem_ctx_s *c) {
   sphdem_dev *D = &c->D;
   double *const arr[4] = {D->wp, D->wrho, D->wvx, D->couple.wall_porosity};
   const int nc[4] = {1, 1, 3, 1};
-  return exchange_set(c, SPHDEM_XCHG_WALL, SPHDEM_SET_WALL, arr, nc, D->couple.wall_porosity ? 4 : 3, "wall state");
+  return sphdem_exchange_set(c, SPHDEM_XCHG_WALL, SPHDEM_SET_WALL, arr, nc, D->couple.wall_porosity ? 4 : 3, "wall state");
 }
 
 /* The fluid's fields: drho and a after the rate pass, the porosity after the coupling's porosity pass, a after
@@ -298,7 +255,7 @@ int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what) {
     case SPHDEM_XCHG_EPS: arr[0] = D->couple.eps, nc[0] = 1; break;
     default: return sphdem_fail(c, SPHDEM_ERR_ARG, "exchange: unknown fluid field %d", what);
   }
-  return exchange_set(c, what, SPHDEM_SET_FLUID, arr, nc, narr, "fluid values");
+  return sphdem_exchange_set(c, what, SPHDEM_SET_FLUID, arr, nc, narr, "fluid values");
 }
 
 /* ---- the slice of the fluid the other ranks need, and the move since the neighbour build ---------------- */

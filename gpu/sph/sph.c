@@ -249,7 +249,7 @@ int sphdem_create(sphdem_ctx *out, const sphdem_params *p, sphdem_device dev, ch
     if (msg && msglen) snprintf(msg, msglen, "cannot allocate the context");
     return SPHDEM_ERR_ALLOC;
   }
-  c->xm[SPHDEM_SET_FLUID].nrows = c->xm[SPHDEM_SET_WALL].nrows = -1; /* every owned row */
+  for (int set = 0; set < 3; set++) c->xm[set].nrows = -1; /* every owned row */
   c->D.P = *p;
   sphdem_rederive(c);
   c->ops = &sphdem_cpu_ops;

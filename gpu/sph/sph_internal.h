@@ -165,9 +165,10 @@ struct sphdem_ctx_s {
   void *xuser;
   double *xbuf;                 /* its host staging */
   int64_t xbuf_cap;
-  /* many ranks, per set (fluid, walls): the owned rows the exchange function reads (sphdem_set_exchange_rows;
-   * caller indices, nrows < 0: every owned one) and the slot maps of those rows and of the ghosts on the device,
-   * valid while the set's slots, count and owned count stay as they were when made (slot_gen counts changes) */
+  /* many ranks, per set (fluid, walls, coupled grains): the owned rows the exchange function reads
+   * (sphdem_set_exchange_rows, fluid and walls; caller indices, nrows < 0: every owned one) and the slot maps of
+   * those rows and of the ghosts on the device, valid while the set's slots, count and owned count stay as they
+   * were when made (slot_gen counts changes) */
   struct sphdem_xmap {
     int32_t *rows;              /* host, nrows caller indices */
     int64_t nrows, cap_rows;
@@ -176,8 +177,8 @@ struct sphdem_ctx_s {
     int64_t n, n0;
     uint64_t gen;
     int valid;
-  } xm[2];
-  uint64_t slot_gen[2];
+  } xm[3];
+  uint64_t slot_gen[3];
   int32_t *xinv;                /* host scratch: caller index -> slot */
   int64_t xinv_cap;
   double *xio;                  /* host: the owned and ghost values handed to the exchange function */
@@ -201,11 +202,11 @@ extern "C" {
 int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what);
 /* The plain fluid's wall state (SPHDEM_XCHG_WALL) likewise (exchange.c). */
 int sphdem_exchange_walls(struct sphdem_ctx_s *c);
-/* The exchange of whole device arrays arr[0..narr) (nc[k] values per element) of n elements in sorted slots,
- * slot s holding caller index uidx_dev[s] (or tag_dev[s] - 1 when uidx_dev is NULL), owned below n0 (exchange.c;
- * the grains' exchange in couple.c; the fluid and the walls move their boundary slices only). Collective. */
-int sphdem_exchange_slots(struct sphdem_ctx_s *c, int what, int64_t n, int64_t n0, const int32_t *uidx_dev,
-                          const int64_t *tag_dev, double *const *arr, const int *nc, int narr, const char *what_name);
+/* The exchange of the device arrays arr[0..narr) (nc[k] values per slot) of a set (SPHDEM_SET_FLUID, _WALL,
+ * _GRAIN): the owned rows' values to the exchange function in caller order, the ghosts' values back into their
+ * slots; only those rows and the ghosts move between device and host (exchange.c). Collective. */
+int sphdem_exchange_set(struct sphdem_ctx_s *c, int what, int set, double *const *arr, const int *nc, int narr,
+                        const char *what_name);
 /* Host staging of n doubles for the exchanges (exchange.c). */
 double *sphdem_xbuf(struct sphdem_ctx_s *c, int64_t n);
 /* The slots of a set (SPHDEM_SET_FLUID, _WALL) changed: its exchange maps are made again when next used. */
