@@ -121,25 +121,27 @@ static void mp_release(struct sphdem_ctx_s *c) {
   D->mp.on = 0;
 }
 
-/* Arrays for n fluid particles; phases and fields zeroed when (re)allocated. */
+/* Arrays for n fluid particles. New entries are zero; grown arrays keep the entries they had, as arrays already
+ * large enough do (so a rebuilt fluid's fields of the previous evaluation never come from uninitialised memory,
+ * whichever block the allocator hands back); mp_rebuilt sets the phases. */
 static int ensure_mp(struct sphdem_ctx_s *c, int64_t n) {
   sphdem_dev *D = &c->D;
   if (n <= c->mp.cap && c->mp.cap > 0) return SPHDEM_OK;
-  int mp = D->mp.on;
-  mp_release(c);
-  D->mp.on = mp;
-  size_t m = (size_t)(n > 0 ? n : 1);
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.ph, 4 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.mu_p, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.gdot, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.Lm, 48 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.gdr, 24 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.lam, 8 * m));
-  TRYM(sphdem_dalloc(c, (void **)&D->mp.dus, 24 * m));
+  const size_t old = (size_t)c->mp.cap, m = (size_t)(n > 0 ? n : 1);
+  void **arr[7] = {(void **)&D->mp.ph, (void **)&D->mp.mu_p, (void **)&D->mp.gdot, (void **)&D->mp.Lm,
+                   (void **)&D->mp.gdr, (void **)&D->mp.lam, (void **)&D->mp.dus};
+  const size_t eb[7] = {4, 8, 8, 48, 24, 8, 24};
+  for (int k = 0; k < 7; k++) {
+    void *p = NULL;
+    TRYM(sphdem_dalloc(c, &p, eb[k] * m));
+    int rc = rt_zero(&c->rt, p, eb[k] * m);
+    if (!rc && old && *arr[k]) rc = rt_d2d(&c->rt, p, *arr[k], eb[k] * old);
+    if (rc) { sphdem_dfree(c, &p, eb[k] * m); return rc; }
+    sphdem_dfree(c, arr[k], eb[k] * old);
+    *arr[k] = p;
+  }
   c->mp.cap = (int64_t)m;
-  TRYM(rt_zero(&c->rt, D->mp.ph, 4 * m));
-  TRYM(rt_zero(&c->rt, D->mp.mu_p, 8 * m));
-  TRYM(rt_zero(&c->rt, D->mp.dus, 24 * m));
+  c->mp.ready = 0;
   return SPHDEM_OK;
 }
 

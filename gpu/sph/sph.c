@@ -545,6 +545,9 @@ int sphdem_set_fluid(sphdem_ctx c, int n, const int64_t *tag, const double *x, c
   if (n > 0) {
     TRY(upload_vec(c, D->x, x, n, 3, order));
     TRY(rt_d2d(&c->rt, D->xe, D->x, 24 * (size_t)n));
+    /* a rebuilt fluid is sorted before its next pass; until then its moves are measured from here, not from
+     * memory no sort has written */
+    if (!order) TRY(rt_d2d(&c->rt, D->x0, D->x, 24 * (size_t)n));
     TRY(upload_vec(c, D->v, v, n, 3, order));
     TRY(upload_vec(c, D->rho, rho, n, 1, order));
     TRY(upload_vec(c, D->mass, mass, n, 1, order));
