@@ -162,8 +162,8 @@ static double *xstage(sphdem_ctx c, int64_t n) {
 
 /* The rows' values of the device array dev (ncomp per slot) into host (row r's at host[stride rows[r] + off ..];
  * rows NULL: row r is caller index r). */
-static int gather_rows(sphdem_ctx c, struct sphdem_xmap *m, const double *dev, int ncomp, double *host, int stride,
-                       int off) {
+static int gather_rows(sphdem_ctx c, const struct sphdem_xmap *m, const double *dev, int ncomp, double *host,
+                       int stride, int off) {
   const int64_t nr = m->nmapped_rows;
   if (nr == 0) return SPHDEM_OK;
   double *st = xstage(c, nr * ncomp), *h = sphdem_xbuf(c, nr * ncomp);
@@ -175,6 +175,12 @@ static int gather_rows(sphdem_ctx c, struct sphdem_xmap *m, const double *dev, i
     for (int d = 0; d < ncomp; d++) host[stride * i + off + d] = h[ncomp * r + d];
   }
   return SPHDEM_OK;
+}
+
+int sphdem_gather_owned_rows(sphdem_ctx c, int set, const double *dev, int ncomp, double *host, int stride, int off) {
+  struct sphdem_xmap *m;
+  TRY(xmap_ready(c, set, &m));
+  return gather_rows(c, m, dev, ncomp, host, stride, off);
 }
 
 int sphdem_scatter_ghosts(sphdem_ctx c, int set, double *dev, int ncomp, const double *vals, int stride, int off) {
@@ -259,23 +265,6 @@ int sphdem_exchange_fluid(struct sphdem_ctx_s *c, int what) {
 }
 
 /* ---- the slice of the fluid the other ranks need, and the move since the neighbour build ---------------- */
-
-int sphdem_get_fluid_rows(sphdem_ctx c, double *x, double *v, double *rho, double *state) {
-  if (!c) return SPHDEM_ERR_ARG;
-  sphdem_dev *D = &c->D;
-  if (D->nf == 0) return SPHDEM_OK;
-  const double t0 = rt_now();
-  struct sphdem_xmap *m;
-  TRY(xmap_ready(c, SPHDEM_SET_FLUID, &m));
-  TRY(rt_sync(&c->rt));
-  const struct { const double *dev; double *host; int ncomp, off, stride; } f[5] = {
-    {D->x, x, 3, 0, 3}, {D->v, v, 3, 0, 3}, {D->rho, rho, 1, 0, 1},
-    {D->drho, state, 1, 0, SPHDEM_NSTATE}, {D->a, state, 3, 1, SPHDEM_NSTATE}};
-  for (int k = 0; k < 5; k++)
-    if (f[k].host) TRY(gather_rows(c, m, f[k].dev, f[k].ncomp, f[k].host, f[k].stride, f[k].off));
-  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
-  return SPHDEM_OK;
-}
 
 int sphdem_fluid_moved(sphdem_ctx c, double *d2max) {
   if (!c || !d2max) return SPHDEM_ERR_ARG;

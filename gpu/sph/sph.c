@@ -724,6 +724,22 @@ int sphdem_update_ghosts(sphdem_ctx c, int nghost, const double *x, const double
   return SPHDEM_OK;
 }
 
+/* Many ranks: the sent rows of the fields a step's ghosts take (x, v, rho, drho, a), through the fluid's row map. */
+int sphdem_get_fluid_rows(sphdem_ctx c, double *x, double *v, double *rho, double *state) {
+  if (!c) return SPHDEM_ERR_ARG;
+  sphdem_dev *D = &c->D;
+  if (D->nf == 0) return SPHDEM_OK;
+  const double t0 = rt_now();
+  TRY(rt_sync(&c->rt));
+  fluid_field f[6];
+  const int nfld = fluid_fields(D, x, v, rho, state, 0, f);
+  for (int k = 0; k < nfld; k++)
+    if (f[k].host)
+      TRY(sphdem_gather_owned_rows(c, SPHDEM_SET_FLUID, f[k].dev, f[k].ncomp, f[k].host, f[k].stride, f[k].off));
+  c->timers[SPHDEM_T_TRANSFER] += rt_now() - t0;
+  return SPHDEM_OK;
+}
+
 int sphdem_get_fluid(sphdem_ctx c, double *x, double *v, double *rho, double *p, double *state) {
   if (!c) return SPHDEM_ERR_ARG;
   sphdem_dev *D = &c->D;

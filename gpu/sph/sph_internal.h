@@ -215,6 +215,10 @@ static inline void sphdem_slots_changed(struct sphdem_ctx_s *c, int set) { c->sl
  * array dev (ncomp per slot), through the set's ghost map (exchange.c). */
 int sphdem_scatter_ghosts(struct sphdem_ctx_s *c, int set, double *dev, int ncomp, const double *vals, int stride,
                           int off);
+/* The values of the set's owned rows (sphdem_set_exchange_rows) of the device array dev (ncomp per slot) into host,
+ * row with caller index i at host[stride i + off ..] (exchange.c). */
+int sphdem_gather_owned_rows(struct sphdem_ctx_s *c, int set, const double *dev, int ncomp, double *host, int stride,
+                             int off);
 /* The exchange maps' memory (exchange.c). */
 void sphdem_free_xmaps(struct sphdem_ctx_s *c);
 /* Set the context error message (printf-style); returns code. */
