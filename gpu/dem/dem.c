@@ -479,6 +479,12 @@ int sphdem_dem_set_accumulate(sphdem_dem m, int on) {
   return SPHDEM_OK;
 }
 
+int sphdem_dem_same_tags(sphdem_dem m) {
+  if (!m) return SPHDEM_ERR_ARG;
+  m->same_tags = 1;
+  return SPHDEM_OK;
+}
+
 int sphdem_dem_set_ghost_once(sphdem_dem m, int on) {
   if (!m) return SPHDEM_ERR_ARG;
   if ((on != 0) != m->D.ghost_once) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
@@ -855,8 +861,11 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   double rmin = HUGE_VAL, mmin = HUGE_VAL, d2max = 0.0, drmax = 0.0;
   const int nonfinite = grains_scan(x, x0, radius, r0, mass, n, &rmin, &rmax, &mmin, &d2max, &drmax);
   int bad = nonfinite | !(rmin > 0.0) | !(mmin > 0.0);
-  /* the tags: unless they are those of the last call (checked then) */
-  const int tags_same = m->tags_valid && n == D->n && m->htag && (!n || !memcmp(m->htag, tag, sizeof(int64_t) * n));
+  /* the tags: unless they are those of the last call (checked then; the caller's word, sphdem_dem_same_tags, or
+   * compared) */
+  const int tags_same = m->tags_valid && n == D->n && m->htag &&
+                        (m->same_tags || !n || !memcmp(m->htag, tag, sizeof(int64_t) * n));
+  m->same_tags = 0;
   if (!tags_same)
     for (int i = 0; i < n; i++) bad |= (tag[i] < 1) | (tag[i] > SPHDEM_DEM_MAX_TAG);
   const int moved = d2max > lim;

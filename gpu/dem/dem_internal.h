@@ -174,6 +174,7 @@ struct sphdem_dem_s {
   const int32_t *flags_zero;   /* D->flags holds flags_zero_n zeros (no flags given) since the last call */
   int64_t flags_zero_n;
   int accumulate;              /* sphdem_dem_set_accumulate: the forces are added to the caller's f, torque */
+  int same_tags;               /* sphdem_dem_same_tags: the next call's tags are the last call's (not compared) */
   int cpu_adds;                /* the CPU forces of this call add to D->f, D->tq as they are (else overwrite) */
   double *acc_f;               /* accumulate where the backend overwrites: the forces here, then added */
   int64_t cap_acc;

@@ -617,6 +617,10 @@ int sphdem_dem_request_build(sphdem_dem dem);
 /* on != 0: the next sphdem_dem_compute calls add the contact forces and torques to what f and torque hold
  * (an engine's force arrays after its force clear) instead of overwriting them; 0 (the default): overwrite. */
 int sphdem_dem_set_accumulate(sphdem_dem dem, int on);
+/* The next sphdem_dem_compute(_store) is given the tags of the last call again (the same grains in the same order,
+ * e.g. an engine's atoms between its list builds): it does not compare them with the last call's. Applies to that
+ * call only. */
+int sphdem_dem_same_tags(sphdem_dem dem);
 /* Grains of other ranks (SPHDEM_DEM_GHOST): on = 0 (the default), a pair of this rank's grain and another rank's is
  * kept and evaluated on both ranks, each taking the force on its own grain (the other grain's share is written to
  * its row and is for the caller to drop); on != 0, it is kept only on the rank of its grain of lower tag, whose

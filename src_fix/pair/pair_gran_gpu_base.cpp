@@ -546,6 +546,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   if (neighbor->ago == 0 || update->setupflag || tags_.size() != (size_t)n) {
     tags_.resize(n);
     for (int i = 0; i < n; i++) tags_[i] = atom->tag[i];
+  } else {
+    sphdem_dem_same_tags(dem_); /* (the core need not compare them) */
   }
   const int *fl = nullptr; /* NULL: no grain frozen, one material, one rank */
   /* frozen grains and materials read the engine's mask and type at every step, as the stock styles; the ghost

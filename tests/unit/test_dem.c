@@ -1143,6 +1143,51 @@ static void test_fused(void) {
   }
 }
 
+/* sphdem_dem_same_tags: the caller's word that a call gets the last call's grains spares the tag comparison and
+ * changes nothing (the same bits as a context that compares); it holds for one call only, so grains reordered at
+ * the next call are still found (a new build, and the forces of the new order). */
+static void test_same_tags(void) {
+  const int n = 400;
+  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
+  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+  sphdem_dem A = make(&p), B = make(&p);
+  double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+  int rc = 0, differ = 0;
+  TEST_ASSERT(sphdem_dem_same_tags(NULL) == SPHDEM_ERR_ARG, "same_tags(NULL) must fail");
+  sphdem_dem_stats s0, s1;
+  for (int s = 0; s < 6; s++) {
+    if (s == 5) { /* reordered: the first and last grains change places (B is not told: it must find out) */
+      sphdem_dem_stats_get(B, &s0);
+      const int j = n - 1;
+      int64_t tt = g.tag[0]; g.tag[0] = g.tag[j]; g.tag[j] = tt;
+      double r = g.r[0]; g.r[0] = g.r[j]; g.r[j] = r;
+      r = g.m[0]; g.m[0] = g.m[j]; g.m[j] = r;
+      for (int d = 0; d < 3; d++) {
+        r = g.x[d]; g.x[d] = g.x[3 * j + d]; g.x[3 * j + d] = r;
+        r = g.v[d]; g.v[d] = g.v[3 * j + d]; g.v[3 * j + d] = r;
+        r = g.om[d]; g.om[d] = g.om[3 * j + d]; g.om[3 * j + d] = r;
+      }
+    }
+    rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, g.f, g.t, NULL);
+    if (s > 0 && s < 5) rc |= sphdem_dem_same_tags(B);
+    rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, fB, tB, NULL);
+    differ += memcmp(fB, g.f, sizeof(double) * 3 * n) != 0 || memcmp(tB, g.t, sizeof(double) * 3 * n) != 0;
+    for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-5 * g.v[k];
+  }
+  sphdem_dem_stats_get(B, &s1);
+  printf("  same_tags: %lld contacts, forces of 6 calls differ in %d; the reordered call built %lld list(s)\n",
+         (long long)s1.ncontacts, differ, (long long)(s1.nbuilds - s0.nbuilds));
+  TEST_ASSERT(rc == 0 && s1.ncontacts > 50, "same_tags: %s", sphdem_dem_last_error(B));
+  TEST_ASSERT(differ == 0, "same_tags: the forces differ from a context that compares the tags (%d calls)", differ);
+  TEST_ASSERT(s1.nbuilds == s0.nbuilds + 1, "same_tags: the reordered grains built %lld lists, expected 1",
+              (long long)(s1.nbuilds - s0.nbuilds));
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+  free(fB); free(tB);
+  free_grains(&g);
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -1162,5 +1207,6 @@ int main(void) {
   test_skipped_copies();
   test_fused();
   test_history_hand_over();
+  test_same_tags();
   return test_summary("unit_dem");
 }
