@@ -4,6 +4,7 @@
   ranks EXE ENGINE MPIRUN EXAMPLES   every scene below at 1, 2 and 4 ranks (4 oversubscribed on small machines):
       dambreak   examples/dambreak2d at a/dx = 20, 1600 steps, cut vertically (processors 2 1 1, 4 1 1: the front
                  crosses the subdomain boundaries at x = 0.1 and 0.25 during the run) and horizontally (1 2 1);
+                 LAMMPS: also comm_style tiled with balance rcb (2 ranks);
                  with the delta-plus terms (visc morris, shifting, renormalised diffusion) at 4 1 1, 400 steps
       vortex     examples/taylor_green (delta-plus single fluid: shifting, renormalised diffusion; periodic in x
                  and y, so the ghosts are also the periodic images), 60 steps, processors 2 2 1 and 1 2 1
@@ -13,7 +14,7 @@
       couette    a lid moved by fix move linear (moving walls: the ghost walls' velocity and acceleration come from
                  their owners), 300 steps, processors 1 2 1 (the cut runs parallel to the lid)
       coupled    fix sph/couple: the tiny dam break with 6 grains (torque yes), 400 steps, processors 1 3 1, 4 1 1,
-                 2 2 1 (grains and fluid on both sides of the cuts)
+                 2 2 1 (grains and fluid on both sides of the cuts); LAMMPS: also comm_style tiled, balance rcb
       thin       the tiny dam break with isolated 0.5 on 8 ranks (8 1 1): subdomains thinner than the ghost band
       probe      compute sph/probe on the hydrostatic start (points on both sides of the cut), processors 1 2 1
   dambreak3d EXE ENGINE MPIRUN EXAMPLES  examples/dambreak3d at dx 20 mm, 700 steps: the front crosses x = 0.295
@@ -143,6 +144,21 @@ def ranks_case(exe, engine, mpirun, wd, script, grids, step, names, periodic=Non
     return fails
 
 
+def tiled_case(exe, engine, mpirun, wd, script, step):
+    """script at 2 ranks with comm_style tiled and balance rcb (before the fix) against its 1-rank dump of step"""
+    sub = wd + "/np2_tiled_rcb"
+    tiled = re.sub(r"(?m)^(create_box.*)$", r"\1\ncomm_style tiled", script, count=1)
+    tiled = re.sub(r"(?m)^(fix\s+\S+\s+\S+\s+sph/fluid.*)$", r"balance 1.0 rcb\n\1", tiled, count=1)
+    out = et.must_run(mpirun_cmd(mpirun, 2, exe), sub, tiled, timeout=300)
+    m = re.search(r"rank 0 moves the boundary slice .*?: (\d+) of (\d+) owned fluid atoms .*?, (\d+) ghost", out)
+    d, col = worst(keyed(wd + "/np1", step), keyed(sub, step), ["x", "y", "vx", "vy", "rho"])
+    ok = d < BOUND and m is not None and int(m.group(1)) > 0 and int(m.group(3)) > 0
+    print("%s %s (%s) at 2 ranks, comm_style tiled, balance rcb, step %d: max relative difference %.3e in %s "
+          "(bound %.0e); rank 0 sends %s of %s owned fluid atoms, %s ghosts" %
+          ("PASS" if ok else "FAIL", sub, engine, step, d, col, BOUND, *(m.groups() if m else ("?",) * 3)))
+    return 0 if ok else 1
+
+
 def example(examples, name):
     with open(os.path.join(examples, name, "in." + name)) as f:
         return f.read()
@@ -162,6 +178,10 @@ def test_ranks(exe, engine, mpirun, examples):
     db = db.replace("variable nres   index 40", "variable nres   index 20")
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/dambreak" % engine, db,
                         [(2, "2 1 1"), (4, "4 1 1"), (2, "1 2 1")], 1600, ["x", "y", "vx", "vy", "rho"], moved_col=2)
+    # LAMMPS' tiled communication with a recursive-bisection balance (no processors grid): the send lists the fix
+    # records come from the engine's tiled swaps
+    if engine == "lammps":
+        fails += tiled_case(exe, engine, mpirun, "ranks_%s/dambreak" % engine, db, 1600)
     # the same with the delta-plus terms: at 4 1 1 two ranks start without fluid (they still take part in the
     # reductions of every rate evaluation)
     dp = db.replace("visc artificial 0.02", "visc morris 1e-3 shifting yes diffusion renorm 0.1")
@@ -196,6 +216,8 @@ def test_ranks(exe, engine, mpirun, examples):
     cp = re.sub(r"(?m)^run\s+\S+", dump_lines(engine, "moving", 400, "x y vx vy f_water[1]") + "run 400", cp)
     fails += ranks_case(exe, engine, mpirun, "ranks_%s/coupled" % engine, cp, [(3, "1 3 1"), (4, "4 1 1"),
                         (4, "2 2 1")], 400, ["x", "y", "vx", "vy", "rho"], moved_col=3)
+    if engine == "lammps":
+        fails += tiled_case(exe, engine, mpirun, "ranks_%s/coupled" % engine, cp, 400)
     # subdomains thinner than the ghost band (8 ranks across the tiny dam break; isolated's kernel sums add a
     # level: 0.05 m < 4h + skin = 0.057 m): the engine gathers the ghosts across several subdomains
     thin = et.HEAD + et.CREATE + et.NEIGH + et.FIX.format(extra="isolated 0.5") + et.THERMO + \
