@@ -4,7 +4,8 @@
   ranks EXE ENGINE MPIRUN EXAMPLES   every scene below at 1, 2 and 4 ranks (4 oversubscribed on small machines):
       dambreak   examples/dambreak2d at a/dx = 20, 1600 steps, cut vertically (processors 2 1 1, 4 1 1: the front
                  crosses the subdomain boundaries at x = 0.1 and 0.25 during the run) and horizontally (1 2 1);
-                 LAMMPS: also comm_style tiled with balance rcb (2 ranks);
+                 LAMMPS: also comm_style tiled with balance rcb and with fix balance rcb, and fix balance shift (2 ranks:
+                 the atoms change ranks during the run; LIGGGHTS has neither);
                  with the delta-plus terms (visc morris, shifting, renormalised diffusion) at 4 1 1, 400 steps
       vortex     examples/taylor_green (delta-plus single fluid: shifting, renormalised diffusion; periodic in x
                  and y, so the ghosts are also the periodic images), 60 steps, processors 2 2 1 and 1 2 1
@@ -144,18 +145,30 @@ def ranks_case(exe, engine, mpirun, wd, script, grids, step, names, periodic=Non
     return fails
 
 
-def tiled_case(exe, engine, mpirun, wd, script, step):
-    """script at 2 ranks with comm_style tiled and balance rcb (before the fix) against its 1-rank dump of step"""
-    sub = wd + "/np2_tiled_rcb"
-    tiled = re.sub(r"(?m)^(create_box.*)$", r"\1\ncomm_style tiled", script, count=1)
-    tiled = re.sub(r"(?m)^(fix\s+\S+\s+\S+\s+sph/fluid.*)$", r"balance 1.0 rcb\n\1", tiled, count=1)
-    out = et.must_run(mpirun_cmd(mpirun, 2, exe), sub, tiled, timeout=300)
+def tiled_case(exe, engine, mpirun, wd, script, step, how="static"):
+    """script at 2 ranks with comm_style tiled against its 1-rank dump of step; how: static (balance rcb before
+    the fix), dynamic (fix balance 100 1.0 rcb: the atoms change ranks during the run) or shift (no tiled
+    communication: processors 2 1 1 and fix balance 100 1.0 shift x 10 1.0)"""
+    sub = wd + "/np2_" + {"static": "tiled_rcb", "dynamic": "tiled_fix_rcb", "shift": "fix_shift"}[how]
+    if how == "shift":
+        s = add_processors(script, "2 1 1")
+    else:
+        s = re.sub(r"(?m)^(create_box.*)$", r"\1\ncomm_style tiled", script, count=1)
+    if how == "static":
+        s = re.sub(r"(?m)^(fix\s+\S+\s+\S+\s+sph/fluid.*)$", r"balance 1.0 rcb\n\1", s, count=1)
+    else:
+        fx = "fix lb all balance 100 1.0 " + ("rcb" if how == "dynamic" else "shift x 10 1.0")
+        s = re.sub(r"(?m)^(run\s+\S+)", fx + r"\n\1", s, count=1)
+    out = et.must_run(mpirun_cmd(mpirun, 2, exe), sub, s, timeout=300)
     m = re.search(r"rank 0 moves the boundary slice .*?: (\d+) of (\d+) owned fluid atoms .*?, (\d+) ghost", out)
     d, col = worst(keyed(wd + "/np1", step), keyed(sub, step), ["x", "y", "vx", "vy", "rho"])
     ok = d < BOUND and m is not None and int(m.group(1)) > 0 and int(m.group(3)) > 0
-    print("%s %s (%s) at 2 ranks, comm_style tiled, balance rcb, step %d: max relative difference %.3e in %s "
-          "(bound %.0e); rank 0 sends %s of %s owned fluid atoms, %s ghosts" %
-          ("PASS" if ok else "FAIL", sub, engine, step, d, col, BOUND, *(m.groups() if m else ("?",) * 3)))
+    print("%s %s (%s) at 2 ranks, %s, step %d: max relative difference %.3e in %s (bound %.0e); rank 0 sends %s "
+          "of %s owned fluid atoms, %s ghosts" %
+          ("PASS" if ok else "FAIL", sub, engine, {"static": "comm_style tiled, balance rcb",
+                                                   "dynamic": "comm_style tiled, fix balance rcb every 100 steps",
+                                                   "shift": "fix balance shift every 100 steps"}[how],
+           step, d, col, BOUND, *(m.groups() if m else ("?",) * 3)))
     return 0 if ok else 1
 
 
@@ -181,7 +194,8 @@ def test_ranks(exe, engine, mpirun, examples):
     # LAMMPS' tiled communication with a recursive-bisection balance (no processors grid): the send lists the fix
     # records come from the engine's tiled swaps
     if engine == "lammps":
-        fails += tiled_case(exe, engine, mpirun, "ranks_%s/dambreak" % engine, db, 1600)
+        for how in ("static", "dynamic", "shift"):
+            fails += tiled_case(exe, engine, mpirun, "ranks_%s/dambreak" % engine, db, 1600, how)
     # the same with the delta-plus terms: at 4 1 1 two ranks start without fluid (they still take part in the
     # reductions of every rate evaluation)
     dp = db.replace("visc artificial 0.02", "visc morris 1e-3 shifting yes diffusion renorm 0.1")
