@@ -337,6 +337,21 @@ const std::vector<int> &PairGranGPUBase::hand_ranks() {
   return hand_ranks_;
 }
 
+/* Whether the cuts of the brick decomposition (fractions of the box) differ from those of the last call, which
+ * are then remembered: LAMMPS' fix balance moves them and sends the atoms to their new ranks, any rank (the
+ * first call: true). Tiled decompositions: false (their hand-over goes to every rank anyway). */
+bool PairGranGPUBase::cuts_moved() {
+  std::vector<double> now;
+  if (!sphdem_compat::comm_tiled(comm) && comm->xsplit && comm->ysplit && comm->zsplit) {
+    now.insert(now.end(), comm->xsplit, comm->xsplit + comm->procgrid[0] + 1);
+    now.insert(now.end(), comm->ysplit, comm->ysplit + comm->procgrid[1] + 1);
+    now.insert(now.end(), comm->zsplit, comm->zsplit + comm->procgrid[2] + 1);
+  }
+  const bool moved = now != cuts_;
+  cuts_.swap(now);
+  return moved && !sphdem_compat::comm_tiled(comm);
+}
+
 /* Stock LAMMPS and LIGGGHTS keep a contact's history with the atom that owns it and move it with the atom
  * (fix neigh/history, fix contacthistory). Here a rank holds every pair with one of its own atoms; an atom
  * that changes rank finds on the new rank the pairs with that rank's atoms already (evaluated there too), and
@@ -344,6 +359,9 @@ const std::vector<int> &PairGranGPUBase::hand_ranks() {
 void PairGranGPUBase::hand_over_history() {
   const int nlocal = atom->nlocal, H = SPHDEM_DEM_HIST_DOUBLES, R = hand_rolling_ ? 3 : 0, W = H + R;
   const auto *tag = atom->tag;
+  /* an atom joins a rank next to its last one at the engine's exchanges, but any rank at the set-up of a run
+   * (after balance, displace_atoms, change_box) and where fix balance moved the cuts (the same on every rank) */
+  const bool anywhere = cuts_moved() || update->setupflag;
   if (!owned_prev_set_) { /* the core has no pair yet (or the one of read_restart, which every rank has) */
     owned_prev_.assign(tag, tag + nlocal);
     prev_map_.build(nlocal, [tag](int i) { return tag[i]; });
@@ -396,7 +414,8 @@ void PairGranGPUBase::hand_over_history() {
   std::vector<uint64_t> rk;
   std::vector<double> rh;
   int total = 0;
-  const std::vector<int> &nb = hand_ranks();
+  static const std::vector<int> every_rank; /* (empty: the gather below) */
+  const std::vector<int> &nb = anywhere ? every_rank : hand_ranks();
   if (!nb.empty()) {
     /* a rank that could not read its history: every rank stops with its message */
     int anybad = 0;

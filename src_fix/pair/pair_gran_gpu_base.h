@@ -76,6 +76,7 @@ class PairGranGPUBase : public Pair {
   std::vector<double> hhist_, hroll_, hsh_;
   int hand_key_[7];
   bool hand_key_valid_ = false;
+  std::vector<double> cuts_;          /* the brick decomposition's cuts at the last build (cuts_moved) */
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
   std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
@@ -113,6 +114,7 @@ class PairGranGPUBase : public Pair {
   /* the ranks whose atoms can join this rank at an exchange and which this rank's atoms can join (sorted; empty
    * where the decomposition is tiled: the hand-over then goes to every rank) */
   const std::vector<int> &hand_ranks();
+  bool cuts_moved();
   /* many ranks: this rank's evaluation failed (bad, why) or not; every rank stops with the message of the
    * lowest failed rank, at once (now) or at the next call (the reduction started here) */
   void check_ranks(bool bad, const std::string &why, bool now);

@@ -10,7 +10,9 @@ vs stock at another rank count, printed alongside).
 
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
-                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; /gpu
+                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a bed in
+                       one fifth of a box at np 4 with the cuts moved by balance between two runs and by fix
+                       balance (grains go to ranks two subdomains away), /gpu vs stock; /gpu
                        without atom_modify map and with comm_style tiled at np 2; a grain made invalid on one rank mid-run stops every
                        rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
@@ -269,10 +271,60 @@ def lammps(mpirun, lmp):
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
             restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton)
             restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
+    for newton in ("on", "off"):
+        res.append(balance_moves(r, newton))
     res.append(failure_on_one_rank(r))
     moved = migrated(r.out.get("gpu_np2_on", ""))
     ok = all(res) and moved
     print("%s LAMMPS /gpu on several ranks (%d checks)" % ("PASS" if ok else "FAIL", len(res)))
+    return ok
+
+
+BALANCE = """units lj
+atom_style sphere
+boundary p p fm
+newton {newton}
+comm_modify vel yes
+processors 4 1 1
+region reg block 0 20 0 6 0 12 units box
+create_box 1 reg
+lattice sc 1.0 origin 0.5 0.5 0.5
+region bed block 0 4 0 6 0 5 units box
+create_atoms 1 region bed
+set group all diameter 0.98
+set group all density 1.0
+velocity all create 0.5 12345 loop geom
+neighbor 0.2 bin
+neigh_modify delay 0
+pair_style {style} 2000.0 NULL 50.0 NULL 0.5 0
+pair_coeff * *
+timestep 0.001
+fix 1 all nve/sphere
+fix 2 all gravity 1.0 spherical 0.0 -180.0
+fix zl all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 2000.0
+run 600
+{balance}
+run 600
+write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+
+def balance_moves(r, newton):
+    """a bed of 120 touching grains in one fifth of a box cut in 4 along x: balance between two runs, or fix
+    balance during the second, moves the cuts so that grains go to ranks two subdomains away (the engine's
+    irregular migration), with their contacts; /gpu vs stock at np 4 (without the contacts' history the grains
+    differ by ~3e-2 d)"""
+    ok = True
+    for name, bal in (("balance", "balance 1.0 shift x 10 1.0"), ("fix_balance", "fix lb all balance 300 1.0 shift x 10 1.0")):
+        out = []
+        for style in ("gran/hertz/history", "gran/hertz/history/gpu"):
+            tag = "%s_%s_%s" % (name, newton, "gpu" if style.endswith("gpu") else "stock")
+            wd = r.go(tag, 4, BALANCE.format(newton=newton, style=style, balance=bal))
+            out.append(load(os.path.join(wd, "final.dump")) if wd else None)
+        res = []
+        compare(res, "/gpu vs stock np 4, newton %s, %s" % (newton, "balance between the runs" if name == "balance"
+                                                             else "fix balance in the second run"), out[1], out[0])
+        ok = ok and res[0]
     return ok
 
 
