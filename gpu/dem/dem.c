@@ -278,9 +278,24 @@ int sphdem_dem_set_params(sphdem_dem m, const sphdem_dem_params *p) {
   if (!m) return SPHDEM_ERR_ARG;
   int rc = sphdem_dem_params_check(p, m->rt.err, sizeof m->rt.err);
   if (rc) return rc;
+  /* only the box bounds changed (an engine's deforming box): the list stands; compute counts the change of the
+   * periodic lengths with the grains' moves (box_move) */
+  sphdem_dem_params q = *p;
+  memcpy(q.boxlo, m->D.P.boxlo, sizeof q.boxlo);
+  memcpy(q.boxhi, m->D.P.boxhi, sizeof q.boxhi);
+  const int box_only = !memcmp(&q, &m->D.P, sizeof q);
   derive(&m->D, p);
-  m->need_build = 1;
+  if (!box_only) m->need_build = 1;
   return SPHDEM_OK;
+}
+
+/* How much closer the periodic images of two grains may be than at the last build because the periodic box
+ * lengths changed since (|Delta L| over the periodic axes); 0 for a box that did not change. */
+static double box_move(const struct sphdem_dem_s *m) {
+  double s = 0.0;
+  for (int d = 0; d < 3; d++)
+    if (m->D.P.periodic[d]) s += (m->D.L[d] - m->Lbuilt[d]) * (m->D.L[d] - m->Lbuilt[d]);
+  return sqrt(s);
 }
 
 int sphdem_dem_set_materials(sphdem_dem m, const sphdem_dem_materials *mat) {
@@ -745,6 +760,7 @@ static int build(struct sphdem_dem_s *m, int64_t n, const double *x, double dmax
   TRY(m->ops->fill(m));
   if (D->P.algo == SPHDEM_DEM_PARTICLE_PARALLEL) TRY(m->ops->csr(m));
   if (n) memcpy(m->hx0, x, sizeof(double) * 3 * n); /* x may be NULL when no grain is left */
+  for (int d = 0; d < 3; d++) m->Lbuilt[d] = D->L[d];
   m->dmax_built = dmax;
   m->nbuilds++;
   m->need_build = 0;
@@ -868,7 +884,9 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   m->same_tags = 0;
   if (!tags_same)
     for (int i = 0; i < n; i++) bad |= (tag[i] < 1) | (tag[i] > SPHDEM_DEM_MAX_TAG);
-  const int moved = d2max > lim;
+  /* a pair's gap shrinks by at most the moves of its two grains and the change of the periodic lengths */
+  const double dbox = box_move(m), dmove = sqrt(d2max) + 0.5 * dbox;
+  const int moved = d2max > lim || dmove * dmove > lim;
   int any_frozen = 0;
   if (flags)
     for (int i = 0; i < n; i++) {
@@ -926,8 +944,9 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   t1 = rt_now();
   m->t[SPHDEM_DEM_T_UPLOAD] += t1 - t0;
   t0 = t1;
-  /* no grain moved by more than sqrt(d2max) nor grew by more than drmax since the build */
-  D->gap_thr = 2.0 * (sqrt(d2max) + drmax);
+  /* no grain moved by more than sqrt(d2max) nor grew by more than drmax since the build, and the periodic
+   * lengths changed by dbox */
+  D->gap_thr = 2.0 * (sqrt(d2max) + drmax) + dbox;
   if (m->need_build) {
     TRY(build(m, n, x, 2.0 * rmax));
     D->gap_thr = 0.0;

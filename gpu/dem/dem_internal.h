@@ -143,6 +143,7 @@ struct sphdem_dem_s {
   int has_ghosts;              /* the last grains had SPHDEM_DEM_GHOST or SPHDEM_DEM_IMAGE flags */
   /* host copies for the rebuild decision: positions and radii at the last build, tags */
   double *hx0, *hr0;
+  double Lbuilt[3];            /* the box lengths at the last build (a box that changes between builds) */
   int64_t *htag;
   int64_t hcap;
   double dmax_built;

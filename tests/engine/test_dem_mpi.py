@@ -12,7 +12,8 @@ vs stock at another rank count, printed alongside).
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
                        np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a bed in
                        one fifth of a box at np 4 with the cuts moved by balance between two runs and by fix
-                       balance (grains go to ranks two subdomains away), /gpu vs stock; /gpu
+                       balance (grains go to ranks two subdomains away), /gpu vs stock; a box that fix deform
+                       squeezes and stretches, /gpu vs stock at np 1 and np 2 (and the core's list builds); /gpu
                        without atom_modify map and with comm_style tiled at np 2; a grain made invalid on one rank mid-run stops every
                        rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
@@ -24,6 +25,7 @@ Python 3 only; exits 0 on pass, 1 on failure.
 """
 import math
 import os
+import re
 import shutil
 import sys
 
@@ -125,11 +127,11 @@ def load(path):
     return [[float(v) for v in l.split()] for l in lines[i + 1:] if l.strip()]
 
 
-def max_dx(a, b):
+def max_dx(a, b, d=D):
     """largest |x_a - x_b| / d over the grains (rows id x y z ...), None if the ids differ"""
     if len(a) != len(b) or [r[0] for r in a] != [r[0] for r in b]:
         return None
-    return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) / D
+    return max(max(abs(r[k] - q[k]) for k in (1, 2, 3)) for r, q in zip(a, b)) / d
 
 
 def fmt(v):
@@ -186,8 +188,8 @@ class Runner:
         return rows
 
 
-def compare(results, label, a, b, bound=BOUND):
-    dx = max_dx(a, b) if a is not None and b is not None else None
+def compare(results, label, a, b, bound=BOUND, d=D):
+    dx = max_dx(a, b, d) if a is not None and b is not None else None
     ok = dx is not None and dx < bound
     print("  %-58s max |dx| = %s d %s" % (label, fmt(dx), "(bound %g)" % bound if bound else "(reference)"))
     results.append(ok if bound else True)
@@ -273,6 +275,7 @@ def lammps(mpirun, lmp):
             restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
     for newton in ("on", "off"):
         res.append(balance_moves(r, newton))
+    res.append(deforming_box(r))
     res.append(failure_on_one_rank(r))
     moved = migrated(r.out.get("gpu_np2_on", ""))
     ok = all(res) and moved
@@ -323,8 +326,57 @@ def balance_moves(r, newton):
             out.append(load(os.path.join(wd, "final.dump")) if wd else None)
         res = []
         compare(res, "/gpu vs stock np 4, newton %s, %s" % (newton, "balance between the runs" if name == "balance"
-                                                             else "fix balance in the second run"), out[1], out[0])
+                                                             else "fix balance in the second run"), out[1], out[0],
+                d=0.98)
         ok = ok and res[0]
+    return ok
+
+
+DEFORM = """units lj
+atom_style sphere
+boundary p p p
+newton on
+comm_modify vel yes
+processors {np} 1 1
+region reg block 0 8 0 8 0 8 units box
+create_box 1 reg
+lattice sc 1.0 origin 0.5 0.5 0.5
+create_atoms 1 region reg
+set group all diameter 1.0
+set group all density 1.0
+velocity all create 1.0 12345 loop geom
+neighbor 0.2 bin
+neigh_modify delay 0
+pair_style {style} 2000.0 NULL 50.0 NULL 0.5 1{extra}
+pair_coeff * *
+timestep 0.001
+fix 1 all nve/sphere
+fix d all deform 1 x erate -0.02 y erate 0.01 remap x
+run 2000
+write_dump all custom final.dump id x y z vx vy vz modify sort id format float %.17g
+"""
+
+
+def deforming_box(r):
+    """512 grains in a periodic box that fix deform squeezes along x and stretches along y (remap x), 2000 steps:
+    /gpu vs stock at np 1 and np 2; the core keeps its pair list while only the box changes (its builds at np 1
+    at most twice the engine's)"""
+    ok = True
+    for np_ in (1, 2):
+        out = []
+        for style, extra in (("gran/hertz/history", ""), ("gran/hertz/history/gpu", " timers on")):
+            tag = "deform_np%d_%s" % (np_, "gpu" if extra else "stock")
+            wd = r.go(tag, np_, DEFORM.format(np=np_, style=style, extra=extra))
+            out.append(load(os.path.join(wd, "final.dump")) if wd else None)
+        res = []
+        compare(res, "/gpu vs stock np %d, fix deform (box squeezed and stretched)" % np_, out[1], out[0], d=1.0)
+        ok = ok and res[0]
+        if np_ == 1:
+            g = re.search(r"builds_total=(\d+)", r.out.get("deform_np1_gpu", ""))
+            e = re.search(r"Neighbor list builds = (\d+)", r.out.get("deform_np1_stock", ""))
+            nb, ne = (int(g.group(1)) if g else -1), (int(e.group(1)) if e else -1)
+            print("  %-58s %d (the engine's: %d)" % ("/gpu list builds in 2000 steps of a deforming box", nb, ne))
+            ok = ok and 0 < nb <= 2 * max(ne, 1)
     return ok
 
 

@@ -1188,6 +1188,58 @@ static void test_same_tags(void) {
   free_grains(&g);
 }
 
+/* A box that changes between calls (an engine's fix deform): new box bounds alone keep the pair list, and the change
+ * of the periodic lengths counts with the grains' moves, so that periodic images brought together by a shrinking
+ * box are still found. Against a context that builds its list at every call, with the grains fixed in space and the
+ * box shrinking (no remap: only the images move) and with the grains remapped with the box: the same forces, with
+ * fewer builds. */
+static void test_changing_box(void) {
+  const int n = 400;
+  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
+  for (int remap = 0; remap < 2; remap++) {
+    double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+    grains g = make_grains(n, lo, hi, 0.1, 0.0);
+    for (int k = 0; k < 3 * n; k++) g.om[k] = 0.0;
+    sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+    sphdem_dem A = make(&p), B = make(&p);
+    double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+    int rc = 0, differ = 0;
+    const int steps = 40;
+    int64_t c0 = 0, c1 = 0;
+    for (int s = 0; s < steps; s++) {
+      const double f = 1.0 - 0.001; /* the box shrinks by 0.1 % a step along x and y (4 % in all) */
+      for (int d = 0; d < 2; d++) {
+        const double h = p.boxhi[d];
+        p.boxhi[d] = h * f;
+        if (remap)
+          for (int i = 0; i < n; i++) g.x[3 * i + d] *= f;
+      }
+      rc |= sphdem_dem_set_params(A, &p) | sphdem_dem_set_params(B, &p) | sphdem_dem_request_build(B);
+      rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, g.f, g.t, NULL);
+      rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 1, fB, tB, NULL);
+      differ += memcmp(fB, g.f, sizeof(double) * 3 * n) != 0 || memcmp(tB, g.t, sizeof(double) * 3 * n) != 0;
+      sphdem_dem_stats st;
+      sphdem_dem_stats_get(A, &st);
+      if (s == 0) c0 = st.ncontacts;
+      c1 = st.ncontacts;
+    }
+    sphdem_dem_stats sa, sb;
+    sphdem_dem_stats_get(A, &sa);
+    sphdem_dem_stats_get(B, &sb);
+    printf("  box shrinking 4 %% over %d calls, %s: contacts %lld -> %lld; forces differ from a build at every call "
+           "in %d calls; builds %lld (every call: %lld)\n", steps, remap ? "grains remapped" : "grains fixed",
+           (long long)c0, (long long)c1, differ, (long long)sa.nbuilds, (long long)sb.nbuilds);
+    TEST_ASSERT(rc == 0 && c1 > c0, "changing box: %s (contacts %lld -> %lld)", sphdem_dem_last_error(A),
+                (long long)c0, (long long)c1);
+    TEST_ASSERT(differ == 0, "changing box: the forces differ from a list built at every call (%d calls)", differ);
+    TEST_ASSERT(sa.nbuilds > 1 && sa.nbuilds < steps / 4, "changing box: %lld builds in %d calls",
+                (long long)sa.nbuilds, steps);
+    sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+    free(fB); free(tB);
+    free_grains(&g);
+  }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -1208,5 +1260,6 @@ int main(void) {
   test_fused();
   test_history_hand_over();
   test_same_tags();
+  test_changing_box();
   return test_summary("unit_dem");
 }
