@@ -553,6 +553,11 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   for (int d = 0; d < 3; d++)
     box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
   if (box_changed) sync_params();
+  /* the core finds its own pairs: the engine's exclusions would be ignored, so they are refused (known once the
+   * engine's neighbour settings are initialised: at each run's set-up) */
+  if (update->setupflag && neighbor->exclude_setting())
+    fail("neigh_modify exclude (type, group or molecule) is not supported: every pair of grains within reach "
+         "interacts; remove the exclusion (neigh_modify exclude none) or use the stock style");
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   if (ghosts_) finish_check(); /* the last step's failure check */
   own_map_valid_ = false;

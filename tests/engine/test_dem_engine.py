@@ -25,7 +25,7 @@
   refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
                themselves
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
-  rigid_lammps LMP  fix rigid stops naming it
+  rigid_lammps LMP  fix rigid stops naming it; neigh_modify exclude stops naming it (also in refused_liggghts)
   errors_liggghts LIG  unsupported words (model hooke/stiffness, ktToKnUser with hertz, cohesion sjkr, a
                missing material) stop naming them
   example EXE INPUT [liggghts]  examples/dem_drop through the bed's impact on the floor (20000 steps LAMMPS,
@@ -808,7 +808,16 @@ def refused_liggghts(lig):
         good = rc != 0 and ("ERROR: " + want) in out
         print("%s with gran/gpu: %s" % (what, "stops naming it" if good else "FAIL\n" + out[-800:]))
         ok &= good
-    return ok
+    return ok and excluded(lig, base.replace(after, after + "neigh_modify exclude type 1 1\n"), "dem_refused_lig/exclude",
+                           "gran/gpu")
+
+
+def excluded(exe, text, wd, style):
+    """neigh_modify exclude (the core finds its own pairs and would ignore it) stops the run naming it"""
+    rc, out = run([exe], wd, text)
+    good = rc != 0 and "ERROR: Pair %s: neigh_modify exclude (type, group or molecule) is not supported" % style in out
+    print("neigh_modify exclude with %s: %s" % (style, "stops naming it" if good else "FAIL\n" + out[-800:]))
+    return good
 
 
 # LAMMPS: a pour into an empty box (after examples/granular/in.pour): no 'Communication cutoff 0.0' or
@@ -843,7 +852,9 @@ def rigid_lammps(lmp):
     rc, out = run([lmp], os.path.join("dem_rigid_lmp"), text)
     good = rc != 0 and "ERROR" in out and "rigid bodies (fix 1) are not supported" in out
     print("fix rigid with gran/hertz/history/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
-    return good
+    base = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"])
+    return excluded(lmp, base.replace("fix 1 all nve/sphere", "neigh_modify exclude type 1 1\nfix 1 all nve/sphere"),
+                    "dem_rigid_lmp/exclude", "gran/hertz/history/gpu") and good
 
 
 
