@@ -471,6 +471,30 @@ int sphdem_dem_flip_history(sphdem_dem m, int64_t n, const uint64_t *keys) {
   return rc;
 }
 
+int sphdem_dem_set_exclusions(sphdem_dem m, int n, const uint16_t *rows) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if (n < 0 || n > SPHDEM_DEM_MAX_CLASSES)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "exclusions: n %d outside 0..%d", n, SPHDEM_DEM_MAX_CLASSES);
+  if (n > 0 && !rows) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "exclusions: rows NULL for %d classes", n);
+  uint16_t e[SPHDEM_DEM_MAX_CLASSES] = {0};
+  const unsigned keep = n >= 16 ? 0xffffu : (1u << n) - 1u;
+  int any = 0;
+  for (int c = 0; c < n; c++) {
+    if (rows[c] & ~keep)
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "exclusions: rows[%d] names a class >= %d", c, n);
+    e[c] = rows[c];
+    any |= e[c] != 0;
+  }
+  for (int a = 0; a < n; a++)
+    for (int b = 0; b < n; b++)
+      if (((e[a] >> b) & 1) != ((e[b] >> a) & 1))
+        return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "exclusions: not symmetric (classes %d and %d)", a, b);
+  if (memcmp(e, m->D.excl, sizeof e) != 0) m->need_build = 1; /* the pair rule of dem_pair_kept changes */
+  memcpy(m->D.excl, e, sizeof e);
+  m->D.any_excl = any;
+  return SPHDEM_OK;
+}
+
 int sphdem_dem_set_walls(sphdem_dem m, int nw, const sphdem_dem_wall *w) {
   if (!m) return SPHDEM_ERR_ARG;
   if (nw < 0 || nw > SPHDEM_DEM_MAX_WALLS)

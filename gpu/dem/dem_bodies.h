@@ -160,8 +160,14 @@ SPHDEM_HD uint32_t dem_wall_code(int w) { return 0xffffffffu - (uint32_t)w; }
 /* Grains of other MPI ranks (SPHDEM_DEM_GHOST) and periodic images of this rank's grains
  * (SPHDEM_DEM_IMAGE) take part only in pairs with a grain of this rank; a pair with an image is kept once,
  * as the image of the grain of higher tag (its twin, the image of the other grain, is dropped). A pair with
- * another rank's grain is kept on both ranks, or (ghost_once) on the rank of its grain of lower tag only. */
+ * another rank's grain is kept on both ranks, or (ghost_once) on the rank of its grain of lower tag only. A pair
+ * whose classes are excluded (sphdem_dem_set_exclusions) is never kept. */
 SPHDEM_HD int dem_pair_kept(const dem_dev *D, int32_t i, int32_t j) {
+  if (D->any_excl) { /* pairs the engine excludes (sphdem_dem_set_exclusions) */
+    const int ci = (D->flags[i] & SPHDEM_DEM_CLASS_MASK) >> SPHDEM_DEM_CLASS_SHIFT;
+    const int cj = (D->flags[j] & SPHDEM_DEM_CLASS_MASK) >> SPHDEM_DEM_CLASS_SHIFT;
+    if ((D->excl[ci] >> cj) & 1) return 0;
+  }
   const int32_t away = SPHDEM_DEM_GHOST | SPHDEM_DEM_IMAGE, fi = D->flags[i] & away, fj = D->flags[j] & away;
   if (!fi && !fj) return 1;
   if (fi && fj) return 0;

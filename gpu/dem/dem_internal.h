@@ -60,6 +60,9 @@ typedef struct {
   double *x, *v, *om, *rad, *mass, *f, *tq;
   int32_t *flags;
   int any_frozen;     /* some grain has SPHDEM_DEM_FROZEN (else the law reads no flags for it) */
+  uint16_t excl[SPHDEM_DEM_MAX_CLASSES]; /* sphdem_dem_set_exclusions: bit c2 of excl[c1], pairs of classes c1, c2
+                         are not kept */
+  int any_excl;       /* some pair of classes is excluded */
   int32_t *head;      /* CPU one-thread pass, copies of a grain sharing a tag: per copy, the copy whose run of pairs
                          holds its pairs (the first pair's a); NULL when each run has one grain */
   int ghost_once;     /* a pair of this rank's grain and another rank's (SPHDEM_DEM_GHOST) is kept only when this

@@ -572,6 +572,12 @@ typedef struct sphdem_dem_s *sphdem_dem;
 #define SPHDEM_DEM_MATERIAL_SHIFT 8
 #define SPHDEM_DEM_MAX_MATERIALS 4096
 
+/* flags bits 4..7: the grain's exclusion class (sphdem_dem_set_exclusions), (flags & SPHDEM_DEM_CLASS_MASK) >>
+ * SPHDEM_DEM_CLASS_SHIFT; 0 without exclusions */
+#define SPHDEM_DEM_CLASS_SHIFT 4
+#define SPHDEM_DEM_CLASS_MASK 0xf0
+#define SPHDEM_DEM_MAX_CLASSES 16
+
 void sphdem_dem_params_default(sphdem_dem_params *p);
 /* Check p; on error SPHDEM_ERR_ARG and a message naming the field. */
 int sphdem_dem_params_check(const sphdem_dem_params *p, char *msg, size_t msglen);
@@ -609,6 +615,11 @@ int sphdem_dem_set_granular(sphdem_dem dem, int n, const sphdem_dem_granular *pa
  * the frame of the lower tag, but the rolling and twisting ones are symmetric, so the stock style flips them:
  * the shim lists the pairs whose order in the engine's list changed. */
 int sphdem_dem_flip_history(sphdem_dem dem, int64_t n, const uint64_t *keys);
+/* Pairs of grains that are never kept (an engine's neigh_modify exclude type / group): n exclusion classes
+ * (0..SPHDEM_DEM_MAX_CLASSES; 0: none, the default), each grain's class in its flags (SPHDEM_DEM_CLASS_MASK); bit c2
+ * of rows[c1] set: no pair of a grain of class c1 and one of class c2 is kept (symmetric: bit c1 of rows[c2] must
+ * be set too). Walls are not affected. The next call rebuilds the pair list when the table changed. */
+int sphdem_dem_set_exclusions(sphdem_dem dem, int n, const uint16_t *rows);
 /* Fixed planes (replaces the previous set); nw may be 0. */
 int sphdem_dem_set_walls(sphdem_dem dem, int nw, const sphdem_dem_wall *walls);
 /* The next sphdem_dem_compute rebuilds the pair list (call when the engine rebuilt its neighbour lists:

@@ -352,6 +352,75 @@ bool PairGranGPUBase::cuts_moved() {
   return moved && !sphdem_compat::comm_tiled(comm);
 }
 
+namespace {
+/* The engine's exclusion lists (public in LAMMPS, protected in LIGGGHTS): pointers to members formed in a class
+ * derived from Neighbor, applied to the engine's Neighbor. */
+struct NeighborExclusions : LAMMPS_NS::Neighbor {
+  static int Neighbor::*ntype() { return &NeighborExclusions::nex_type; }
+  static int Neighbor::*ngroup() { return &NeighborExclusions::nex_group; }
+  static int Neighbor::*nmol() { return &NeighborExclusions::nex_mol; }
+  static int *Neighbor::*type1() { return &NeighborExclusions::ex1_type; }
+  static int *Neighbor::*type2() { return &NeighborExclusions::ex2_type; }
+  static int *Neighbor::*bit1() { return &NeighborExclusions::ex1_bit; }
+  static int *Neighbor::*bit2() { return &NeighborExclusions::ex2_bit; }
+};
+}  // namespace
+
+/* neigh_modify exclude type M N and exclude group G1 G2 as the core's exclusion classes: the types named get a
+ * class index each (the others share index 0, which no type exclusion names), the groups named a bit each; a pair
+ * of classes is excluded where the engine would exclude a pair of atoms of those types and groups (its rules: the
+ * type pair, or one atom in G1 and the other in G2). Molecule exclusions and more than 16 classes stop the run. */
+void PairGranGPUBase::setup_exclusions() {
+  LAMMPS_NS::Neighbor *nb = neighbor;
+  const int ntx = nb->*NeighborExclusions::ntype(), ngx = nb->*NeighborExclusions::ngroup();
+  if (nb->*NeighborExclusions::nmol() > 0)
+    fail("neigh_modify exclude molecule/intra or molecule/inter is not supported (type and group exclusions are)");
+  excl_tcls_.assign(atom->ntypes + 1, 0);
+  excl_bits_.clear();
+  const int *t1 = nb->*NeighborExclusions::type1(), *t2 = nb->*NeighborExclusions::type2();
+  const int *b1 = nb->*NeighborExclusions::bit1(), *b2 = nb->*NeighborExclusions::bit2();
+  std::vector<int> rep(1, 0); /* a type of each type index (index 0: none named) */
+  for (int k = 0; k < ntx; k++)
+    for (const int t : {t1[k], t2[k]})
+      if (t >= 1 && t <= atom->ntypes && excl_tcls_[t] == 0) {
+        excl_tcls_[t] = (int)rep.size();
+        rep.push_back(t);
+      }
+  for (int k = 0; k < ngx; k++)
+    for (const int b : {b1[k], b2[k]})
+      if (std::find(excl_bits_.begin(), excl_bits_.end(), b) == excl_bits_.end()) excl_bits_.push_back(b);
+  const int ng = (int)excl_bits_.size(), nt = (int)rep.size(), ncls = nt << ng;
+  excl_on_ = ntx > 0 || ngx > 0;
+  if (excl_on_ && ncls > SPHDEM_DEM_MAX_CLASSES)
+    fail("neigh_modify exclude: " + std::to_string(nt - 1) + " types and " + std::to_string(ng) +
+         " groups named make " + std::to_string(ncls) + " classes of atoms, more than the " +
+         std::to_string(SPHDEM_DEM_MAX_CLASSES) + " the core tells apart");
+  std::vector<uint16_t> rows(excl_on_ ? ncls : 0, 0);
+  for (int c1 = 0; c1 < (int)rows.size(); c1++)
+    for (int c2 = 0; c2 < ncls; c2++) {
+      const int ta = rep[c1 >> ng], tb = rep[c2 >> ng], ga = c1 & ((1 << ng) - 1), gb = c2 & ((1 << ng) - 1);
+      bool ex = false;
+      for (int k = 0; k < ntx && ta && tb; k++)
+        ex |= (t1[k] == ta && t2[k] == tb) || (t1[k] == tb && t2[k] == ta);
+      auto in = [&](int g, int bit) {
+        const int q = (int)(std::find(excl_bits_.begin(), excl_bits_.end(), bit) - excl_bits_.begin());
+        return q < ng && ((g >> q) & 1);
+      };
+      for (int k = 0; k < ngx; k++)
+        ex |= (in(ga, b1[k]) && in(gb, b2[k])) || (in(ga, b2[k]) && in(gb, b1[k]));
+      if (ex) rows[c1] |= (uint16_t)(1u << c2);
+    }
+  if (sphdem_dem_set_exclusions(dem_, (int)rows.size(), rows.data())) fail(sphdem_dem_last_error(dem_));
+}
+
+int PairGranGPUBase::exclusion_class(int i) const {
+  const int ng = (int)excl_bits_.size();
+  int g = 0;
+  for (int q = 0; q < ng; q++)
+    if (atom->mask[i] & excl_bits_[q]) g |= 1 << q;
+  return (excl_tcls_[atom->type[i]] << ng) | g;
+}
+
 /* Stock LAMMPS and LIGGGHTS keep a contact's history with the atom that owns it and move it with the atom
  * (fix neigh/history, fix contacthistory). Here a rank holds every pair with one of its own atoms; an atom
  * that changes rank finds on the new rank the pairs with that rank's atoms already (evaluated there too), and
@@ -553,11 +622,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   for (int d = 0; d < 3; d++)
     box_changed |= domain->boxlo[d] != box_lo_[d] || domain->boxhi[d] != box_hi_[d] || domain->periodicity[d] != box_per_[d];
   if (box_changed) sync_params();
-  /* the core finds its own pairs: the engine's exclusions would be ignored, so they are refused (known once the
-   * engine's neighbour settings are initialised: at each run's set-up) */
-  if (update->setupflag && neighbor->exclude_setting())
-    fail("neigh_modify exclude (type, group or molecule) is not supported: every pair of grains within reach "
-         "interacts; remove the exclusion (neigh_modify exclude none) or use the stock style");
+  /* the engine's exclusions, set up with its neighbour settings (at each run's set-up) */
+  if (update->setupflag) setup_exclusions();
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
   if (ghosts_) finish_check(); /* the last step's failure check */
   own_map_valid_ = false;
@@ -576,13 +642,14 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   const int *fl = nullptr; /* NULL: no grain frozen, one material, one rank */
   /* frozen grains and materials read the engine's mask and type at every step, as the stock styles; the ghost
    * flags alone change only with the ghost atoms (the engine's list builds) */
-  const bool per_step = freeze_group_bit_ || material_types;
+  const bool per_step = freeze_group_bit_ || material_types || excl_on_;
   if (per_step || (ghosts_ && (neighbor->ago == 0 || update->setupflag || flags_.size() != (size_t)n))) {
     flags_.resize(n);
     const int *type = atom->type;
     for (int i = 0; i < n; i++)
       flags_[i] = ((atom->mask[i] & freeze_group_bit_) ? SPHDEM_DEM_FROZEN : 0) |
-                  (material_types ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0);
+                  (material_types ? (type[i] - 1) << SPHDEM_DEM_MATERIAL_SHIFT : 0) |
+                  (excl_on_ ? exclusion_class(i) << SPHDEM_DEM_CLASS_SHIFT : 0);
     for (int i = nlocal; i < n; i++) {
       const int o = image_of_[i - nlocal];
       flags_[i] |= o >= 0 ? SPHDEM_DEM_IMAGE : o == SKIPPED ? SPHDEM_DEM_SKIP : SPHDEM_DEM_GHOST;

@@ -115,6 +115,12 @@ class PairGranGPUBase : public Pair {
    * where the decomposition is tiled: the hand-over then goes to every rank) */
   const std::vector<int> &hand_ranks();
   bool cuts_moved();
+  /* the engine's neigh_modify exclude as the core's exclusion classes (set_exclusions): each atom's class is
+   * excl_tcls_[type] << excl_bits_.size() | (its membership of the groups excl_bits_, a bit each) */
+  bool excl_on_ = false;
+  std::vector<int> excl_tcls_, excl_bits_;
+  void setup_exclusions();
+  int exclusion_class(int i) const;
   /* many ranks: this rank's evaluation failed (bad, why) or not; every rank stops with the message of the
    * lowest failed rank, at once (now) or at the next call (the reduction started here) */
   void check_ranks(bool bad, const std::string &why, bool now);

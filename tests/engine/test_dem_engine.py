@@ -25,7 +25,8 @@
   refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
                themselves
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
-  rigid_lammps LMP  fix rigid stops naming it; neigh_modify exclude stops naming it (also in refused_liggghts)
+  rigid_lammps LMP  fix rigid stops naming it; neigh_modify exclude type 1 1 on the head-on pair: /gpu equals
+                    stock (the grains pass through each other; also in refused_liggghts)
   errors_liggghts LIG  unsupported words (model hooke/stiffness, ktToKnUser with hertz, cohesion sjkr, a
                missing material) stop naming them
   example EXE INPUT [liggghts]  examples/dem_drop through the bed's impact on the floor (20000 steps LAMMPS,
@@ -808,15 +809,28 @@ def refused_liggghts(lig):
         good = rc != 0 and ("ERROR: " + want) in out
         print("%s with gran/gpu: %s" % (what, "stops naming it" if good else "FAIL\n" + out[-800:]))
         ok &= good
-    return ok and excluded(lig, base.replace(after, after + "neigh_modify exclude type 1 1\n"), "dem_refused_lig/exclude",
-                           "gran/gpu")
+    ex = "neigh_modify exclude type 1 1\n"
+    stock = lig_script("headon", "gran", "model hertz tangential history")
+    return ok and excluded(lig, (stock.replace(after, after + ex), base.replace(after, after + ex), stock),
+                           "dem_refused_lig/exclude", "gran/gpu")
 
 
-def excluded(exe, text, wd, style):
-    """neigh_modify exclude (the core finds its own pairs and would ignore it) stops the run naming it"""
-    rc, out = run([exe], wd, text)
-    good = rc != 0 and "ERROR: Pair %s: neigh_modify exclude (type, group or molecule) is not supported" % style in out
-    print("neigh_modify exclude with %s: %s" % (style, "stops naming it" if good else "FAIL\n" + out[-800:]))
+def excluded(exe, texts, wd, style):
+    """neigh_modify exclude type 1 1 on the head-on pair (both grains type 1): /gpu equals stock, whose grains
+    pass through each other; without the exclusion they collide (texts: stock, /gpu, stock without exclusion)"""
+    res = []
+    for tag, text in zip(("stock", "gpu", "plain"), texts):
+        rc, out = run([exe], os.path.join(wd, tag), text)
+        if rc != 0 or "ERROR" in out:
+            print("FAIL neigh_modify exclude, %s %s: rc %d\n%s" % (style, tag, rc, out[-1200:]))
+            return False
+        res.append(load_dump(os.path.join(wd, tag, "final.dump")))
+    d, dplain = max_dx(res[0], res[1]), max_dx(res[0], res[2])
+    good = d is not None and dplain is not None and d < 1e-12 and dplain > 1e-4
+    print("%s neigh_modify exclude type 1 1 with %s: /gpu vs stock max |dx| %s m (bound 1e-12); stock with vs "
+          "without the exclusion %s m (must exceed 1e-4)" % ("PASS" if good else "FAIL", style,
+                                                             "%.3g" % d if d is not None else "-",
+                                                             "%.3g" % dplain if dplain is not None else "-"))
     return good
 
 
@@ -852,9 +866,11 @@ def rigid_lammps(lmp):
     rc, out = run([lmp], os.path.join("dem_rigid_lmp"), text)
     good = rc != 0 and "ERROR" in out and "rigid bodies (fix 1) are not supported" in out
     print("fix rigid with gran/hertz/history/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
-    base = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"])
-    return excluded(lmp, base.replace("fix 1 all nve/sphere", "neigh_modify exclude type 1 1\nfix 1 all nve/sphere"),
-                    "dem_rigid_lmp/exclude", "gran/hertz/history/gpu") and good
+    ex = ("fix 1 all nve/sphere", "neigh_modify exclude type 1 1\nfix 1 all nve/sphere")
+    stock = script("headon", "gran/hertz/history", STYLES["gran/hertz/history"])
+    gpu = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"])
+    return excluded(lmp, (stock.replace(*ex), gpu.replace(*ex), stock), "dem_rigid_lmp/exclude",
+                    "gran/hertz/history/gpu") and good
 
 
 

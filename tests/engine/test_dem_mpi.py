@@ -13,7 +13,8 @@ vs stock at another rank count, printed alongside).
                        np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a bed in
                        one fifth of a box at np 4 with the cuts moved by balance between two runs and by fix
                        balance (grains go to ranks two subdomains away), /gpu vs stock; a box that fix deform
-                       squeezes and stretches, /gpu vs stock at np 1 and np 2 (and the core's list builds); /gpu
+                       squeezes and stretches, /gpu vs stock at np 1 and np 2 (and the core's list builds);
+                       neigh_modify exclude group at np 2, /gpu vs stock; /gpu
                        without atom_modify map and with comm_style tiled at np 2; a grain made invalid on one rank mid-run stops every
                        rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
@@ -276,6 +277,7 @@ def lammps(mpirun, lmp):
     for newton in ("on", "off"):
         res.append(balance_moves(r, newton))
     res.append(deforming_box(r))
+    res.append(exclusions(r))
     res.append(failure_on_one_rank(r))
     moved = migrated(r.out.get("gpu_np2_on", ""))
     ok = all(res) and moved
@@ -378,6 +380,25 @@ def deforming_box(r):
             print("  %-58s %d (the engine's: %d)" % ("/gpu list builds in 2000 steps of a deforming box", nb, ne))
             ok = ok and 0 < nb <= 2 * max(ne, 1)
     return ok
+
+
+def exclusions(r):
+    """neigh_modify exclude group half half (half the bed, by atom ID, across both subdomains) at np 2, newton on:
+    /gpu vs stock; the exclusion matters (stock with and without it differ by more than 1e-3 d)"""
+    ex = "neigh_modify delay 0 every 1 check yes\ngroup half id <= 504\nneigh_modify exclude group half half\n"
+    out = []
+    for tag, style, text in (("excl_np2_stock", "gran/hertz/history", None), ("excl_np2_gpu", "gran/hertz/history/gpu", None),
+                             ("excl_np2_plain", "gran/hertz/history", "plain")):
+        t = r.script(style, 2, "on", "run %d\n" % STEPS + r.dump("final.dump"))
+        if text is None:
+            t = t.replace("neigh_modify delay 0 every 1 check yes\n", ex)
+        wd = r.go(tag, 2, t)
+        out.append(load(os.path.join(wd, "final.dump")) if wd else None)
+    res = []
+    compare(res, "/gpu vs stock np 2, neigh_modify exclude group half half", out[1], out[0])
+    dplain = max_dx(out[0], out[2]) if out[0] is not None and out[2] is not None else None
+    print("  %-58s max |dx| = %s d (must exceed 1e-3)" % ("stock with vs without the exclusion", fmt(dplain)))
+    return res[0] and dplain is not None and dplain > 1e-3
 
 
 def failure_on_one_rank(r):

@@ -1240,6 +1240,62 @@ static void test_changing_box(void) {
   }
 }
 
+/* sphdem_dem_set_exclusions: grains of three classes (0, 1, 2) with pairs 1-1 and 1-2 excluded: the pair list
+ * is that of no exclusions less exactly those pairs; removing the exclusions gives the whole list again; bad
+ * tables are refused naming the fault. */
+static void test_exclusions(void) {
+  const int n = 500;
+  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
+  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
+  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  int *fl = malloc(sizeof(int) * n);
+  for (int i = 0; i < n; i++) fl[i] = (i % 3) << SPHDEM_DEM_CLASS_SHIFT;
+  sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+  sphdem_dem A = make(&p), B = make(&p);
+  const uint16_t rows[3] = {0, (1u << 1) | (1u << 2), 1u << 1};
+  int rc = sphdem_dem_set_exclusions(B, 3, rows);
+  rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-5, 1, g.f, g.t, NULL);
+  double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+  rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-5, 1, fB, tB, NULL);
+  const int64_t cap = 40 * n;
+  int64_t *pa = malloc(sizeof(int64_t) * 2 * cap), *pb = malloc(sizeof(int64_t) * 2 * cap);
+  const int64_t na = sphdem_dem_debug_pairs(A, pa, cap), nb = sphdem_dem_debug_pairs(B, pb, cap);
+  int64_t want = 0, bad = 0, dropped = 0;
+  for (int64_t k = 0; k < na; k++) {
+    const int64_t a = pa[2 * k], b = pa[2 * k + 1];
+    const int ca = (int)(a % 3), cb = b >= 0 ? (int)(b % 3) : -1;
+    const int excl = b >= 0 && ((rows[ca] >> cb) & 1);
+    dropped += excl;
+    want += !excl;
+  }
+  for (int64_t k = 0; k < nb; k++) {
+    const int64_t a = pb[2 * k], b = pb[2 * k + 1];
+    bad += b >= 0 && ((rows[a % 3] >> (b % 3)) & 1);
+  }
+  printf("  exclusions (classes 1-1, 1-2 of 3): %lld pairs without, %lld with (%lld dropped, %lld excluded kept)\n",
+         (long long)na, (long long)nb, (long long)dropped, (long long)bad);
+  TEST_ASSERT(rc == 0 && na > 100 && dropped > 20, "exclusions: rc %d, %lld pairs, %lld to drop", rc, (long long)na,
+              (long long)dropped);
+  TEST_ASSERT(nb == want && bad == 0, "exclusions: %lld pairs kept (expected %lld), %lld excluded pairs kept",
+              (long long)nb, (long long)want, (long long)bad);
+  /* the same exclusions given as none: the list of A again */
+  rc = sphdem_dem_set_exclusions(B, 0, NULL);
+  rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-5, 0, fB, tB, NULL);
+  TEST_ASSERT(rc == 0 && sphdem_dem_debug_pairs(B, pb, cap) == na, "exclusions removed: the list is not whole again");
+  /* bad tables */
+  const uint16_t asym[2] = {1u << 1, 0}, wide[2] = {1u << 2, 0};
+  TEST_ASSERT(sphdem_dem_set_exclusions(B, 2, asym) == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(B), "symmetric"),
+              "asymmetric exclusions: %s", sphdem_dem_last_error(B));
+  TEST_ASSERT(sphdem_dem_set_exclusions(B, 2, wide) == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(B), "rows[0]"),
+              "exclusion of a class >= n: %s", sphdem_dem_last_error(B));
+  TEST_ASSERT(sphdem_dem_set_exclusions(B, 17, rows) == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(B), "n 17"),
+              "17 classes: %s", sphdem_dem_last_error(B));
+  TEST_ASSERT(sphdem_dem_set_exclusions(B, 2, NULL) == SPHDEM_ERR_ARG, "rows NULL must fail");
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+  free(fB); free(tB); free(fl); free(pa); free(pb);
+  free_grains(&g);
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -1261,5 +1317,6 @@ int main(void) {
   test_history_hand_over();
   test_same_tags();
   test_changing_box();
+  test_exclusions();
   return test_summary("unit_dem");
 }
