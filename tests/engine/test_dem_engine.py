@@ -25,7 +25,8 @@
   refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
                themselves
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
-  rigid_lammps LMP  fix rigid stops naming it; neigh_modify exclude type 1 1 on the head-on pair: /gpu equals
+  rigid_lammps LMP  fix rigid stops naming it; a bonded overlapping pair (atom_style hybrid sphere bond): /gpu
+                    equals stock; neigh_modify exclude type 1 1 on the head-on pair: /gpu equals
                     stock (the grains pass through each other; also in refused_liggghts)
   errors_liggghts LIG  unsupported words (model hooke/stiffness, ktToKnUser with hertz, cohesion sjkr, a
                missing material) stop naming them
@@ -859,6 +860,53 @@ def pour_lammps(lmp, steps=5000):
     return ok
 
 
+BONDED = """units lj
+atom_style hybrid sphere bond
+boundary f f f
+region box block -5 5 -5 5 -5 5 units box
+create_box 1 box bond/types 1 extra/bond/per/atom 1 extra/special/per/atom 1
+create_atoms 1 single -0.45 0 0 units box
+create_atoms 1 single 0.45 0 0 units box
+set group all diameter 1.0
+set group all density 1.0
+bond_style harmonic
+bond_coeff 1 {k} 1.2
+create_bonds single/bond 1 1 2
+velocity all set 0 0 0
+pair_style {style} 2000.0 NULL 50.0 NULL 0.5 0
+pair_coeff * *
+comm_modify vel yes
+neighbor 0.2 bin
+fix 1 all nve/sphere
+timestep 0.001
+run 200
+write_dump all custom final.dump id x y z vx vy vz omegax omegay omegaz modify sort id format float %.17g
+"""
+
+
+def bonded_pair(lmp):
+    """two overlapping grains joined by a bond, default special_bonds (lj 0 0 0): the stock granular lists keep a
+    bonded pair whatever special_bonds says, and so does the core; /gpu equals stock, with the bond's stiffness 100
+    and 0 (then the contact alone pushes the grains apart)"""
+    ok = True
+    for k in ("100.0", "0.0"):
+        res = []
+        for tag, style in (("stock", "gran/hertz/history"), ("gpu", "gran/hertz/history/gpu")):
+            wd = os.path.join("dem_bonded_lmp", "k" + k, tag)
+            rc, out = run([lmp], wd, BONDED.format(k=k, style=style))
+            if rc != 0 or "ERROR" in out:
+                print("FAIL bonded pair, %s: rc %d\n%s" % (style, rc, out[-1200:]))
+                return False
+            res.append(load_dump(os.path.join(wd, "final.dump")))
+        d = max_dx(res[0], res[1])
+        moved = abs(res[0][1][4]) > 1e-3  # (the contact, and the bond when k > 0, set the grains in motion)
+        good = d is not None and d < 1e-14 and moved
+        print("%s bonded overlapping pair (bond k %s): /gpu vs stock max |dx| %s (bound 1e-14), the grains moved: %s"
+              % ("PASS" if good else "FAIL", k, "%.3g" % d if d is not None else "-", moved))
+        ok = ok and good
+    return ok
+
+
 def rigid_lammps(lmp):
     """fix rigid with the /gpu style stops with an ERROR naming it (the stock style would use body masses)"""
     text = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"]).replace(
@@ -866,6 +914,7 @@ def rigid_lammps(lmp):
     rc, out = run([lmp], os.path.join("dem_rigid_lmp"), text)
     good = rc != 0 and "ERROR" in out and "rigid bodies (fix 1) are not supported" in out
     print("fix rigid with gran/hertz/history/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
+    good = bonded_pair(lmp) and good
     ex = ("fix 1 all nve/sphere", "neigh_modify exclude type 1 1\nfix 1 all nve/sphere")
     stock = script("headon", "gran/hertz/history", STYLES["gran/hertz/history"])
     gpu = script("headon", "gran/hertz/history/gpu", STYLES["gran/hertz/history"])
