@@ -386,15 +386,21 @@ void PairGranGPUBase::setup_exclusions() {
         excl_tcls_[t] = (int)rep.size();
         rep.push_back(t);
       }
+  std::vector<int> g1(ngx), g2(ngx); /* the bit of each exclusion's two groups in a class */
   for (int k = 0; k < ngx; k++)
-    for (const int b : {b1[k], b2[k]})
-      if (std::find(excl_bits_.begin(), excl_bits_.end(), b) == excl_bits_.end()) excl_bits_.push_back(b);
-  const int ng = (int)excl_bits_.size(), nt = (int)rep.size(), ncls = nt << ng;
+    for (int side = 0; side < 2; side++) {
+      const int b = side ? b2[k] : b1[k];
+      const auto at = std::find(excl_bits_.begin(), excl_bits_.end(), b);
+      (side ? g2 : g1)[k] = (int)(at - excl_bits_.begin());
+      if (at == excl_bits_.end()) excl_bits_.push_back(b);
+    }
+  const int ng = (int)excl_bits_.size(), nt = (int)rep.size();
+  const long ncls = ng < 16 ? (long)nt << ng : SPHDEM_DEM_MAX_CLASSES + 1L;
   excl_on_ = ntx > 0 || ngx > 0;
   if (excl_on_ && ncls > SPHDEM_DEM_MAX_CLASSES)
     fail("neigh_modify exclude: " + std::to_string(nt - 1) + " types and " + std::to_string(ng) +
-         " groups named make " + std::to_string(ncls) + " classes of atoms, more than the " +
-         std::to_string(SPHDEM_DEM_MAX_CLASSES) + " the core tells apart");
+         " groups named make more classes of atoms (" + std::to_string(nt) + " x 2^" + std::to_string(ng) +
+         ") than the " + std::to_string(SPHDEM_DEM_MAX_CLASSES) + " the core tells apart");
   std::vector<uint16_t> rows(excl_on_ ? ncls : 0, 0);
   for (int c1 = 0; c1 < (int)rows.size(); c1++)
     for (int c2 = 0; c2 < ncls; c2++) {
@@ -402,12 +408,8 @@ void PairGranGPUBase::setup_exclusions() {
       bool ex = false;
       for (int k = 0; k < ntx && ta && tb; k++)
         ex |= (t1[k] == ta && t2[k] == tb) || (t1[k] == tb && t2[k] == ta);
-      auto in = [&](int g, int bit) {
-        const int q = (int)(std::find(excl_bits_.begin(), excl_bits_.end(), bit) - excl_bits_.begin());
-        return q < ng && ((g >> q) & 1);
-      };
       for (int k = 0; k < ngx; k++)
-        ex |= (in(ga, b1[k]) && in(gb, b2[k])) || (in(ga, b2[k]) && in(gb, b1[k]));
+        ex |= (((ga >> g1[k]) & 1) && ((gb >> g2[k]) & 1)) || (((ga >> g2[k]) & 1) && ((gb >> g1[k]) & 1));
       if (ex) rows[c1] |= (uint16_t)(1u << c2);
     }
   if (sphdem_dem_set_exclusions(dem_, (int)rows.size(), rows.data())) fail(sphdem_dem_last_error(dem_));
@@ -483,9 +485,8 @@ void PairGranGPUBase::hand_over_history() {
   std::vector<uint64_t> rk;
   std::vector<double> rh;
   int total = 0;
-  static const std::vector<int> every_rank; /* (empty: the gather below) */
-  const std::vector<int> &nb = anywhere ? every_rank : hand_ranks();
-  if (!nb.empty()) {
+  const std::vector<int> &nb = hand_ranks();
+  if (!anywhere && !nb.empty()) {
     /* a rank that could not read its history: every rank stops with its message */
     int anybad = 0;
     MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, world);

@@ -98,6 +98,13 @@ static grains make_grains(int n, const double *lo, const double *hi, double r0, 
   }
   return g;
 }
+/* n grains of make_grains (radius 0.06..0.1) filling the cube lo..hi (set here, from 0) to a volume fraction of
+ * about phi (counted with radius 0.1), velocities up to vscale */
+static grains packing(int n, double phi, double vscale, double *lo, double *hi) {
+  const double L = 0.1 * cbrt((double)n / phi * 4.0 / 3.0 * M_PI / 8.0);
+  for (int d = 0; d < 3; d++) lo[d] = 0.0, hi[d] = L;
+  return make_grains(n, lo, hi, 0.1, vscale);
+}
 static void free_grains(grains *g) {
   free(g->tag); free(g->x); free(g->v); free(g->om); free(g->f); free(g->t); free(g->r); free(g->m);
 }
@@ -813,9 +820,8 @@ static void test_accumulate(void) {
   for (int si = 0; si < 2; si++)
     for (int algo = 0; algo < 2; algo++) {
       const int n = sizes[si];
-      const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
-      double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-      grains g = make_grains(n, lo, hi, 0.1, 0.5);
+      double lo[3], hi[3];
+      grains g = packing(n, 0.2, 0.5, lo, hi);
       sphdem_dem_params p =
           hertz_params(0.02, algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
       sphdem_dem A = make(&p), B = make(&p), C = make(&p);
@@ -942,9 +948,8 @@ static void test_skipped_copies(void) {
   for (int si = 0; si < 2; si++)
     for (int algo = 0; algo < 2; algo++) {
       const int n = sizes[si];
-      const double L = 0.1 * cbrt((double)n / 0.2 * 4.0 / 3.0 * M_PI / 8.0);
-      double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-      grains g = make_grains(n, lo, hi, 0.1, 0.5);
+      double lo[3], hi[3];
+      grains g = packing(n, 0.2, 0.5, lo, hi);
       sphdem_dem_params p =
           hertz_params(0.02, algo ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
       sphdem_dem A = make(&p), B = make(&p);
@@ -966,7 +971,7 @@ static void test_skipped_copies(void) {
             r2[k] = g.r[i];
             m2[k] = g.m[i];
             for (int d = 0; d < 3; d++) {
-              x2[3 * k + d] = g.x[3 * i + d] + (c && d == (i & 1) ? (i & 1 ? -L : L) : 0.0);
+              x2[3 * k + d] = g.x[3 * i + d] + (c && d == (i & 1) ? (i & 1 ? -hi[d] : hi[d]) : 0.0);
               v2[3 * k + d] = g.v[3 * i + d];
               om2[3 * k + d] = g.om[3 * i + d];
             }
@@ -1005,9 +1010,8 @@ static void test_skipped_copies(void) {
  * pair the carried history holds already keeps its own values. */
 static void test_history_hand_over(void) {
   const int n = 400;
-  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
-  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  double lo[3], hi[3];
+  grains g = packing(n, 0.3, 0.5, lo, hi);
   sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
   sphdem_dem A = make(&p), B = make(&p);
   int rc = 0;
@@ -1094,9 +1098,8 @@ static void test_history_hand_over(void) {
 static void test_fused(void) {
   for (int variant = 0; variant < 3; variant++) {
     const int n = 500;
-    const double L = 0.1 * cbrt((double)n / 0.45 * 4.0 / 3.0 * M_PI / 8.0); /* dense: most listed pairs touch */
-    double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-    grains g = make_grains(n, lo, hi, 0.1, 2.0);
+    double lo[3], hi[3]; /* dense: most listed pairs touch */
+    grains g = packing(n, 0.45, 2.0, lo, hi);
     /* (500 grains: the one-thread pass at any thread count) */
     sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
     sphdem_dem A = make(&p), B = make(&p);
@@ -1148,9 +1151,8 @@ static void test_fused(void) {
  * the next call are still found (a new build, and the forces of the new order). */
 static void test_same_tags(void) {
   const int n = 400;
-  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
-  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  double lo[3], hi[3];
+  grains g = packing(n, 0.3, 0.5, lo, hi);
   sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
   sphdem_dem A = make(&p), B = make(&p);
   double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
@@ -1195,10 +1197,9 @@ static void test_same_tags(void) {
  * fewer builds. */
 static void test_changing_box(void) {
   const int n = 400;
-  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
   for (int remap = 0; remap < 2; remap++) {
-    double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-    grains g = make_grains(n, lo, hi, 0.1, 0.0);
+    double lo[3], hi[3];
+    grains g = packing(n, 0.3, 0.0, lo, hi);
     for (int k = 0; k < 3 * n; k++) g.om[k] = 0.0;
     sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
     sphdem_dem A = make(&p), B = make(&p);
@@ -1245,9 +1246,8 @@ static void test_changing_box(void) {
  * tables are refused naming the fault. */
 static void test_exclusions(void) {
   const int n = 500;
-  const double L = 0.1 * cbrt((double)n / 0.3 * 4.0 / 3.0 * M_PI / 8.0);
-  double lo[3] = {0, 0, 0}, hi[3] = {L, L, L};
-  grains g = make_grains(n, lo, hi, 0.1, 0.5);
+  double lo[3], hi[3];
+  grains g = packing(n, 0.3, 0.5, lo, hi);
   int *fl = malloc(sizeof(int) * n);
   for (int i = 0; i < n; i++) fl[i] = (i % 3) << SPHDEM_DEM_CLASS_SHIFT;
   sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
