@@ -1078,6 +1078,67 @@ int64_t sphdem_dem_debug_pairs(sphdem_dem m, int64_t *pairs, int64_t maxpairs) {
   return rc ? -rc : np;
 }
 
+int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
+                            double *roll) {
+  if (!m || max < 0 || (max > 0 && (!ab || !ft))) return -SPHDEM_ERR_ARG;
+  dem_dev *D = &m->D;
+  int rc = sphdem_grains_check(g, &m->rt, m->backend, 0, NULL, "dem_contacts");
+  if (rc) return -rc;
+  const int64_t n = g->have ? g->nown + g->nghost : 0, np = m->nbuilds ? D->np : 0;
+  if (!m->tags_valid || n != D->n)
+    return -sphdem_dem_fail(m, SPHDEM_ERR_ARG, "contacts: %lld grains given, the last evaluation had %lld (evaluate "
+                            "the forces of these grains first)", (long long)n, (long long)D->n);
+  if (np == 0) return 0;
+  if (!g->hom || !g->hmass) return -sphdem_dem_fail(m, SPHDEM_ERR_ARG, "contacts: the grains need omega and mass");
+  rc = sphdem_grains_device(g, &m->rt);
+  if (rc) return -rc;
+  /* scratch: the records, the history the law writes (and the rolling history), all discarded */
+  double *rec = NULL, *hs = NULL, *rs = NULL;
+  rc = rt_alloc(&m->rt, (void **)&rec, sizeof(double) * 10 * (size_t)np);
+  if (!rc) rc = rt_alloc(&m->rt, (void **)&hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && D->rin) rc = rt_alloc(&m->rt, (void **)&rs, sizeof(double) * 3 * (size_t)np);
+  double *hrec = rc ? NULL : (double *)malloc(sizeof(double) * 10 * (size_t)np);
+  int32_t *pa = hrec ? (int32_t *)malloc(sizeof(int32_t) * 2 * (size_t)np) : NULL;
+  double *hh = pa && hist ? (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np) : NULL;
+  double *hr = pa && roll && D->rin ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
+  if (!rc && (!hrec || !pa || (hist && !hh) || (roll && D->rin && !hr)))
+    rc = sphdem_dem_fail(m, SPHDEM_ERR_ALLOC, "contacts: cannot allocate for %lld pairs", (long long)np);
+  if (!rc) {
+    const dem_dev keep = *D;
+    D->x = g->dx, D->v = g->dv, D->om = g->dom, D->rad = g->drad, D->mass = g->dmass;
+    D->hout = hs, D->rout = rs, D->update = 0, D->want_virial = 0;
+    rc = m->ops->contact_record(m, rec);
+    *D = keep;
+  }
+  if (!rc) rc = rt_d2h(&m->rt, hrec, rec, sizeof(double) * 10 * (size_t)np);
+  if (!rc) rc = rt_d2h(&m->rt, pa, D->pa, sizeof(int32_t) * (size_t)np);
+  if (!rc) rc = rt_d2h(&m->rt, pa + np, D->pb, sizeof(int32_t) * (size_t)np);
+  if (!rc && hh) rc = rt_d2h(&m->rt, hh, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  if (!rc && hr) rc = rt_d2h(&m->rt, hr, D->rin, sizeof(double) * 3 * (size_t)np);
+  int64_t k = 0;
+  for (int64_t p = 0; !rc && p < np; p++) {
+    const double *r = hrec + 10 * p;
+    if (r[0] == 0.0) continue;
+    if (k < max) {
+      ab[2 * k] = pa[p], ab[2 * k + 1] = pa[np + p];
+      for (int q = 0; q < 9; q++) ft[9 * k + q] = r[1 + q];
+      if (hist)
+        for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hist[SPHDEM_DEM_NHIST * k + q] = hh[SPHDEM_DEM_NHIST * p + q];
+      if (roll)
+        for (int q = 0; q < 3; q++) roll[3 * k + q] = hr ? hr[3 * p + q] : 0.0;
+    }
+    k++;
+  }
+  rt_free(&m->rt, (void **)&rec, 0);
+  rt_free(&m->rt, (void **)&hs, 0);
+  rt_free(&m->rt, (void **)&rs, 0);
+  free(hrec);
+  free(pa);
+  free(hh);
+  free(hr);
+  return rc ? -rc : k;
+}
+
 int sphdem_dem_debug_history(sphdem_dem m, int64_t ta, int64_t tb, double hist[4]) {
   if (!m || !hist) return SPHDEM_ERR_ARG;
   uint64_t k = tb >= 0 ? ((uint64_t)ta << 32) | (uint64_t)tb : ((uint64_t)ta << 32) | (0xffffffffu - (uint32_t)(-1 - tb));

@@ -1058,6 +1058,22 @@ SPHDEM_HD void dem_pair_force_accum(const dem_dev *D, int64_t p, int atomic) {
 }
 SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) { dem_pair_force_accum(D, p, 1); }
 
+/* Pair p evaluated again for output (sphdem_dem_contacts): the law as the step evaluated it, with the grains as
+ * they are now, the history read and written only to D->hout (scratch; D->update 0, as the stock styles'
+ * evaluation for compute pair/gran/local). rec[10 p]: 1 when the two grains touch (0 when not, and for a wall),
+ * then the force on a and the torques on a and on b. */
+SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec) {
+  double F[3], Ta[3], Tb[3], vir[6], *r = rec + 10 * p;
+  r[0] = 0.0;
+  if (D->pb[p] < 0 || !dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) return;
+  r[0] = 1.0;
+  for (int d = 0; d < 3; d++) {
+    r[1 + d] = F[d];
+    r[4 + d] = Ta[d];
+    r[7 + d] = Tb[d];
+  }
+}
+
 /* The sums of grain i: its force and torque, and its share of the virial (atomic, nonzero terms only). */
 SPHDEM_HD void dem_store_grain(const dem_dev *D, int64_t i, const double *f, const double *t, const double *vs) {
   for (int d = 0; d < 3; d++) {

@@ -29,7 +29,9 @@
   X(reverse_ranges, D->np, serial, loop, (), (),                     /* pairs as b: rstart, rend of rkey */  \
     dem_range_body(D->rkey, D->np, i, D->rstart, D->rend))                                                    \
   X(pair_forces, D->np, static, own, (), (), dem_pair_force_body(D, i)) /* pair-parallel, atomic sums */     \
-  X(particle_forces, D->n, dyn64, own, (), (), dem_particle_force_body(D, i)) /* particle-parallel */
+  X(particle_forces, D->n, dyn64, own, (), (), dem_particle_force_body(D, i)) /* particle-parallel */     \
+  X(contact_record, D->np, static, loop, (, double *rec), (, rec),   /* the contacts for output */          \
+    dem_contact_record_body(D, i, rec))
 
 /* the table entry and the declarations of both backends' functions (dem_internal.h) */
 #define SPHDEM_DEM_PASS_FIELD(op, count, omp, cpu, params, args, body) \

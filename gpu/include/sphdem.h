@@ -659,6 +659,16 @@ int sphdem_dem_stats_get(sphdem_dem dem, sphdem_dem_stats *s);
  * 0 if found. */
 int64_t sphdem_dem_debug_pairs(sphdem_dem dem, int64_t *pairs, int64_t maxpairs);
 int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, double hist[4]);
+/* The contacts of the current pair list for output (LIGGGHTS' compute pair/gran/local): every touching pair of two
+ * grains evaluated again with the grains of g (the grains of the last sphdem_dem_compute(_store), in the same
+ * order; their velocities and spins may have changed since), the history read as that evaluation left it and not
+ * changed (no force is added anywhere, nothing of the context changes). Per touching pair k, in key order, at
+ * most max of them: the grain indices a, b (ab[2k], ab[2k + 1]), the force on a and the torques on a and on b
+ * (ft[9k..9k + 8]), the history (SPHDEM_DEM_HIST_DOUBLES per pair in hist, may be NULL) and the rolling torques
+ * (3 per pair in roll, 0 where none are kept; may be NULL). Returns the number of touching pairs (which may
+ * exceed max: call again with room for them), or a negative code. */
+int64_t sphdem_dem_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
+                            double *roll);
 /* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls
  * 0xffffffff - w) and SPHDEM_DEM_HIST_DOUBLES doubles per pair. get: returns the pair count; writes
  * at most max pairs (keys/hist may be NULL with max 0 to ask the count). set: the given list (any

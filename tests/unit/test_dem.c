@@ -1244,6 +1244,105 @@ static void test_changing_box(void) {
 /* sphdem_dem_set_exclusions: grains of three classes (0, 1, 2) with pairs 1-1 and 1-2 excluded: the pair list
  * is that of no exclusions less exactly those pairs; removing the exclusions gives the whole list again; bad
  * tables are refused naming the fault. */
+/* sphdem_dem_contacts: each touching pair evaluated again after a step, with the history that step left and the
+ * same grains, adds up to the step's force and torque on every grain (the step advanced the history and the
+ * evaluation for output reads it without advancing it, as the stock styles' compute pair/gran/local). That holds
+ * for the LAMMPS laws (a sliding contact's history is set so that it gives the Coulomb force again) and for the
+ * LIGGGHTS laws while no contact slides (LIGGGHTS adds the tangential damping to a force that the kept history
+ * puts just below the limit, and epsd2 adds the rolling step to the kept torque without keeping it: for those
+ * only the forces are compared, with mu 10). Nothing of the context changes (the next step gives the same
+ * forces as a twin that never gave its contacts); a changed number of grains is refused. */
+static void test_contacts(void) {
+  const int n = 600;
+  double lo[3], hi[3];
+  for (int c = 0; c < 4; c++) {
+    grains g = packing(n, 0.5, 0.5, lo, hi);
+    sphdem_dem_params p = hertz_params(0.02, c == 1 ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+    const char *what = c == 0 ? "hertz, one thread" : c == 1 ? "hertz, pair-parallel" : c == 2 ? "liggghts hertz"
+                                                                                       : "liggghts hertz, epsd2";
+    if (c >= 2) {
+      p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; p.mu = 10.0;
+      if (c == 3) p.mu_r = 0.05, p.rolling_model = SPHDEM_DEM_ROLL_EPSD2;
+    }
+    sphdem_dem A = make(&p), B = make(&p);
+    char msg[256];
+    sphdem_grain_store st = NULL;
+    int rc = sphdem_grains_create(&st, test_device(), msg, sizeof msg);
+    int64_t stamp[SPHDEM_GRAINS_STAMP] = {1, 0, 0, 0, 0, 0};
+    double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n);
+    const double dt = 2e-5;
+    for (int s = 0; s < 6 && !rc; s++) { /* a few steps of history (the grains do not move: shear grows each step) */
+      stamp[0] = s;
+      rc |= sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
+      rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, s > 0, g.f, g.t, NULL);
+      rc |= sphdem_dem_compute_store(B, st, g.tag, NULL, dt, s > 0, fB, tB, NULL);
+    }
+    const int64_t cap = 40 * (int64_t)n;
+    int32_t *ab = malloc(sizeof(int32_t) * 2 * cap);
+    double *ft = malloc(sizeof(double) * 9 * cap), *hist = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * cap);
+    double *roll = malloc(sizeof(double) * 3 * cap);
+    const int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0);
+    uint64_t *k0 = malloc(sizeof(uint64_t) * np), *k1 = malloc(sizeof(uint64_t) * np);
+    double *h0 = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np), *h1 = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np);
+    sphdem_dem_get_history(A, k0, h0, np);
+    const int64_t nc = rc ? -1 : sphdem_dem_contacts(A, st, cap, ab, ft, hist, roll);
+    TEST_ASSERT(nc > n, "contacts (%s): %lld touching pairs (rc %d: %s)", what, (long long)nc, rc, sphdem_dem_last_error(A));
+    double *fs = calloc(3 * (size_t)n, sizeof(double)), *ts = calloc(3 * (size_t)n, sizeof(double));
+    int64_t slid = 0, rolled = 0;
+    for (int64_t k = 0; k < nc && k < cap; k++) {
+      const int a = ab[2 * k], b = ab[2 * k + 1];
+      for (int d = 0; d < 3; d++) {
+        fs[3 * a + d] += ft[9 * k + d], fs[3 * b + d] -= ft[9 * k + d];
+        ts[3 * a + d] += ft[9 * k + 3 + d], ts[3 * b + d] += ft[9 * k + 6 + d];
+      }
+      const double *h = hist + SPHDEM_DEM_HIST_DOUBLES * k;
+      slid += h[0] != 0.0 || h[1] != 0.0 || h[2] != 0.0;
+      rolled += roll[3 * k] != 0.0 || roll[3 * k + 1] != 0.0 || roll[3 * k + 2] != 0.0;
+    }
+    double fmax = 0, tmax = 0, df = 0, dtq = 0;
+    for (int i = 0; i < 3 * n; i++) {
+      fmax = fmax > fabs(g.f[i]) ? fmax : fabs(g.f[i]);
+      tmax = tmax > fabs(g.t[i]) ? tmax : fabs(g.t[i]);
+      df = df > fabs(fs[i] - g.f[i]) ? df : fabs(fs[i] - g.f[i]);
+      dtq = dtq > fabs(ts[i] - g.t[i]) ? dtq : fabs(ts[i] - g.t[i]);
+    }
+    printf("  contacts (%s): %lld touching pairs (%lld with shear, %lld with rolling torque), summed per grain vs the "
+           "step: force %.2e, torque %.2e of the largest\n", what, (long long)nc, (long long)slid, (long long)rolled,
+           df / fmax, dtq / tmax);
+    TEST_ASSERT(slid > nc / 2 && (c != 3 || rolled > nc / 2), "contacts (%s): the history is not there (%lld, %lld)",
+                what, (long long)slid, (long long)rolled);
+    TEST_ASSERT(df <= 1e-12 * fmax && (c == 3 || dtq <= 1e-12 * tmax), "contacts (%s): force %.3g, torque %.3g off the "
+                "step's", what, df / fmax, dtq / tmax);
+    sphdem_dem_get_history(A, k1, h1, np);
+    TEST_ASSERT(!memcmp(k0, k1, sizeof(uint64_t) * np) && !memcmp(h0, h1, sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np),
+                "contacts (%s): the history changed", what);
+    /* the next step: the same bits as the twin B */
+    stamp[0] = 99;
+    rc = sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
+    rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, 1, g.f, g.t, NULL);
+    rc |= sphdem_dem_compute_store(B, st, g.tag, NULL, dt, 1, fB, tB, NULL);
+    double dn = 0; /* (the pair-parallel pass adds atomically: its sums may differ in the last bits) */
+    for (int i = 0; i < 3 * n; i++) {
+      dn = dn > fabs(g.f[i] - fB[i]) / fmax ? dn : fabs(g.f[i] - fB[i]) / fmax;
+      dn = dn > fabs(g.t[i] - tB[i]) / tmax ? dn : fabs(g.t[i] - tB[i]) / tmax;
+    }
+    TEST_ASSERT(rc == 0 && (c == 1 ? dn < 1e-13 : dn == 0.0), "contacts (%s): the next step differs from the twin's by "
+                "%.3g", what, dn);
+    /* fewer pairs than room: the count, nothing written past max; other grains: refused */
+    TEST_ASSERT(sphdem_dem_contacts(A, st, 3, ab, ft, NULL, NULL) == nc, "contacts (%s): count with max 3", what);
+    rc = sphdem_grains_put(st, stamp, n - 1, 0, g.x, g.v, g.om, g.r, g.m);
+    const int64_t bad = sphdem_dem_contacts(A, st, cap, ab, ft, NULL, NULL);
+    TEST_ASSERT(rc == 0 && bad == -SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "599 grains given"),
+                "contacts (%s): other grains: %lld '%s'", what, (long long)bad, sphdem_dem_last_error(A));
+    free(fs); free(ts); free(ab); free(ft); free(hist); free(roll); free(k0); free(k1); free(h0); free(h1);
+    free(fB); free(tB);
+    sphdem_grains_destroy(&st);
+    sphdem_dem_destroy(&A);
+    sphdem_dem_destroy(&B);
+    free_grains(&g);
+  }
+}
+
 static void test_exclusions(void) {
   const int n = 500;
   double lo[3], hi[3];
@@ -1318,5 +1417,6 @@ int main(void) {
   test_same_tags();
   test_changing_box();
   test_exclusions();
+  test_contacts();
   return test_summary("unit_dem");
 }
