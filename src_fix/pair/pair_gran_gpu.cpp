@@ -42,8 +42,6 @@ struct Refused {
   const char *why;
 };
 const Refused kRefused[] = {
-    {"pair/gran/local", 1, "it reads the per-contact data of the stock pair style gran (use compute wall/gran/local "
-                           "for wall contacts)"},
     {"contact/atom/gran", 1, "it reads the contact list of the stock pair style gran (compute contact/atom works)"},
     {"heat/gran", 0, "it needs the per-contact data of the stock pair style gran"},
     {"heat/gran/conduction", 0, "it needs the per-contact data of the stock pair style gran"},
@@ -97,6 +95,180 @@ class FixCheckTimestepGranGPU : public FixCheckTimestepGran {
   }
 };
 Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new FixCheckTimestepGranGPU(lmp, narg, arg); }
+
+/* compute pair/gran/local with pair_style gran/gpu: the stock keywords and columns, one row per touching pair of two
+ * grains, the contacts evaluated again by the DEM core with the atoms as they are at the output (as the stock
+ * compute has the stock style evaluate them: nothing added, the history not advanced). Rows as the stock compute
+ * writes them: the pair's first atom is the one the stock half neighbour list puts first (the lower index of two
+ * own atoms; the own atom of a pair with a ghost, kept on the rank whose atom has the higher tag, as the stock
+ * compute keeps it with newton off; of a pair through a periodic boundary on one rank, the atom of higher tag, as
+ * the stock list holds it with the other's image). */
+class ComputePairGranLocalGPU : public Compute {
+ public:
+  ComputePairGranLocalGPU(LAMMPS *lmp, int &iarg, int narg, char **arg) : Compute(lmp, iarg, narg, arg) {
+    local_flag = 1;
+    bool any = false;
+    for (; iarg < narg; iarg++) {
+      const std::string kw = arg[iarg];
+      any |= kw != "verbose";
+      if (kw == "pos") pos_ = 1;
+      else if (kw == "vel") vel_ = 1;
+      else if (kw == "id") id_ = 1;
+      else if (kw == "force") f_ = 1;
+      else if (kw == "force_normal") fn_ = 1;
+      else if (kw == "force_tangential") ft_ = 1;
+      else if (kw == "torque") tq_ = 1;
+      else if (kw == "torque_normal") tqn_ = 1;
+      else if (kw == "torque_tangential") tqt_ = 1;
+      else if (kw == "history") hist_ = 1;
+      else if (kw == "contactArea") area_ = 1;
+      else if (kw == "delta") delta_ = 1;
+      else if (kw == "contactPoint") cp_ = 1;
+      else if (kw == "verbose") verbose_ = true;
+      else if (kw == "heatFlux" || kw == "ms_id")
+        bad(kw + " is not available with pair_style gran/gpu (" +
+            (kw == "heatFlux" ? "fix heat/gran is not supported with it" : "fix multisphere is not supported with it") + ")");
+      else
+        bad("unknown keyword '" + kw + "' (pos, vel, id, force, force_normal, force_tangential, torque, torque_normal, "
+            "torque_tangential, history, contactArea, delta, contactPoint, verbose)");
+    }
+    if (!any) pos_ = vel_ = id_ = f_ = tq_ = hist_ = area_ = 1; /* the stock defaults */
+    if (update->ntimestep > 0 && !modify->fix_restart_in_progress()) bad("define it before the first run (as the stock compute)");
+  }
+  ~ComputePairGranLocalGPU() override { memory->destroy(array_); }
+  void init() override {
+    pair_ = dynamic_cast<PairGranGPU *>(force->pair_match("gran/gpu", 1));
+    if (!pair_) bad("the pair style is no longer gran/gpu");
+    nhist_ = 3 + (pair_->hysteresis() ? 1 : 0) + (pair_->rolling_history() ? 3 : 0);
+    nvalues_ = 6 * pos_ + 6 * vel_ + 3 * id_ + 3 * (f_ + fn_ + ft_ + tq_ + tqn_ + tqt_) + nhist_ * hist_ + area_ + delta_ +
+               3 * cp_;
+    size_local_cols = nvalues_;
+  }
+  void post_create() override { init(); }
+  void compute_local() override;
+  double memory_usage() override { return (double)nmax_ * nvalues_ * sizeof(double); }
+
+ private:
+  int pos_ = 0, vel_ = 0, id_ = 0, f_ = 0, fn_ = 0, ft_ = 0, tq_ = 0, tqn_ = 0, tqt_ = 0, hist_ = 0, area_ = 0,
+      delta_ = 0, cp_ = 0;
+  bool verbose_ = false;
+  int nvalues_ = 0, nhist_ = 3, nmax_ = 0;
+  double **array_ = nullptr;
+  PairGranGPU *pair_ = nullptr;
+  std::vector<int32_t> ij_;
+  std::vector<double> ft_buf_, hist_buf_, roll_buf_;
+  [[noreturn]] void bad(const std::string &why) {
+    sphdem_compat::error_all(error, __FILE__, __LINE__, std::string("Compute ") + id + " pair/gran/local: " + why);
+    throw 0; /* not reached */
+  }
+};
+
+/* the normal part (along n, |n| = 1) of a, or what is left of it */
+static void split3(const double *a, const double *n, double *nrm, double *tan) {
+  const double an = a[0] * n[0] + a[1] * n[1] + a[2] * n[2];
+  for (int d = 0; d < 3; d++) nrm[d] = an * n[d], tan[d] = a[d] - nrm[d];
+}
+
+void ComputePairGranLocalGPU::compute_local() {
+  invoked_local = update->ntimestep;
+  std::string err;
+  const int64_t np = pair_->contacts_now(ij_, ft_buf_, hist_buf_, roll_buf_, err);
+  if (np < 0) {
+    sphdem_compat::error_one(error, __FILE__, __LINE__, std::string("Compute ") + id + " pair/gran/local: " + err);
+    return;
+  }
+  if (np > nmax_) {
+    memory->destroy(array_);
+    nmax_ = (int)np + (int)(np / 4) + 16;
+    memory->create(array_, nmax_, std::max(nvalues_, 1), "pair/gran/local:array");
+    array_local = array_;
+  }
+  const int nlocal = atom->nlocal, *mask = atom->mask;
+  double **x = atom->x, **v = atom->v, *radius = atom->radius;
+  const tagint *tag = atom->tag;
+  int rows = 0;
+  for (int64_t k = 0; k < np; k++) {
+    const int a = ij_[2 * k], b = ij_[2 * k + 1];
+    if (!(mask[a] & groupbit) || !(mask[b] & groupbit)) continue;
+    if (a >= nlocal && b >= nlocal) continue;
+    /* the separation a - b as the core took it (the minimum image between two own atoms) */
+    double dab[3] = {x[a][0] - x[b][0], x[a][1] - x[b][1], x[a][2] - x[b][2]}, raw[3] = {dab[0], dab[1], dab[2]};
+    bool through = false; /* two own atoms through a periodic boundary */
+    if (a < nlocal && b < nlocal) {
+      domain->minimum_image(dab);
+      through = dab[0] != raw[0] || dab[1] != raw[1] || dab[2] != raw[2];
+    }
+    bool a_first;
+    if (a >= nlocal || b >= nlocal) {
+      a_first = a < nlocal;
+      const int i = a_first ? a : b, j = a_first ? b : a;
+      if (tag[i] <= tag[j]) continue; /* the other rank's row */
+    } else {
+      a_first = through ? tag[a] > tag[b] : a < b;
+    }
+    const int i = a_first ? a : b, j = a_first ? b : a;
+    const double s = a_first ? 1.0 : -1.0;
+    const double *F = &ft_buf_[9 * k], *Ti = &ft_buf_[9 * k + (a_first ? 3 : 6)];
+    const double del[3] = {s * dab[0], s * dab[1], s * dab[2]}; /* x_i - x_j */
+    const double xj[3] = {x[i][0] - del[0], x[i][1] - del[1], x[i][2] - del[2]}; /* j as the stock list sees it */
+    const double rsq = del[0] * del[0] + del[1] * del[1] + del[2] * del[2], r = std::sqrt(rsq);
+    const double nrm[3] = {-del[0] / r, -del[1] / r, -del[2] / r}; /* from i to j */
+    const double fi[3] = {s * F[0], s * F[1], s * F[2]};
+    double *row = array_[rows++];
+    int c = 0;
+    if (pos_) {
+      double xi_w[3] = {x[i][0], x[i][1], x[i][2]}, xj_w[3] = {xj[0], xj[1], xj[2]};
+      domain->remap(xi_w);
+      domain->remap(xj_w);
+      for (int d = 0; d < 3; d++) row[c++] = xi_w[d];
+      for (int d = 0; d < 3; d++) row[c++] = xj_w[d];
+    }
+    if (vel_) {
+      for (int d = 0; d < 3; d++) row[c++] = v[i][d];
+      for (int d = 0; d < 3; d++) row[c++] = v[j][d];
+    }
+    if (id_) {
+      row[c++] = (double)tag[i];
+      row[c++] = (double)tag[j];
+      row[c++] = through ? 1.0 : (i < nlocal && j < nlocal) ? 0.0 : (domain->is_periodic_ghost(i) || domain->is_periodic_ghost(j)) ? 1.0 : 0.0;
+    }
+    double pn[3], pt[3];
+    if (f_)
+      for (int d = 0; d < 3; d++) row[c++] = fi[d];
+    split3(fi, nrm, pn, pt);
+    if (fn_)
+      for (int d = 0; d < 3; d++) row[c++] = pn[d];
+    if (ft_)
+      for (int d = 0; d < 3; d++) row[c++] = pt[d];
+    if (tq_)
+      for (int d = 0; d < 3; d++) row[c++] = Ti[d];
+    split3(Ti, nrm, pn, pt);
+    if (tqn_)
+      for (int d = 0; d < 3; d++) row[c++] = pn[d];
+    if (tqt_)
+      for (int d = 0; d < 3; d++) row[c++] = pt[d];
+    if (hist_) { /* the stock order: the normal model's (largest overlap), the shear, the rolling torque; from i's side */
+      const double *h = &hist_buf_[SPHDEM_DEM_HIST_DOUBLES * k], *rl = &roll_buf_[3 * k];
+      if (pair_->hysteresis()) row[c++] = h[4];
+      for (int d = 0; d < 3; d++) row[c++] = s * h[d];
+      if (pair_->rolling_history())
+        for (int d = 0; d < 3; d++) row[c++] = s * rl[d];
+    }
+    const double ri = radius[i], rj = radius[j];
+    if (area_) row[c++] = -M_PI / 4 * ((r - ri - rj) * (r + ri - rj) * (r - ri + rj) * (r + ri + rj)) / rsq;
+    if (delta_) row[c++] = ri + rj - r;
+    if (cp_)
+      for (int d = 0; d < 3; d++) row[c++] = (x[i][d] * rj + xj[d] * ri) / (ri + rj);
+  }
+  size_local_rows = rows;
+  if (verbose_ && screen)
+    fprintf(screen, "compute %s pair/gran/local: %d touching pairs on this rank\n", id, rows);
+}
+
+Compute *pair_gran_local_creator(LAMMPS *lmp, int iarg, int narg, char **arg) {
+  if (uses_gran_gpu(lmp)) return new ComputePairGranLocalGPU(lmp, iarg, narg, arg);
+  return g_stock_compute.at("pair/gran/local")(lmp, iarg, narg, arg);
+}
 }  // namespace
 
 PairGranGPU::PairGranGPU(LAMMPS *lmp)
@@ -210,6 +382,10 @@ void PairGranGPU::init_style() {
   freeze_group_bit_ = 0;
   for (int i = 0; i < modify->ncompute; i++)
     if (const Refused *r = refused(modify->compute[i]->style, 1)) refuse(lmp, r);
+    else if (std::strcmp(modify->compute[i]->style, "pair/gran/local") == 0 &&
+             !dynamic_cast<ComputePairGranLocalGPU *>(modify->compute[i]))
+      fail(std::string("compute ") + modify->compute[i]->id + " pair/gran/local was created for another pair style: "
+           "define it after pair_style gran/gpu");
   for (int i = 0; i < modify->nfix; i++) {
     Fix *f = modify->fix[i];
     if (const Refused *r = refused(f->style, 0)) refuse(lmp, r);
@@ -357,6 +533,11 @@ void sphdem_register_pair_gran_gpu(LAMMPS *lmp) {
   sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   fixes["check/timestep/gran"] = &check_timestep_gran_creator;
+  auto pgl = computes.find("pair/gran/local");
+  if (pgl != computes.end() && pgl->second != &pair_gran_local_creator) {
+    g_stock_compute["pair/gran/local"] = pgl->second;
+    pgl->second = &pair_gran_local_creator;
+  }
   for (const Refused &r : kRefused) {
     if (r.compute) {
       auto it = computes.find(r.style);

@@ -23,6 +23,10 @@ class PairGranGPU : public PairGranGPUBase {
   void init_style() override;
   void write_restart(FILE *) override;
   void read_restart(FILE *, const int major, const int minor) override; /* LIGGGHTS signature */
+  /* the history compute pair/gran/local writes besides the shear: the largest overlap (model hooke/hysteresis),
+   * the rolling torque (rolling_friction epsd2, epsd) */
+  bool hysteresis() const { return hooke_ == 2; }
+  bool rolling_history() const { return rolling_ == 2 || rolling_ == 3; }
 
  private:
   int rolling_, limit_force_; /* rolling_: 0 off, 1 cdt, 2 epsd2, 3 epsd */

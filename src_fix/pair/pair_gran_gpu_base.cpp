@@ -616,6 +616,28 @@ bool PairGranGPUBase::gather_step() const {
   return update->ntimestep == update->laststep || restart_step;
 }
 
+int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
+                                      std::vector<double> &roll, std::string &err) {
+  if (!dem_) {
+    err = "the pair style has evaluated no forces yet";
+    return -1;
+  }
+  const int nlocal = atom->nlocal, n = ghosts_ ? nlocal + atom->nghost : nlocal;
+  sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, err);
+  if (!g) return -1;
+  const int64_t cap = std::max<int64_t>(sphdem_dem_get_history(dem_, nullptr, nullptr, 0), 1); /* >= the touching */
+  ij.resize(2 * cap);
+  ft.resize(9 * cap);
+  hist.resize(SPHDEM_DEM_HIST_DOUBLES * cap);
+  roll.resize(3 * cap);
+  const int64_t k = sphdem_dem_contacts(dem_, g, cap, ij.data(), ft.data(), hist.data(), roll.data());
+  if (k < 0 || k > cap) {
+    err = k < 0 ? sphdem_dem_last_error(dem_) : "more touching pairs than pairs";
+    return -1;
+  }
+  return k;
+}
+
 void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_builds) {
   const int nlocal = atom->nlocal;
   const int n = ghosts_ ? nlocal + atom->nghost : nlocal; /* many ranks: own atoms, then the ghost atoms */

@@ -28,6 +28,13 @@ class PairGranGPUBase : public Pair {
    * it by contact_distance_factor, which init_style of gran/gpu admits only at 1 */
   double init_one(int, int) override;
   double memory_usage() override;
+  /* The touching pairs of two grains evaluated again with the atoms as they are now, nothing added and the history
+   * not advanced (LIGGGHTS' compute pair/gran/local; sphdem_dem_contacts): per pair the atom indices (ij, 2 each:
+   * the core's grain order, own atoms then ghosts), the force on the first and the torques on the first and the
+   * second (ft, 9 each), the history (SPHDEM_DEM_HIST_DOUBLES each) and the rolling torques (roll, 3 each). This
+   * rank's pairs only. Returns their number, or -1 with err set. */
+  int64_t contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
+                       std::vector<double> &roll, std::string &err);
 
  protected:
   std::string style_;       /* the style name, for messages */

@@ -22,8 +22,11 @@
                settling on a frozen periodic row, 20000 steps (positions < 1e-9 d, settled: KE below 1e-3
                of its peak, every grain resting on overlapping contacts); the material errors; a
                write_restart/read_restart continuation equal to the unbroken run (1e-9)
-  refused_liggghts LIG  compute pair/gran/local, contact/atom/gran, fix heat/gran, fix multisphere stop naming
-               themselves
+  refused_liggghts LIG  compute contact/atom/gran, fix heat/gran, fix multisphere stop naming themselves
+  pgl_liggghts LIG [MPIEXEC]  compute pair/gran/local with gran/gpu: the rows of the stock compute with the stock
+               style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
+               largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
+               epsd2, hooke/hysteresis, hertz + epsd; on 1 rank and on 2; bad keywords name themselves
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
   rigid_lammps LMP  fix rigid stops naming it; a bonded overlapping pair (atom_style hybrid sphere bond): /gpu
                     equals stock; neigh_modify exclude type 1 1 on the head-on pair: /gpu equals
@@ -799,8 +802,7 @@ def refused_liggghts(lig):
     after = "pair_coeff * *\n"
     heat = ("fix m7 all property/global thermalConductivity peratomtype 1.\n"
             "fix m8 all property/global thermalCapacity peratomtype 10.\nfix heat all heat/gran initial_temperature 300\n")
-    cases = [("compute pair/gran/local", base.replace(after, after + "compute pgl all pair/gran/local id force\n")),
-             ("compute contact/atom/gran", base.replace(after, after + "compute c all contact/atom/gran\n")),
+    cases = [("compute contact/atom/gran", base.replace(after, after + "compute c all contact/atom/gran\n")),
              ("fix heat/gran", base.replace("pair_style gran/gpu", heat + "pair_style gran/gpu")),
              ("fix multisphere", base.replace(after, after + "fix ms all multisphere\n"))]
     ok = True
@@ -814,6 +816,116 @@ def refused_liggghts(lig):
     stock = lig_script("headon", "gran", "model hertz tangential history")
     return ok and excluded(lig, (stock.replace(after, after + ex), base.replace(after, after + ex), stock),
                            "dem_refused_lig/exclude", "gran/gpu")
+
+
+# compute pair/gran/local: a periodic lattice bed of 245 grains overlapping by 0.2 % of d (also through the
+# periodic boundaries), thrown about for 400 steps, then one dump local of every keyword
+PGL_LIG = """units si
+atom_style granular
+boundary p p f
+newton off
+atom_modify map array sort 0 0
+communicate single vel yes
+region box block 0 0.0598 0 0.0598 0 0.08 units box
+create_box 1 box
+neighbor 0.002 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 5e6
+fix m2 all property/global poissonsRatio peratomtype 0.45
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+fix m5 all property/global coefficientRollingFriction peratomtypepair 1 0.05
+fix m6 all property/global characteristicVelocity scalar 0.8
+fix m7 all property/global cohesionEnergyDensity peratomtypepair 1 20000
+fix m8 all property/global coefficientMaxElasticStiffness peratomtypepair 1 1.2
+fix m9 all property/global coefficientAdhesionStiffness peratomtypepair 1 0.5
+fix m10 all property/global coefficientPlasticityDepth peratomtypepair 1 0.2
+fix m11 all property/global coefficientRollingViscousDamping peratomtypepair 1 0.2
+pair_style {style}
+pair_coeff * *
+lattice sc 0.00998
+region fill block 0 0.0598 0 0.0598 0.002 0.05 units box
+create_atoms 1 region fill
+set atom * diameter 0.01
+set atom * density 2500
+velocity all set 0.05 -0.1 -0.3
+velocity all ramp vx -0.3 0.3 z 0.0 0.05 sum yes units box
+velocity all ramp vy -0.2 0.2 x 0.0 0.06 sum yes units box
+fix bot all wall/gran model hertz tangential history primitive type 1 zplane 0.0
+fix 1 all nve/sphere
+fix g all gravity 9.81 vector 0 0 -1
+compute pgl all pair/gran/local {keys}
+timestep 1e-6
+thermo 100
+run 400
+dump dl all local 1 pgl.dump {cols}
+dump_modify dl format "{fmt}"
+run 0
+"""
+PGL_KEYS = ("pos vel id force force_normal force_tangential torque torque_normal torque_tangential history "
+            "contactArea delta contactPoint")
+
+
+def pgl_script(style, keys, ncols):
+    return PGL_LIG.format(style=style, keys=keys, cols=" ".join("c_pgl[%d]" % c for c in range(1, ncols + 1)),
+                          fmt=" ".join(["%.17g"] * ncols))
+
+
+def load_local(path):
+    """the rows of a dump local file"""
+    with open(path) as f:
+        lines = f.read().split("\n")
+    head = [k for k, l in enumerate(lines) if l.startswith("ITEM: ENTRIES")]
+    return [[float(w) for w in l.split()] for l in lines[head[0] + 1:] if l.strip()] if head else []
+
+
+def pgl_liggghts(lig, mpiexec=None):
+    """compute pair/gran/local with gran/gpu against the stock compute with the stock style (module text above)"""
+    ok = True
+    # columns: pos 6, vel 6, id 3, force, normal, tangential 3 each, torque, normal, tangential 3 each, history,
+    # contact area, delta, contact point 3; history: the shear 3, the largest overlap first (hooke/hysteresis),
+    # the rolling torque after (epsd2, epsd)
+    models = [("model hertz tangential history", 3), ("model hertz tangential history cohesion sjkr rolling_friction epsd2", 6),
+              ("model hooke/hysteresis tangential history", 4), ("model hertz tangential history rolling_friction epsd", 6)]
+    runs = [(m, nh, 1) for m, nh in models] + ([(models[1][0], 6, 2)] if mpiexec else [])
+    for model, nh, np in runs:
+        ncols = 33 + nh + 5
+        rows = {}
+        for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
+            wd = os.path.join("dem_pgl_lig", "%s_%d" % (model.replace(" ", "_").replace("/", "_"), np), tag)
+            cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lig] if np > 1 else [lig]
+            rc, out = run(cmd, wd, pgl_script(style + " " + model, PGL_KEYS, ncols))
+            if rc != 0 or "ERROR" in out:
+                print("FAIL compute pair/gran/local, %s %s: rc %d\n%s" % (style, model, rc, out[-1500:]))
+                return False
+            rows[tag] = {(r[12], r[13]): r for r in load_local(os.path.join(wd, "pgl.dump"))}
+        a, b = rows["stock"], rows["gpu"]
+        common = sorted(set(a) & set(b))
+        worst, where = 0.0, 0
+        for c in range(ncols):
+            # the normal part of a torque is round-off of a torque normal to the contact: against the whole torque
+            ref = c - 3 if 27 <= c < 30 else c
+            scale = max(abs(a[k][ref]) for k in common) or 1e-300
+            d = max(abs(a[k][c] - b[k][c]) for k in common) / scale
+            if d > worst:
+                worst, where = d, c + 1
+        periodic = sum(1 for k in common if a[k][14] == 1.0)
+        good = len(a) > 300 and set(a) == set(b) and periodic > 10 and worst < 1e-10
+        print("%s compute pair/gran/local, gran/gpu %s, %d rank(s): %d rows (stock %d, %d through a periodic "
+              "boundary), the same pairs and first atoms: %s; largest difference %.2g of its column (column %d; "
+              "bound 1e-10)" % ("PASS" if good else "FAIL", model, np, len(b), len(a), periodic, set(a) == set(b),
+                                worst, where))
+        ok &= good
+    # bad keywords, and a compute of the stock style left behind
+    bad = [("heatFlux", "heatFlux is not available with pair_style gran/gpu"),
+           ("force bogus", "unknown keyword 'bogus' (pos, vel, id, force,")]
+    for k, (keys, want) in enumerate(bad):
+        rc, out = run([lig], os.path.join("dem_pgl_lig", "bad%d" % k),
+                      pgl_script("gran/gpu model hertz tangential history", keys, 3))
+        good = rc != 0 and ("Compute pgl pair/gran/local: " + want) in out
+        print("compute pair/gran/local %s: %s" % (keys, "stops naming it" if good else "FAIL\n" + out[-800:]))
+        ok &= good
+    return ok
 
 
 def excluded(exe, texts, wd, style):
@@ -942,6 +1054,7 @@ MODES = {
     "restart_liggghts": restart_liggghts, "restart": restart, "pile": pile, "same": same,
     "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
     "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
+    "pgl_liggghts": pgl_liggghts,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
     "hysteresis_liggghts": hysteresis_liggghts,
     "example": example, "errors": errors,
