@@ -5,10 +5,12 @@
 #include "pair_gran_hertz_history_gpu.h"
 #include "pair_gran_hooke_history_gpu.h"
 
+#include <cmath>
 #include <cstring>
 
 #include "atom.h"
 #include "comm.h"
+#include "compute.h"
 #include "domain.h"
 #include "fix.h"
 #include "force.h"
@@ -27,7 +29,57 @@ static const char *const USAGE =
 
 PairGranHookeHistoryGPU::PairGranHookeHistoryGPU(LAMMPS *lmp)
     : PairGranGPUBase(lmp, "gran/hooke/history/gpu"), kn(0), kt(0), gamman(0), gammat(0), xmu(0), dampflag(0),
-      limit_damping(0), model(SPHDEM_DEM_HOOKE) {}
+      limit_damping(0), model(SPHDEM_DEM_HOOKE) {
+  single_enable = 1;
+  single_extra = 10;
+  svector = new double[10];
+}
+
+PairGranHookeHistoryGPU::~PairGranHookeHistoryGPU() { delete[] svector; }
+
+double PairGranHookeHistoryGPU::single(int i, int j, int, int, double rsq, double, double, double &fforce) {
+  fforce = 0.0;
+  for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
+  const double radsum = atom->radius[i] + atom->radius[j];
+  if (rsq >= radsum * radsum) return 0.0;
+  const int n = atom->nlocal + atom->nghost;
+  if (update->ntimestep != single_step_ || n != single_n_) {
+    std::string err;
+    const int64_t np = contacts_now(single_ij_, single_ft_, single_hist_, single_roll_, err);
+    if (np < 0) fail_one("compute pair/local: " + err);
+    single_map_.clear();
+    for (int64_t k = 0; k < np; k++) {
+      const uint64_t ta = (uint64_t)atom->tag[single_ij_[2 * k]], tb = (uint64_t)atom->tag[single_ij_[2 * k + 1]];
+      single_map_.emplace(ta < tb ? ta << 32 | tb : tb << 32 | ta, k);
+    }
+    single_step_ = update->ntimestep;
+    single_n_ = n;
+  }
+  const uint64_t ti = (uint64_t)atom->tag[i], tj = (uint64_t)atom->tag[j];
+  const auto it = single_map_.find(ti < tj ? ti << 32 | tj : tj << 32 | ti);
+  if (it == single_map_.end())
+    fail_one("compute pair/local: atoms " + std::to_string(ti) + " and " + std::to_string(tj) +
+             " overlap but the DEM core has no contact of them (is the pair excluded?)");
+  const int64_t k = it->second;
+  const double s = (uint64_t)atom->tag[single_ij_[2 * k]] == ti ? 1.0 : -1.0; /* the force on i */
+  double **x = atom->x, **v = atom->v;
+  const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
+  const double *F = &single_ft_[9 * k], fi[3] = {s * F[0], s * F[1], s * F[2]};
+  /* the normal force along del (ccel del), the rest tangential */
+  const double ccel = (fi[0] * del[0] + fi[1] * del[1] + fi[2] * del[2]) / rsq;
+  double fs[3], vn[3], vt[3];
+  const double vr[3] = {v[i][0] - v[j][0], v[i][1] - v[j][1], v[i][2] - v[j][2]};
+  const double vnnr = (vr[0] * del[0] + vr[1] * del[1] + vr[2] * del[2]) / rsq;
+  for (int d = 0; d < 3; d++) {
+    fs[d] = fi[d] - ccel * del[d];
+    vn[d] = del[d] * vnnr;
+    vt[d] = vr[d] - vn[d];
+  }
+  fforce = ccel;
+  for (int d = 0; d < 3; d++) svector[d] = fs[d], svector[4 + d] = vn[d], svector[7 + d] = vt[d];
+  svector[3] = std::sqrt(fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]);
+  return 0.0;
+}
 
 /* The stock argument list and its checks (LAMMPS pair_style gran/hooke/history). */
 void PairGranHookeHistoryGPU::settings(int narg, char **arg) {
@@ -81,6 +133,11 @@ void PairGranHookeHistoryGPU::coeff(int narg, char **arg) {
 void PairGranHookeHistoryGPU::init_style() {
   check_atoms("atom_style sphere");
   scan_rigid_freeze();
+  /* compute pair/local asks each rank for the pairs of its own list: with newton on a pair split between two ranks
+   * is then evaluated on both (so that either rank has its contact) */
+  ghost_once_ok_ = true;
+  for (int i = 0; i < modify->ncompute; i++)
+    if (std::strcmp(modify->compute[i]->style, "pair/local") == 0) ghost_once_ok_ = false;
   /* the cutoff of the stock style (PairGranHookeHistory::init_style/init_one): per type the largest
    * radius of the grains, frozen ones apart, and of the particles fix pour / fix deposit will insert */
   const int nt = atom->ntypes;

@@ -7,6 +7,8 @@ PairStyle(gran/hooke/history/gpu,PairGranHookeHistoryGPU)
 #ifndef SPHDEM_PAIR_GRAN_HOOKE_HISTORY_GPU_H
 #define SPHDEM_PAIR_GRAN_HOOKE_HISTORY_GPU_H
 
+#include <unordered_map>
+
 #include "pair_gran_gpu_base.h"
 
 namespace LAMMPS_NS {
@@ -14,6 +16,11 @@ namespace LAMMPS_NS {
 class PairGranHookeHistoryGPU : public PairGranGPUBase {
  public:
   explicit PairGranHookeHistoryGPU(class LAMMPS *);
+  ~PairGranHookeHistoryGPU() override;
+  /* compute pair/local: the stock values of a pair (fforce the normal force over the distance; svector the
+   * tangential force, its magnitude, the normal and the tangential relative velocity), from the core's contacts of
+   * the step (contacts_now, evaluated once per step) */
+  double single(int, int, int, int, double, double, double, double &) override;
   void compute(int, int) override;
   void settings(int, char **) override;
   void coeff(int, char **) override;
@@ -28,6 +35,13 @@ class PairGranHookeHistoryGPU : public PairGranGPUBase {
   int model;                /* sphdem_dem_model */
 
   void sync_params() override;
+
+ private:
+  bigint single_step_ = -1;  /* the step and atom count of the contacts below */
+  int single_n_ = -1;
+  std::unordered_map<uint64_t, int64_t> single_map_; /* (lower tag << 32 | higher tag) -> contact */
+  std::vector<int32_t> single_ij_;
+  std::vector<double> single_ft_, single_hist_, single_roll_;
 };
 
 }  // namespace LAMMPS_NS

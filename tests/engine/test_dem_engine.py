@@ -23,6 +23,9 @@
                of its peak, every grain resting on overlapping contacts); the material errors; a
                write_restart/read_restart continuation equal to the unbroken run (1e-9)
   refused_liggghts LIG  compute contact/atom/gran, fix heat/gran, fix multisphere stop naming themselves
+  pair_local_lammps LMP [MPIEXEC]  compute pair/local with gran/hertz|hooke/history/gpu: the stock rows (dist,
+               force, fx..fz, the 10 single() values) within 1e-10 of each column's largest value, newton
+               off and on, 1 and 2 ranks
   pgl_liggghts LIG [MPIEXEC]  compute pair/gran/local with gran/gpu: the rows of the stock compute with the stock
                style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
                largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
@@ -928,6 +931,75 @@ def pgl_liggghts(lig, mpiexec=None):
     return ok
 
 
+# compute pair/local (LAMMPS): the same thrown lattice bed in lj units, the stock values of single()
+PL_LMP = """units           lj
+atom_style      sphere
+boundary        p p f
+newton          {newton}
+comm_modify     vel yes
+region          box block 0 5.96 0 5.96 0 8 units box
+create_box      1 box
+neighbor        0.2 bin
+neigh_modify    delay 0
+pair_style      {style} 2000.0 NULL 50.0 NULL 0.5 0
+pair_coeff      * *
+lattice         sc 0.998 origin 0 0 0.2
+region          fill block 0 5.96 0 5.96 0.2 5.0 units box
+create_atoms    1 region fill
+set             atom * diameter 1.0
+set             atom * density 1.9
+velocity        all set 0.05 -0.1 -0.3
+velocity        all ramp vx -0.3 0.3 z 0.0 5.0 sum yes units box
+velocity        all ramp vy -0.2 0.2 x 0.0 6.0 sum yes units box
+fix             1 all nve/sphere
+fix             2 all gravity 1.0 spherical 0.0 -180.0
+fix             zlower all wall/gran hertz/history 2000.0 NULL 50.0 NULL 0.5 0 zplane 0.0 NULL
+timestep        0.0005
+compute         pl all pair/local dist force fx fy fz p1 p2 p3 p4 p5 p6 p7 p8 p9 p10
+compute         pp all property/local patom1 patom2
+thermo          100
+run             400
+dump            dl all local 1 pl.dump c_pp[1] c_pp[2] {cols}
+dump_modify     dl format float %.17g
+run             0
+"""
+
+
+def pair_local_lammps(lmp, mpiexec=None):
+    """compute pair/local with gran/hertz|hooke/history/gpu: the rows of the stock styles (dist, force, fx, fy, fz
+    and the 10 single() values: tangential force, its magnitude, normal and tangential relative velocity) after
+    400 steps of a thrown lattice bed, newton off and on, 1 rank and 2"""
+    ok = True
+    runs = [(st, nw, np) for st in ("gran/hertz/history", "gran/hooke/history") for nw in ("off", "on")
+            for np in ((1, 2) if mpiexec else (1,))]
+    cols = " ".join("c_pl[%d]" % c for c in range(1, 16))
+    for style, newton, np in runs:
+        rows = {}
+        for tag, st in (("stock", style), ("gpu", style + "/gpu")):
+            wd = os.path.join("dem_pl_lmp", "%s_%s_%d" % (style.replace("/", "_"), newton, np), tag)
+            cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lmp] if np > 1 else [lmp]
+            rc, out = run(cmd, wd, PL_LMP.format(style=st, newton=newton, cols=cols))
+            if rc != 0 or "ERROR" in out:
+                print("FAIL compute pair/local, %s newton %s: rc %d\n%s" % (st, newton, rc, out[-1500:]))
+                return False
+            rows[tag] = {(r[0], r[1]): r for r in load_local(os.path.join(wd, "pl.dump"))}
+        a, b = rows["stock"], rows["gpu"]
+        common = sorted(set(a) & set(b))
+        worst, where = 0.0, 0
+        for c in range(2, 17):
+            scale = max(abs(a[k][c]) for k in common) or 1e-300
+            d = max(abs(a[k][c] - b[k][c]) for k in common) / scale
+            if d > worst:
+                worst, where = d, c - 1
+        touching = sum(1 for k in common if a[k][3] != 0.0)
+        good = len(a) > 300 and set(a) == set(b) and touching > 300 and worst < 1e-10
+        print("%s compute pair/local, %s/gpu, newton %s, %d rank(s): %d rows (stock %d, %d touching), the same pairs: "
+              "%s; largest difference %.2g of its column (value %d; bound 1e-10)" %
+              ("PASS" if good else "FAIL", style, newton, np, len(b), len(a), touching, set(a) == set(b), worst, where))
+        ok &= good
+    return ok
+
+
 def excluded(exe, texts, wd, style):
     """neigh_modify exclude type 1 1 on the head-on pair (both grains type 1): /gpu equals stock, whose grains
     pass through each other; without the exclusion they collide (texts: stock, /gpu, stock without exclusion)"""
@@ -1054,7 +1126,7 @@ MODES = {
     "restart_liggghts": restart_liggghts, "restart": restart, "pile": pile, "same": same,
     "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
     "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
-    "pgl_liggghts": pgl_liggghts,
+    "pgl_liggghts": pgl_liggghts, "pair_local_lammps": pair_local_lammps,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
     "hysteresis_liggghts": hysteresis_liggghts,
     "example": example, "errors": errors,
