@@ -198,15 +198,10 @@ void ComputePairGranLocalGPU::compute_local() {
       domain->minimum_image(dab);
       through = dab[0] != raw[0] || dab[1] != raw[1] || dab[2] != raw[2];
     }
-    bool a_first;
-    if (a >= nlocal || b >= nlocal) {
-      a_first = a < nlocal;
-      const int i = a_first ? a : b, j = a_first ? b : a;
-      if (tag[i] <= tag[j]) continue; /* the other rank's row */
-    } else {
-      a_first = through ? tag[a] > tag[b] : a < b;
-    }
+    const bool split = a >= nlocal || b >= nlocal; /* one atom is another rank's (or a periodic image) */
+    const bool a_first = split ? a < nlocal : through ? tag[a] > tag[b] : a < b;
     const int i = a_first ? a : b, j = a_first ? b : a;
+    if (split && tag[i] <= tag[j]) continue; /* the other rank's row */
     const double s = a_first ? 1.0 : -1.0;
     const double *F = &ft_buf_[9 * k], *Ti = &ft_buf_[9 * k + (a_first ? 3 : 6)];
     const double del[3] = {s * dab[0], s * dab[1], s * dab[2]}; /* x_i - x_j */
@@ -216,49 +211,51 @@ void ComputePairGranLocalGPU::compute_local() {
     const double fi[3] = {s * F[0], s * F[1], s * F[2]};
     double *row = array_[rows++];
     int c = 0;
+    auto put3 = [&](const double *a) {
+      for (int d = 0; d < 3; d++) row[c++] = a[d];
+    };
     if (pos_) {
       double xi_w[3] = {x[i][0], x[i][1], x[i][2]}, xj_w[3] = {xj[0], xj[1], xj[2]};
       domain->remap(xi_w);
       domain->remap(xj_w);
-      for (int d = 0; d < 3; d++) row[c++] = xi_w[d];
-      for (int d = 0; d < 3; d++) row[c++] = xj_w[d];
+      put3(xi_w);
+      put3(xj_w);
     }
     if (vel_) {
-      for (int d = 0; d < 3; d++) row[c++] = v[i][d];
-      for (int d = 0; d < 3; d++) row[c++] = v[j][d];
+      put3(v[i]);
+      put3(v[j]);
     }
     if (id_) {
       row[c++] = (double)tag[i];
       row[c++] = (double)tag[j];
-      row[c++] = through ? 1.0 : (i < nlocal && j < nlocal) ? 0.0 : (domain->is_periodic_ghost(i) || domain->is_periodic_ghost(j)) ? 1.0 : 0.0;
+      row[c++] = through ? 1.0
+                 : (i < nlocal && j < nlocal) ? 0.0
+                 : (domain->is_periodic_ghost(i) || domain->is_periodic_ghost(j)) ? 1.0 : 0.0;
     }
-    double pn[3], pt[3];
-    if (f_)
-      for (int d = 0; d < 3; d++) row[c++] = fi[d];
-    split3(fi, nrm, pn, pt);
-    if (fn_)
-      for (int d = 0; d < 3; d++) row[c++] = pn[d];
-    if (ft_)
-      for (int d = 0; d < 3; d++) row[c++] = pt[d];
-    if (tq_)
-      for (int d = 0; d < 3; d++) row[c++] = Ti[d];
-    split3(Ti, nrm, pn, pt);
-    if (tqn_)
-      for (int d = 0; d < 3; d++) row[c++] = pn[d];
-    if (tqt_)
-      for (int d = 0; d < 3; d++) row[c++] = pt[d];
+    double fn[3], ft[3], tn[3], tt[3];
+    split3(fi, nrm, fn, ft);
+    split3(Ti, nrm, tn, tt);
+    if (f_) put3(fi);
+    if (fn_) put3(fn);
+    if (ft_) put3(ft);
+    if (tq_) put3(Ti);
+    if (tqn_) put3(tn);
+    if (tqt_) put3(tt);
     if (hist_) { /* the stock order: the normal model's (largest overlap), the shear, the rolling torque; from i's side */
       const double *h = &hist_buf_[SPHDEM_DEM_HIST_DOUBLES * k], *rl = &roll_buf_[3 * k];
+      const double sh[3] = {s * h[0], s * h[1], s * h[2]}, sr[3] = {s * rl[0], s * rl[1], s * rl[2]};
       if (pair_->hysteresis()) row[c++] = h[4];
-      for (int d = 0; d < 3; d++) row[c++] = s * h[d];
-      if (pair_->rolling_history())
-        for (int d = 0; d < 3; d++) row[c++] = s * rl[d];
+      put3(sh);
+      if (pair_->rolling_history()) put3(sr);
     }
     const double ri = radius[i], rj = radius[j];
     if (area_) row[c++] = -M_PI / 4 * ((r - ri - rj) * (r + ri - rj) * (r - ri + rj) * (r + ri + rj)) / rsq;
     if (delta_) row[c++] = ri + rj - r;
-    if (cp_)
-      for (int d = 0; d < 3; d++) row[c++] = (x[i][d] * rj + xj[d] * ri) / (ri + rj);
+    if (cp_) {
+      const double cp[3] = {(x[i][0] * rj + xj[0] * ri) / (ri + rj), (x[i][1] * rj + xj[1] * ri) / (ri + rj),
+                            (x[i][2] * rj + xj[2] * ri) / (ri + rj)};
+      put3(cp);
+    }
   }
   size_local_rows = rows;
   if (verbose_ && screen)
