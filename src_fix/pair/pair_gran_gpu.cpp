@@ -191,13 +191,10 @@ void ComputePairGranLocalGPU::compute_local() {
     const int a = ij_[2 * k], b = ij_[2 * k + 1];
     if (!(mask[a] & groupbit) || !(mask[b] & groupbit)) continue;
     if (a >= nlocal && b >= nlocal) continue;
-    /* the separation a - b as the core took it (the minimum image between two own atoms) */
-    double dab[3] = {x[a][0] - x[b][0], x[a][1] - x[b][1], x[a][2] - x[b][2]}, raw[3] = {dab[0], dab[1], dab[2]};
-    bool through = false; /* two own atoms through a periodic boundary */
-    if (a < nlocal && b < nlocal) {
-      domain->minimum_image(dab);
-      through = dab[0] != raw[0] || dab[1] != raw[1] || dab[2] != raw[2];
-    }
+    /* the separation a - b as the core took it: through a periodic boundary by the minimum image (two own atoms,
+     * or an atom of another rank along an axis the ranks do not cut) */
+    double dab[3];
+    const bool through = pair_->core_separation(a, b, dab);
     const bool split = a >= nlocal || b >= nlocal; /* one atom is another rank's (or a periodic image) */
     const bool a_first = split ? a < nlocal : through ? tag[a] > tag[b] : a < b;
     const int i = a_first ? a : b, j = a_first ? b : a;
@@ -228,7 +225,7 @@ void ComputePairGranLocalGPU::compute_local() {
     if (id_) {
       row[c++] = (double)tag[i];
       row[c++] = (double)tag[j];
-      row[c++] = through ? 1.0
+      row[c++] = through ? 1.0 /* (the stock list's j is then an image outside the box) */
                  : (i < nlocal && j < nlocal) ? 0.0
                  : (domain->is_periodic_ghost(i) || domain->is_periodic_ghost(j)) ? 1.0 : 0.0;
     }

@@ -3,6 +3,7 @@
 #include "pair_gran_gpu_base.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <unordered_map>
 
@@ -638,6 +639,46 @@ int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<doub
   return k;
 }
 
+bool PairGranGPUBase::core_separation(int a, int b, double *del) const {
+  double **x = atom->x;
+  bool wrapped = false;
+  for (int d = 0; d < 3; d++) {
+    del[d] = x[a][d] - x[b][d];
+    if (prm_.periodic[d]) {
+      const double L = prm_.boxhi[d] - prm_.boxlo[d], w = del[d] - L * std::rint(del[d] / L);
+      wrapped |= w != del[d];
+      del[d] = w;
+    }
+  }
+  return wrapped;
+}
+
+void PairGranGPUBase::add_virial_atom() {
+  std::string err;
+  std::vector<int32_t> ij;
+  std::vector<double> ft, hist, roll;
+  const int64_t np = contacts_now(ij, ft, hist, roll, err);
+  if (np < 0) fail_one("per-atom virial: " + err);
+  const int nlocal = atom->nlocal;
+  auto share = [&](int i, const double *v) {
+    if (i >= nlocal && !last_once_) { /* a split pair evaluated on both ranks: the other atom's share is there */
+      const int o = ghosts_ ? image_of_[i - nlocal] : -1;
+      if (o < 0) return;
+      i = o; /* a periodic image of an own atom */
+    }
+    for (int d = 0; d < 6; d++) vatom[i][d] += 0.5 * v[d];
+  };
+  for (int64_t k = 0; k < np; k++) {
+    const int a = ij[2 * k], b = ij[2 * k + 1];
+    double del[3];
+    core_separation(a, b, del);
+    const double *F = &ft[9 * k];
+    const double v[6] = {del[0] * F[0], del[1] * F[1], del[2] * F[2], del[0] * F[1], del[0] * F[2], del[1] * F[2]};
+    share(a, v);
+    share(b, v);
+  }
+}
+
 void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_builds) {
   const int nlocal = atom->nlocal;
   const int n = ghosts_ ? nlocal + atom->nghost : nlocal; /* many ranks: own atoms, then the ghost atoms */
@@ -699,6 +740,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   const bool once = ghosts_ && force->newton_pair && ghost_once_ok_;
 #endif
   sphdem_dem_set_ghost_once(dem_, once ? 1 : 0);
+  last_once_ = once;
   double **f = atom->f, **t = atom->torque;
   /* the ghost rows are kept aside only where the engine adds them to their atoms (force->newton: its reverse
    * communication); else the engine neither clears nor reads them, and they are only zeroed (the periodic images'

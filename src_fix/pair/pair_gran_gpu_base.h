@@ -155,6 +155,19 @@ class PairGranGPUBase : public Pair {
    * material_types: the grain's type is its material (several materials); follow_list_builds: the core
    * rebuilds its pair list on the engine's neighbour-list builds. */
   void compute_grains(bool material_types, bool follow_list_builds);
+  /* The per-atom virial (vatom, 1/2 r_ab F_ab to each atom of a pair, as the stock styles' ev_tally_xyz) of the
+   * evaluation just made, from the core's contacts evaluated again with the same atoms (sphdem_dem_contacts): for
+   * the laws whose evaluation with the kept history gives the step's force again (LAMMPS gran/hooke|hertz/history;
+   * unit_dem test_contacts). Own atoms get their shares; another rank's atom's share goes to its ghost row only
+   * where this rank alone evaluates the pair (newton on, split pairs once: the engine's reverse communication),
+   * a periodic image's to the atom itself otherwise. */
+  void add_virial_atom();
+ public:
+  /* x_a - x_b of two atoms (core grains) as the core takes it: the minimum image along the axes it treats as
+   * periodic (one rank: the periodic axes; many ranks: those the ranks do not cut); true when that wrapped it */
+  bool core_separation(int a, int b, double *del) const;
+ protected:
+  bool last_once_ = false; /* the last evaluation gave split pairs' shares to the ghost rows (compute_grains) */
 };
 
 }  // namespace LAMMPS_NS

@@ -193,8 +193,8 @@ void PairGranHookeHistoryGPU::sync_params() {
 
 void PairGranHookeHistoryGPU::compute(int eflag, int vflag) {
   ev_init(eflag, vflag);
-  if (vflag_atom) fail("per-atom virial (compute stress/atom, centroid/stress/atom) is not supported");
   compute_grains(false, false);
+  if (vflag_atom) add_virial_atom(); /* compute stress/atom (and centroid/stress/atom: the same for pair forces) */
 }
 
 /* ---- gran/hertz/history/gpu: the same arguments, Kn and Kt in pressure units (stock: divided by nktv2p) */

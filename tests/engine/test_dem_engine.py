@@ -26,6 +26,9 @@
   pair_local_lammps LMP [MPIEXEC]  compute pair/local with gran/hertz|hooke/history/gpu: the stock rows (dist,
                force, fx..fz, the 10 single() values) within 1e-10 of each column's largest value, newton
                off and on, 1 and 2 ranks
+  stress_atom_lammps LMP [MPIEXEC]  compute stress/atom with gran/hertz|hooke/history/gpu: every atom's per-atom
+               virial within 1e-10 of the stock style's, 1 rank, processors 2 1 1 and 2 2 1 with newton
+               off and on; granular/gpu refuses it by name
   pgl_liggghts LIG [MPIEXEC]  compute pair/gran/local with gran/gpu: the rows of the stock compute with the stock
                style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
                largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
@@ -890,14 +893,21 @@ def pgl_liggghts(lig, mpiexec=None):
     # the rolling torque after (epsd2, epsd)
     models = [("model hertz tangential history", 3), ("model hertz tangential history cohesion sjkr rolling_friction epsd2", 6),
               ("model hooke/hysteresis tangential history", 4), ("model hertz tangential history rolling_friction epsd", 6)]
-    runs = [(m, nh, 1) for m, nh in models] + ([(models[1][0], 6, 2)] if mpiexec else [])
-    for model, nh, np in runs:
+    # 2 ranks: cut along z (the default grid), and along x, where pairs between the ranks through the periodic y
+    # boundary are taken by the minimum image
+    runs = [(m, nh, 1, None) for m, nh in models] + \
+        ([(models[1][0], 6, 2, None), (models[0][0], 3, 2, "2 1 1")] if mpiexec else [])
+    for model, nh, np, grid in runs:
         ncols = 33 + nh + 5
         rows = {}
         for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
-            wd = os.path.join("dem_pgl_lig", "%s_%d" % (model.replace(" ", "_").replace("/", "_"), np), tag)
+            wd = os.path.join("dem_pgl_lig", "%s_%d%s" % (model.replace(" ", "_").replace("/", "_"), np,
+                                                          "_x" if grid else ""), tag)
             cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lig] if np > 1 else [lig]
-            rc, out = run(cmd, wd, pgl_script(style + " " + model, PGL_KEYS, ncols))
+            text = pgl_script(style + " " + model, PGL_KEYS, ncols)
+            if grid:
+                text = text.replace("newton off\n", "newton off\nprocessors %s\n" % grid)
+            rc, out = run(cmd, wd, text)
             if rc != 0 or "ERROR" in out:
                 print("FAIL compute pair/gran/local, %s %s: rc %d\n%s" % (style, model, rc, out[-1500:]))
                 return False
@@ -914,9 +924,10 @@ def pgl_liggghts(lig, mpiexec=None):
                 worst, where = d, c + 1
         periodic = sum(1 for k in common if a[k][14] == 1.0)
         good = len(a) > 300 and set(a) == set(b) and periodic > 10 and worst < 1e-10
-        print("%s compute pair/gran/local, gran/gpu %s, %d rank(s): %d rows (stock %d, %d through a periodic "
+        print("%s compute pair/gran/local, gran/gpu %s, %d rank(s)%s: %d rows (stock %d, %d through a periodic "
               "boundary), the same pairs and first atoms: %s; largest difference %.2g of its column (column %d; "
-              "bound 1e-10)" % ("PASS" if good else "FAIL", model, np, len(b), len(a), periodic, set(a) == set(b),
+              "bound 1e-10)" % ("PASS" if good else "FAIL", model, np, " (processors %s)" % grid if grid else "",
+                                len(b), len(a), periodic, set(a) == set(b),
                                 worst, where))
         ok &= good
     # bad keywords, and a compute of the stock style left behind
@@ -998,6 +1009,57 @@ def pair_local_lammps(lmp, mpiexec=None):
               ("PASS" if good else "FAIL", style, newton, np, len(b), len(a), touching, set(a) == set(b), worst, where))
         ok &= good
     return ok
+
+
+def stress_atom_lammps(lmp, mpiexec=None):
+    """compute stress/atom (the pair's per-atom virial) with gran/hertz|hooke/history/gpu against the stock styles on
+    the thrown lattice bed of pair_local_lammps: every atom's six components within 1e-10 of each component's
+    largest value; 1 rank, and 2 and 4 ranks with newton off and on (2 ranks cut along x: pairs between the ranks
+    through the periodic y boundary, which the core takes by the minimum image); pair_style granular/gpu refuses it"""
+    text = PL_LMP.replace("compute         pl all pair/local dist force fx fy fz p1 p2 p3 p4 p5 p6 p7 p8 p9 p10\n"
+                          "compute         pp all property/local patom1 patom2\n",
+                          "compute         s all stress/atom NULL pair\n")
+    text = text.replace("dump            dl all local 1 pl.dump c_pp[1] c_pp[2] {cols}\n"
+                        "dump_modify     dl format float %.17g\n",
+                        "dump            d all custom 1 sa.dump id c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]\n"
+                        "dump_modify     d sort id format float %.17g\n")
+    runs = [("gran/hertz/history", "off", None), ("gran/hooke/history", "on", None)]
+    if mpiexec:
+        runs += [("gran/hertz/history", nw, grid) for grid in ("2 1 1", "2 2 1") for nw in ("off", "on")]
+    ok = True
+    for style, newton, grid in runs:
+        np = 1 if grid is None else eval(grid.replace(" ", "*"))
+        res = {}
+        for tag, st in (("stock", style), ("gpu", style + "/gpu")):
+            wd = os.path.join("dem_sa_lmp", "%s_%s_%d" % (style.replace("/", "_"), newton, np), tag)
+            cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lmp] if np > 1 else [lmp]
+            nw = newton + ("\nprocessors      %s" % grid if grid else "")
+            rc, out = run(cmd, wd, text.format(style=st, newton=nw, cols=""))
+            if rc != 0 or "ERROR" in out:
+                print("FAIL compute stress/atom, %s newton %s: rc %d\n%s" % (st, newton, rc, out[-1500:]))
+                return False
+            with open(os.path.join(wd, "sa.dump")) as f:
+                lines = f.read().split("\n")
+            k0 = [k for k, l in enumerate(lines) if l.startswith("ITEM: ATOMS")][0]
+            res[tag] = {int(l.split()[0]): [float(w) for w in l.split()[1:]] for l in lines[k0 + 1:] if l.strip()}
+        a, b = res["stock"], res["gpu"]
+        worst = max(max(abs(a[i][c] - b[i][c]) for i in a) / (max(abs(a[i][c]) for i in a) or 1e-300)
+                    for c in range(6)) if set(a) == set(b) else float("inf")
+        loaded = sum(1 for i in a if a[i][0] != 0.0)
+        good = len(a) > 100 and loaded > 100 and worst < 1e-10
+        print("%s compute stress/atom, %s/gpu, newton %s, %s: %d atoms (%d stressed), largest difference %.2g of its "
+              "component's largest (bound 1e-10)" % ("PASS" if good else "FAIL", style, newton,
+                                                      "1 rank" if np == 1 else "processors " + grid, len(b), loaded,
+                                                      worst))
+        ok &= good
+    # granular/gpu: the per-atom virial is refused by name
+    gtext = text.format(style="granular/gpu", newton="off", cols="").replace(
+        "pair_style      granular/gpu 2000.0 NULL 50.0 NULL 0.5 0\npair_coeff      * *",
+        "pair_style      granular/gpu\npair_coeff      * * hooke 2000.0 50.0 tangential linear_history 1000.0 1.0 0.5")
+    rc, out = run([lmp], os.path.join("dem_sa_lmp", "granular"), gtext)
+    good = rc != 0 and "per-atom virial (compute stress/atom, centroid/stress/atom) is not supported" in out
+    print("compute stress/atom with granular/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
+    return ok and good
 
 
 def excluded(exe, texts, wd, style):
@@ -1127,6 +1189,7 @@ MODES = {
     "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
     "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
     "pgl_liggghts": pgl_liggghts, "pair_local_lammps": pair_local_lammps,
+    "stress_atom_lammps": stress_atom_lammps,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
     "hysteresis_liggghts": hysteresis_liggghts,
     "example": example, "errors": errors,
