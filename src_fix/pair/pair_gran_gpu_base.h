@@ -157,8 +157,8 @@ class PairGranGPUBase : public Pair {
   void compute_grains(bool material_types, bool follow_list_builds);
   /* The per-atom virial (vatom, 1/2 r_ab F_ab to each atom of a pair, as the stock styles' ev_tally_xyz) of the
    * evaluation just made, from the core's contacts evaluated again with the same atoms (sphdem_dem_contacts): for
-   * the laws whose evaluation with the kept history gives the step's force again (LAMMPS gran/hooke|hertz/history;
-   * unit_dem test_contacts). Own atoms get their shares; another rank's atom's share goes to its ghost row only
+   * the laws whose evaluation with the kept history gives the step's force again (LAMMPS gran/hooke|hertz/history
+   * and granular; unit_dem test_contacts). Own atoms get their shares; another rank's atom's share goes to its ghost row only
    * where this rank alone evaluates the pair (newton on, split pairs once: the engine's reverse communication),
    * a periodic image's to the atom itself otherwise. */
   void add_virial_atom();

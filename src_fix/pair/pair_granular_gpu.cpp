@@ -444,9 +444,9 @@ void PairGranularGPU::sync_params() {
 
 void PairGranularGPU::compute(int eflag, int vflag) {
   ev_init(eflag, vflag);
-  if (vflag_atom) fail("per-atom virial (compute stress/atom, centroid/stress/atom) is not supported");
   if (!table_sent_) send_table();
   compute_grains(true, false); /* (the list order is followed in list_built, after the history hand-over) */
+  if (vflag_atom) add_virial_atom(); /* compute stress/atom (and centroid/stress/atom: the same for pair forces) */
   if (ghosts_ && track_order_ && gather_step()) gather_order();
 }
 

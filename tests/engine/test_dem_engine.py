@@ -26,9 +26,9 @@
   pair_local_lammps LMP [MPIEXEC]  compute pair/local with gran/hertz|hooke/history/gpu: the stock rows (dist,
                force, fx..fz, the 10 single() values) within 1e-10 of each column's largest value, newton
                off and on, 1 and 2 ranks
-  stress_atom_lammps LMP [MPIEXEC]  compute stress/atom with gran/hertz|hooke/history/gpu: every atom's per-atom
-               virial within 1e-10 of the stock style's, 1 rank, processors 2 1 1 and 2 2 1 with newton
-               off and on; granular/gpu refuses it by name
+  stress_atom_lammps LMP [MPIEXEC]  compute stress/atom with gran/hertz|hooke/history/gpu and granular/gpu:
+               every atom's per-atom virial within 1e-10 of the stock style's, 1 rank, processors 2 1 1
+               and 2 2 1 with newton off and on
   pgl_liggghts LIG [MPIEXEC]  compute pair/gran/local with gran/gpu: the rows of the stock compute with the stock
                style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
                largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
@@ -1011,11 +1011,21 @@ def pair_local_lammps(lmp, mpiexec=None):
     return ok
 
 
+# pair_coeff of pair_style granular in stress_atom_lammps: hertz/material with tsuji damping and mindlin; and with
+# rolling sds and twisting marshall
+GRANULAR_COEFF = {
+    "granular": "hertz/material 1e4 0.5 0.3 damping tsuji tangential mindlin NULL 1.0 0.5",
+    "granular roll": "hertz/material 1e4 0.5 0.3 damping tsuji tangential mindlin NULL 1.0 0.5 rolling sds 500 20 0.1 "
+                     "twisting marshall",
+}
+
+
 def stress_atom_lammps(lmp, mpiexec=None):
     """compute stress/atom (the pair's per-atom virial) with gran/hertz|hooke/history/gpu against the stock styles on
     the thrown lattice bed of pair_local_lammps: every atom's six components within 1e-10 of each component's
     largest value; 1 rank, and 2 and 4 ranks with newton off and on (2 ranks cut along x: pairs between the ranks
-    through the periodic y boundary, which the core takes by the minimum image); pair_style granular/gpu refuses it"""
+    through the periodic y boundary, which the core takes by the minimum image); pair_style granular/gpu against
+    the stock granular (hertz/material, tsuji, mindlin; with rolling sds and twisting marshall)"""
     text = PL_LMP.replace("compute         pl all pair/local dist force fx fy fz p1 p2 p3 p4 p5 p6 p7 p8 p9 p10\n"
                           "compute         pp all property/local patom1 patom2\n",
                           "compute         s all stress/atom NULL pair\n")
@@ -1023,18 +1033,24 @@ def stress_atom_lammps(lmp, mpiexec=None):
                         "dump_modify     dl format float %.17g\n",
                         "dump            d all custom 1 sa.dump id c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]\n"
                         "dump_modify     d sort id format float %.17g\n")
-    runs = [("gran/hertz/history", "off", None), ("gran/hooke/history", "on", None)]
+    runs = [("gran/hertz/history", "off", None), ("gran/hooke/history", "on", None), ("granular", "on", None),
+            ("granular roll", "on", None)]
     if mpiexec:
         runs += [("gran/hertz/history", nw, grid) for grid in ("2 1 1", "2 2 1") for nw in ("off", "on")]
+        runs += [("granular", "off", "2 1 1")]
     ok = True
     for style, newton, grid in runs:
         np = 1 if grid is None else eval(grid.replace(" ", "*"))
         res = {}
-        for tag, st in (("stock", style), ("gpu", style + "/gpu")):
-            wd = os.path.join("dem_sa_lmp", "%s_%s_%d" % (style.replace("/", "_"), newton, np), tag)
+        for tag, st in (("stock", style), ("gpu", style.split()[0] + "/gpu")):
+            wd = os.path.join("dem_sa_lmp", "%s_%s_%d" % (style.replace("/", "_").replace(" ", "_"), newton, np), tag)
             cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lmp] if np > 1 else [lmp]
             nw = newton + ("\nprocessors      %s" % grid if grid else "")
-            rc, out = run(cmd, wd, text.format(style=st, newton=nw, cols=""))
+            t = text.format(style=st.split()[0], newton=nw, cols="")
+            if style.startswith("granular"):  # pair_style granular: the words of current LAMMPS
+                t = t.replace("pair_style      %s 2000.0 NULL 50.0 NULL 0.5 0\npair_coeff      * *" % st.split()[0],
+                              "pair_style      %s\npair_coeff      * * %s" % (st.split()[0], GRANULAR_COEFF[style]))
+            rc, out = run(cmd, wd, t)
             if rc != 0 or "ERROR" in out:
                 print("FAIL compute stress/atom, %s newton %s: rc %d\n%s" % (st, newton, rc, out[-1500:]))
                 return False
@@ -1047,19 +1063,14 @@ def stress_atom_lammps(lmp, mpiexec=None):
                     for c in range(6)) if set(a) == set(b) else float("inf")
         loaded = sum(1 for i in a if a[i][0] != 0.0)
         good = len(a) > 100 and loaded > 100 and worst < 1e-10
-        print("%s compute stress/atom, %s/gpu, newton %s, %s: %d atoms (%d stressed), largest difference %.2g of its "
-              "component's largest (bound 1e-10)" % ("PASS" if good else "FAIL", style, newton,
+        print("%s compute stress/atom, %s/gpu%s, newton %s, %s: %d atoms (%d stressed), largest difference %.2g of its "
+              "component's largest (bound 1e-10)" % ("PASS" if good else "FAIL", style.split()[0],
+                                                      " (rolling sds, twisting marshall)" if "roll" in style else "",
+                                                      newton,
                                                       "1 rank" if np == 1 else "processors " + grid, len(b), loaded,
                                                       worst))
         ok &= good
-    # granular/gpu: the per-atom virial is refused by name
-    gtext = text.format(style="granular/gpu", newton="off", cols="").replace(
-        "pair_style      granular/gpu 2000.0 NULL 50.0 NULL 0.5 0\npair_coeff      * *",
-        "pair_style      granular/gpu\npair_coeff      * * hooke 2000.0 50.0 tangential linear_history 1000.0 1.0 0.5")
-    rc, out = run([lmp], os.path.join("dem_sa_lmp", "granular"), gtext)
-    good = rc != 0 and "per-atom virial (compute stress/atom, centroid/stress/atom) is not supported" in out
-    print("compute stress/atom with granular/gpu: %s" % ("stops naming it" if good else "FAIL\n" + out[-800:]))
-    return ok and good
+    return ok
 
 
 def excluded(exe, texts, wd, style):

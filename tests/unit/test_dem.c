@@ -1250,21 +1250,35 @@ static void test_changing_box(void) {
  * for the LAMMPS laws (a sliding contact's history is set so that it gives the Coulomb force again) and for the
  * LIGGGHTS laws while no contact slides (LIGGGHTS adds the tangential damping to a force that the kept history
  * puts just below the limit, and epsd2 adds the rolling step to the kept torque without keeping it: for those
- * only the forces are compared, with mu 10). Nothing of the context changes (the next step gives the same
+ * only the forces are compared, with mu 10), and for the granular model (the two-type table of the twin tests:
+ * hertz/material, hertz, dmt; tsuji, viscoelastic, mass_velocity; linear_history, mindlin; sds rolling; marshall
+ * and sds twisting). Nothing of the context changes (the next step gives the same
  * forces as a twin that never gave its contacts); a changed number of grains is refused. */
 static void test_contacts(void) {
   const int n = 600;
   double lo[3], hi[3];
-  for (int c = 0; c < 4; c++) {
+  for (int c = 0; c < 5; c++) {
     grains g = packing(n, 0.5, 0.5, lo, hi);
+    int *fl = NULL;
     sphdem_dem_params p = hertz_params(0.02, c == 1 ? SPHDEM_DEM_PAIR_PARALLEL : SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
     const char *what = c == 0 ? "hertz, one thread" : c == 1 ? "hertz, pair-parallel" : c == 2 ? "liggghts hertz"
-                                                                                       : "liggghts hertz, epsd2";
+                       : c == 3 ? "liggghts hertz, epsd2" : "granular, the two-type table";
     if (c >= 2) {
       p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; p.mu = 10.0;
       if (c == 3) p.mu_r = 0.05, p.rolling_model = SPHDEM_DEM_ROLL_EPSD2;
     }
+    if (c == 4) {
+      p.model = SPHDEM_DEM_GRANULAR;
+      fl = malloc(sizeof(int) * n);
+      for (int i = 0; i < n; i++) fl[i] = (i % 2) << SPHDEM_DEM_MATERIAL_SHIFT;
+    }
     sphdem_dem A = make(&p), B = make(&p);
+    if (c == 4) {
+      sphdem_dem_granular tt[4];
+      fill_granular(tt);
+      sphdem_dem_set_granular(A, 2, tt);
+      sphdem_dem_set_granular(B, 2, tt);
+    }
     char msg[256];
     sphdem_grain_store st = NULL;
     int rc = sphdem_grains_create(&st, test_device(), msg, sizeof msg);
@@ -1274,8 +1288,8 @@ static void test_contacts(void) {
     for (int s = 0; s < 6 && !rc; s++) { /* a few steps of history (the grains do not move: shear grows each step) */
       stamp[0] = s;
       rc |= sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
-      rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, s > 0, g.f, g.t, NULL);
-      rc |= sphdem_dem_compute_store(B, st, g.tag, NULL, dt, s > 0, fB, tB, NULL);
+      rc |= sphdem_dem_compute_store(A, st, g.tag, fl, dt, s > 0, g.f, g.t, NULL);
+      rc |= sphdem_dem_compute_store(B, st, g.tag, fl, dt, s > 0, fB, tB, NULL);
     }
     const int64_t cap = 40 * (int64_t)n;
     int32_t *ab = malloc(sizeof(int32_t) * 2 * cap);
@@ -1319,8 +1333,8 @@ static void test_contacts(void) {
     /* the next step: the same bits as the twin B */
     stamp[0] = 99;
     rc = sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
-    rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, 1, g.f, g.t, NULL);
-    rc |= sphdem_dem_compute_store(B, st, g.tag, NULL, dt, 1, fB, tB, NULL);
+    rc |= sphdem_dem_compute_store(A, st, g.tag, fl, dt, 1, g.f, g.t, NULL);
+    rc |= sphdem_dem_compute_store(B, st, g.tag, fl, dt, 1, fB, tB, NULL);
     double dn = 0; /* (the pair-parallel pass adds atomically: its sums may differ in the last bits) */
     for (int i = 0; i < 3 * n; i++) {
       dn = dn > fabs(g.f[i] - fB[i]) / fmax ? dn : fabs(g.f[i] - fB[i]) / fmax;
@@ -1335,7 +1349,7 @@ static void test_contacts(void) {
     TEST_ASSERT(rc == 0 && bad == -SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "599 grains given"),
                 "contacts (%s): other grains: %lld '%s'", what, (long long)bad, sphdem_dem_last_error(A));
     free(fs); free(ts); free(ab); free(ft); free(hist); free(roll); free(k0); free(k1); free(h0); free(h1);
-    free(fB); free(tB);
+    free(fB); free(tB); free(fl);
     sphdem_grains_destroy(&st);
     sphdem_dem_destroy(&A);
     sphdem_dem_destroy(&B);
