@@ -140,8 +140,14 @@ class ComputePairGranLocalGPU : public Compute {
     pair_ = dynamic_cast<PairGranGPU *>(force->pair_match("gran/gpu", 1));
     if (!pair_) bad("the pair style is no longer gran/gpu");
     nhist_ = 3 + (pair_->hysteresis() ? 1 : 0) + (pair_->rolling_history() ? 3 : 0);
-    nvalues_ = 6 * pos_ + 6 * vel_ + 3 * id_ + 3 * (f_ + fn_ + ft_ + tq_ + tqn_ + tqt_) + nhist_ * hist_ + area_ + delta_ +
-               3 * cp_;
+    const int nv = 6 * pos_ + 6 * vel_ + 3 * id_ + 3 * (f_ + fn_ + ft_ + tq_ + tqn_ + tqt_) + nhist_ * hist_ + area_ +
+                   delta_ + 3 * cp_;
+    if (nv != nvalues_) { /* (another model between runs: rows of another width) */
+      memory->destroy(array_);
+      array_local = array_ = nullptr;
+      nmax_ = 0;
+    }
+    nvalues_ = nv;
     size_local_cols = nvalues_;
   }
   void post_create() override { init(); }
