@@ -1094,10 +1094,11 @@ int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int
   if (rc) return -rc;
   /* scratch: the records, the history the law writes (and the rolling history), all discarded */
   double *rec = NULL, *hs = NULL, *rs = NULL;
-  rc = rt_alloc(&m->rt, (void **)&rec, sizeof(double) * 10 * (size_t)np);
+  const size_t nr = 1 + SPHDEM_DEM_CONTACT_DOUBLES; /* doubles per record (dem_contact_record_body) */
+  rc = rt_alloc(&m->rt, (void **)&rec, sizeof(double) * nr * (size_t)np);
   if (!rc) rc = rt_alloc(&m->rt, (void **)&hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
   if (!rc && D->rin) rc = rt_alloc(&m->rt, (void **)&rs, sizeof(double) * 3 * (size_t)np);
-  double *hrec = rc ? NULL : (double *)malloc(sizeof(double) * 10 * (size_t)np);
+  double *hrec = rc ? NULL : (double *)malloc(sizeof(double) * nr * (size_t)np);
   int32_t *pa = hrec ? (int32_t *)malloc(sizeof(int32_t) * 2 * (size_t)np) : NULL;
   double *hh = pa && hist ? (double *)malloc(sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np) : NULL;
   double *hr = pa && roll && D->rin ? (double *)malloc(sizeof(double) * 3 * (size_t)np) : NULL;
@@ -1110,18 +1111,18 @@ int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int
     rc = m->ops->contact_record(m, rec);
     *D = keep;
   }
-  if (!rc) rc = rt_d2h(&m->rt, hrec, rec, sizeof(double) * 10 * (size_t)np);
+  if (!rc) rc = rt_d2h(&m->rt, hrec, rec, sizeof(double) * nr * (size_t)np);
   if (!rc) rc = rt_d2h(&m->rt, pa, D->pa, sizeof(int32_t) * (size_t)np);
   if (!rc) rc = rt_d2h(&m->rt, pa + np, D->pb, sizeof(int32_t) * (size_t)np);
   if (!rc && hh) rc = rt_d2h(&m->rt, hh, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
   if (!rc && hr) rc = rt_d2h(&m->rt, hr, D->rin, sizeof(double) * 3 * (size_t)np);
   int64_t k = 0;
   for (int64_t p = 0; !rc && p < np; p++) {
-    const double *r = hrec + 10 * p;
+    const double *r = hrec + nr * p;
     if (r[0] == 0.0) continue;
     if (k < max) {
       ab[2 * k] = pa[p], ab[2 * k + 1] = pa[np + p];
-      for (int q = 0; q < 9; q++) ft[9 * k + q] = r[1 + q];
+      for (int q = 0; q < SPHDEM_DEM_CONTACT_DOUBLES; q++) ft[SPHDEM_DEM_CONTACT_DOUBLES * k + q] = r[1 + q];
       if (hist)
         for (int q = 0; q < SPHDEM_DEM_NHIST; q++) hist[SPHDEM_DEM_NHIST * k + q] = hh[SPHDEM_DEM_NHIST * p + q];
       if (roll)

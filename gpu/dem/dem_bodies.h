@@ -1060,17 +1060,24 @@ SPHDEM_HD void dem_pair_force_body(const dem_dev *D, int64_t p) { dem_pair_force
 
 /* Pair p evaluated again for output (sphdem_dem_contacts): the law as the step evaluated it, with the grains as
  * they are now, the history read and written only to D->hout (scratch; D->update 0, as the stock styles'
- * evaluation for compute pair/gran/local). rec[10 p]: 1 when the two grains touch (0 when not, and for a wall),
- * then the force on a and the torques on a and on b. */
+ * evaluation for compute pair/gran/local). rec[(1 + SPHDEM_DEM_CONTACT_DOUBLES) p]: 1 when the two grains touch (0
+ * when not, and for a wall), then the force on a, the torques on a and on b, and x_a - x_b as the law took it
+ * (the minimum image along the periodic axes the context treats so). */
 SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec) {
-  double F[3], Ta[3], Tb[3], vir[6], *r = rec + 10 * p;
+  double F[3], Ta[3], Tb[3], vir[6], del[3], rsq, rb, radsum, *r = rec + (1 + SPHDEM_DEM_CONTACT_DOUBLES) * p;
   r[0] = 0.0;
-  if (D->pb[p] < 0 || !dem_contact(D, p, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir)) return;
+  if (D->pb[p] < 0) return;
+  if (!dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) {
+    dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
+    return;
+  }
+  dem_contact_touching(D, p, del, rsq, rb, radsum, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p, vir);
   r[0] = 1.0;
   for (int d = 0; d < 3; d++) {
     r[1 + d] = F[d];
     r[4 + d] = Ta[d];
     r[7 + d] = Tb[d];
+    r[10 + d] = del[d];
   }
 }
 

@@ -663,10 +663,12 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
  * grains evaluated again with the grains of g (the grains of the last sphdem_dem_compute(_store), in the same
  * order; their velocities and spins may have changed since), the history read as that evaluation left it and not
  * changed (no force is added anywhere, nothing of the context changes). Per touching pair k, in key order, at
- * most max of them: the grain indices a, b (ab[2k], ab[2k + 1]), the force on a and the torques on a and on b
- * (ft[9k..9k + 8]), the history (SPHDEM_DEM_HIST_DOUBLES per pair in hist, may be NULL) and the rolling torques
+ * most max of them: the grain indices a, b (ab[2k], ab[2k + 1]); in ft[SPHDEM_DEM_CONTACT_DOUBLES k..] the force on
+ * a, the torques on a and on b, and x_a - x_b as the law took it (the minimum image along the axes the context
+ * treats as periodic); the history (SPHDEM_DEM_HIST_DOUBLES per pair in hist, may be NULL) and the rolling torques
  * (3 per pair in roll, 0 where none are kept; may be NULL). Returns the number of touching pairs (which may
  * exceed max: call again with room for them), or a negative code. */
+#define SPHDEM_DEM_CONTACT_DOUBLES 12 /* per contact of sphdem_dem_contacts: F_a, T_a, T_b, x_a - x_b */
 int64_t sphdem_dem_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
                             double *roll);
 /* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls

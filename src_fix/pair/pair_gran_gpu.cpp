@@ -198,15 +198,15 @@ void ComputePairGranLocalGPU::compute_local() {
     if (!(mask[a] & groupbit) || !(mask[b] & groupbit)) continue;
     if (a >= nlocal && b >= nlocal) continue;
     /* the separation a - b as the core took it: through a periodic boundary by the minimum image (two own atoms,
-     * or an atom of another rank along an axis the ranks do not cut) */
-    double dab[3];
-    const bool through = pair_->core_separation(a, b, dab);
+     * or an atom of another rank along an axis the ranks do not cut) where it differs from x_a - x_b */
+    const double *F = &ft_buf_[SPHDEM_DEM_CONTACT_DOUBLES * k], *dab = F + 9;
+    const bool through = dab[0] != x[a][0] - x[b][0] || dab[1] != x[a][1] - x[b][1] || dab[2] != x[a][2] - x[b][2];
     const bool split = a >= nlocal || b >= nlocal; /* one atom is another rank's (or a periodic image) */
     const bool a_first = split ? a < nlocal : through ? tag[a] > tag[b] : a < b;
     const int i = a_first ? a : b, j = a_first ? b : a;
     if (split && tag[i] <= tag[j]) continue; /* the other rank's row */
     const double s = a_first ? 1.0 : -1.0;
-    const double *F = &ft_buf_[9 * k], *Ti = &ft_buf_[9 * k + (a_first ? 3 : 6)];
+    const double *Ti = F + (a_first ? 3 : 6);
     const double del[3] = {s * dab[0], s * dab[1], s * dab[2]}; /* x_i - x_j */
     const double xj[3] = {x[i][0] - del[0], x[i][1] - del[1], x[i][2] - del[2]}; /* j as the stock list sees it */
     const double rsq = del[0] * del[0] + del[1] * del[1] + del[2] * del[2], r = std::sqrt(rsq);

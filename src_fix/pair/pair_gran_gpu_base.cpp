@@ -628,7 +628,7 @@ int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<doub
   if (!g) return -1;
   const int64_t cap = std::max<int64_t>(sphdem_dem_get_history(dem_, nullptr, nullptr, 0), 1); /* >= the touching */
   ij.resize(2 * cap);
-  ft.resize(9 * cap);
+  ft.resize(SPHDEM_DEM_CONTACT_DOUBLES * cap);
   hist.resize(SPHDEM_DEM_HIST_DOUBLES * cap);
   roll.resize(3 * cap);
   const int64_t k = sphdem_dem_contacts(dem_, g, cap, ij.data(), ft.data(), hist.data(), roll.data());
@@ -637,20 +637,6 @@ int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<doub
     return -1;
   }
   return k;
-}
-
-bool PairGranGPUBase::core_separation(int a, int b, double *del) const {
-  double **x = atom->x;
-  bool wrapped = false;
-  for (int d = 0; d < 3; d++) {
-    del[d] = x[a][d] - x[b][d];
-    if (prm_.periodic[d]) {
-      const double L = prm_.boxhi[d] - prm_.boxlo[d], w = del[d] - L * std::rint(del[d] / L);
-      wrapped |= w != del[d];
-      del[d] = w;
-    }
-  }
-  return wrapped;
 }
 
 void PairGranGPUBase::add_virial_atom() {
@@ -670,9 +656,7 @@ void PairGranGPUBase::add_virial_atom() {
   };
   for (int64_t k = 0; k < np; k++) {
     const int a = ij[2 * k], b = ij[2 * k + 1];
-    double del[3];
-    core_separation(a, b, del);
-    const double *F = &ft[9 * k];
+    const double *F = &ft[SPHDEM_DEM_CONTACT_DOUBLES * k], *del = F + 9; /* (x_a - x_b as the core took it) */
     const double v[6] = {del[0] * F[0], del[1] * F[1], del[2] * F[2], del[0] * F[1], del[0] * F[2], del[1] * F[2]};
     share(a, v);
     share(b, v);

@@ -30,8 +30,8 @@ class PairGranGPUBase : public Pair {
   double memory_usage() override;
   /* The touching pairs of two grains evaluated again with the atoms as they are now, nothing added and the history
    * not advanced (LIGGGHTS' compute pair/gran/local; sphdem_dem_contacts): per pair the atom indices (ij, 2 each:
-   * the core's grain order, own atoms then ghosts), the force on the first and the torques on the first and the
-   * second (ft, 9 each), the history (SPHDEM_DEM_HIST_DOUBLES each) and the rolling torques (roll, 3 each). This
+   * the core's grain order, own atoms then ghosts), the force on the first, the torques on the first and the
+   * second and x_first - x_second as the core took it (ft, SPHDEM_DEM_CONTACT_DOUBLES each), the history (SPHDEM_DEM_HIST_DOUBLES each) and the rolling torques (roll, 3 each). This
    * rank's pairs only. Returns their number, or -1 with err set. */
   int64_t contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
                        std::vector<double> &roll, std::string &err);
@@ -162,11 +162,6 @@ class PairGranGPUBase : public Pair {
    * where this rank alone evaluates the pair (newton on, split pairs once: the engine's reverse communication),
    * a periodic image's to the atom itself otherwise. */
   void add_virial_atom();
- public:
-  /* x_a - x_b of two atoms (core grains) as the core takes it: the minimum image along the axes it treats as
-   * periodic (one rank: the periodic axes; many ranks: those the ranks do not cut); true when that wrapped it */
-  bool core_separation(int a, int b, double *del) const;
- protected:
   bool last_once_ = false; /* the last evaluation gave split pairs' shares to the ghost rows (compute_grains) */
 };
 

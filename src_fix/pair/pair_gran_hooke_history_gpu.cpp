@@ -64,7 +64,7 @@ double PairGranHookeHistoryGPU::single(int i, int j, int, int, double rsq, doubl
   const double s = (uint64_t)atom->tag[single_ij_[2 * k]] == ti ? 1.0 : -1.0; /* the force on i */
   double **x = atom->x, **v = atom->v;
   const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
-  const double *F = &single_ft_[9 * k], fi[3] = {s * F[0], s * F[1], s * F[2]};
+  const double *F = &single_ft_[SPHDEM_DEM_CONTACT_DOUBLES * k], fi[3] = {s * F[0], s * F[1], s * F[2]};
   /* the normal force along del (ccel del), the rest tangential */
   const double ccel = (fi[0] * del[0] + fi[1] * del[1] + fi[2] * del[2]) / rsq;
   double fs[3], vn[3], vt[3];

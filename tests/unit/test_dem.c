@@ -1293,7 +1293,7 @@ static void test_contacts(void) {
     }
     const int64_t cap = 40 * (int64_t)n;
     int32_t *ab = malloc(sizeof(int32_t) * 2 * cap);
-    double *ft = malloc(sizeof(double) * 9 * cap), *hist = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * cap);
+    double *ft = malloc(sizeof(double) * SPHDEM_DEM_CONTACT_DOUBLES * cap), *hist = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * cap);
     double *roll = malloc(sizeof(double) * 3 * cap);
     const int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0);
     uint64_t *k0 = malloc(sizeof(uint64_t) * np), *k1 = malloc(sizeof(uint64_t) * np);
@@ -1303,11 +1303,15 @@ static void test_contacts(void) {
     TEST_ASSERT(nc > n, "contacts (%s): %lld touching pairs (rc %d: %s)", what, (long long)nc, rc, sphdem_dem_last_error(A));
     double *fs = calloc(3 * (size_t)n, sizeof(double)), *ts = calloc(3 * (size_t)n, sizeof(double));
     int64_t slid = 0, rolled = 0;
+    double dsep = 0; /* the separation given against the minimum image of x_a - x_b */
     for (int64_t k = 0; k < nc && k < cap; k++) {
       const int a = ab[2 * k], b = ab[2 * k + 1];
+      const double *c4 = ft + SPHDEM_DEM_CONTACT_DOUBLES * k;
       for (int d = 0; d < 3; d++) {
-        fs[3 * a + d] += ft[9 * k + d], fs[3 * b + d] -= ft[9 * k + d];
-        ts[3 * a + d] += ft[9 * k + 3 + d], ts[3 * b + d] += ft[9 * k + 6 + d];
+        fs[3 * a + d] += c4[d], fs[3 * b + d] -= c4[d];
+        ts[3 * a + d] += c4[3 + d], ts[3 * b + d] += c4[6 + d];
+        const double L = hi[d] - lo[d], s0 = g.x[3 * a + d] - g.x[3 * b + d];
+        dsep = fmax(dsep, fabs(c4[9 + d] - (s0 - L * rint(s0 / L))) / L);
       }
       const double *h = hist + SPHDEM_DEM_HIST_DOUBLES * k;
       slid += h[0] != 0.0 || h[1] != 0.0 || h[2] != 0.0;
@@ -1323,6 +1327,7 @@ static void test_contacts(void) {
     printf("  contacts (%s): %lld touching pairs (%lld with shear, %lld with rolling torque), summed per grain vs the "
            "step: force %.2e, torque %.2e of the largest\n", what, (long long)nc, (long long)slid, (long long)rolled,
            df / fmax, dtq / tmax);
+    TEST_ASSERT(dsep < 1e-15, "contacts (%s): separation %.3g of the box off the minimum image", what, dsep);
     TEST_ASSERT(slid > nc / 2 && (c != 3 || rolled > nc / 2), "contacts (%s): the history is not there (%lld, %lld)",
                 what, (long long)slid, (long long)rolled);
     TEST_ASSERT(df <= 1e-12 * fmax && (c == 3 || dtq <= 1e-12 * tmax), "contacts (%s): force %.3g, torque %.3g off the "
