@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <utility>
 
 #include "atom.h"
 #include "comm.h"
@@ -107,30 +108,30 @@ class ComputePairGranLocalGPU : public Compute {
  public:
   ComputePairGranLocalGPU(LAMMPS *lmp, int &iarg, int narg, char **arg) : Compute(lmp, iarg, narg, arg) {
     local_flag = 1;
+    const std::pair<const char *, int *> flags[] = {
+        {"pos", &pos_},       {"vel", &vel_},       {"id", &id_},          {"force", &f_},
+        {"force_normal", &fn_}, {"force_tangential", &ft_}, {"torque", &tq_}, {"torque_normal", &tqn_},
+        {"torque_tangential", &tqt_}, {"history", &hist_}, {"contactArea", &area_}, {"delta", &delta_},
+        {"contactPoint", &cp_}};
     bool any = false;
     for (; iarg < narg; iarg++) {
       const std::string kw = arg[iarg];
-      any |= kw != "verbose";
-      if (kw == "pos") pos_ = 1;
-      else if (kw == "vel") vel_ = 1;
-      else if (kw == "id") id_ = 1;
-      else if (kw == "force") f_ = 1;
-      else if (kw == "force_normal") fn_ = 1;
-      else if (kw == "force_tangential") ft_ = 1;
-      else if (kw == "torque") tq_ = 1;
-      else if (kw == "torque_normal") tqn_ = 1;
-      else if (kw == "torque_tangential") tqt_ = 1;
-      else if (kw == "history") hist_ = 1;
-      else if (kw == "contactArea") area_ = 1;
-      else if (kw == "delta") delta_ = 1;
-      else if (kw == "contactPoint") cp_ = 1;
-      else if (kw == "verbose") verbose_ = true;
-      else if (kw == "heatFlux" || kw == "ms_id")
+      if (kw == "verbose") {
+        verbose_ = true;
+        continue;
+      }
+      any = true;
+      if (kw == "heatFlux" || kw == "ms_id")
         bad(kw + " is not available with pair_style gran/gpu (" +
             (kw == "heatFlux" ? "fix heat/gran is not supported with it" : "fix multisphere is not supported with it") + ")");
-      else
-        bad("unknown keyword '" + kw + "' (pos, vel, id, force, force_normal, force_tangential, torque, torque_normal, "
-            "torque_tangential, history, contactArea, delta, contactPoint, verbose)");
+      int *flag = nullptr;
+      std::string names;
+      for (const auto &f : flags) {
+        if (kw == f.first) flag = f.second;
+        names += std::string(f.first) + ", ";
+      }
+      if (!flag) bad("unknown keyword '" + kw + "' (" + names + "verbose)");
+      *flag = 1;
     }
     if (!any) pos_ = vel_ = id_ = f_ = tq_ = hist_ = area_ = 1; /* the stock defaults */
     if (update->ntimestep > 0 && !modify->fix_restart_in_progress()) bad("define it before the first run (as the stock compute)");
