@@ -1130,14 +1130,72 @@ int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int
     }
     k++;
   }
-  rt_free(&m->rt, (void **)&rec, 0);
-  rt_free(&m->rt, (void **)&hs, 0);
-  rt_free(&m->rt, (void **)&rs, 0);
+  rt_free(&m->rt, (void **)&rec, sizeof(double) * nr * (size_t)np);
+  rt_free(&m->rt, (void **)&hs, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)np);
+  rt_free(&m->rt, (void **)&rs, sizeof(double) * 3 * (size_t)np);
   free(hrec);
   free(pa);
   free(hh);
   free(hr);
   return rc ? -rc : k;
+}
+
+int sphdem_dem_heat(sphdem_dem m, sphdem_grain_store g, const double *temp, const double *cond, const int *member,
+                    int area, double area_value, double *heat, double *dheat) {
+  if (!m) return SPHDEM_ERR_ARG;
+  if (area != SPHDEM_DEM_HEAT_AREA_OVERLAP && area != SPHDEM_DEM_HEAT_AREA_PROJECTION &&
+      area != SPHDEM_DEM_HEAT_AREA_CONSTANT)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "heat: area %d is not one of overlap (%d), projection (%d), constant "
+                           "(%d)", area, SPHDEM_DEM_HEAT_AREA_OVERLAP, SPHDEM_DEM_HEAT_AREA_PROJECTION,
+                           SPHDEM_DEM_HEAT_AREA_CONSTANT);
+  if (area == SPHDEM_DEM_HEAT_AREA_CONSTANT && !(area_value > 0.0 && isfinite(area_value)))
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "heat: the constant contact area must be > 0 (got %g)", area_value);
+  dem_dev *D = &m->D;
+  int rc = sphdem_grains_check(g, &m->rt, m->backend, 0, NULL, "dem_heat");
+  if (rc) return rc;
+  const int64_t n = g->have ? g->nown + g->nghost : 0, np = m->nbuilds ? D->np : 0;
+  if (!m->tags_valid || n != D->n)
+    return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "heat: %lld grains given, the last evaluation had %lld (evaluate the "
+                           "forces of these grains first)", (long long)n, (long long)D->n);
+  if (n > 0 && (!temp || !cond || !heat)) return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "heat: temp, cond and heat are needed");
+  for (int64_t i = 0; i < n; i++)
+    if (!(cond[i] >= 0.0 && isfinite(cond[i])))
+      return sphdem_dem_fail(m, SPHDEM_ERR_ARG, "heat: conductivity %g of grain %lld (must be finite and >= 0)",
+                             cond[i], (long long)i);
+  for (int64_t i = 0; i < n; i++) heat[i] = 0.0;
+  if (dheat)
+    for (int64_t i = 0; i < 3 * n; i++) dheat[i] = 0.0;
+  if (np == 0) return SPHDEM_OK;
+  rc = sphdem_grains_device(g, &m->rt);
+  if (rc) return rc;
+  /* on the backend's memory: temperature, conductivity, the sums (zeroed) */
+  double *dT = NULL, *dk = NULL, *dq = NULL, *ddq = NULL;
+  int *dm = NULL;
+  const size_t bn = sizeof(double) * (size_t)n;
+  rc = rt_alloc(&m->rt, (void **)&dT, bn);
+  if (!rc) rc = rt_alloc(&m->rt, (void **)&dk, bn);
+  if (!rc) rc = rt_alloc(&m->rt, (void **)&dq, bn);
+  if (!rc && dheat) rc = rt_alloc(&m->rt, (void **)&ddq, 3 * bn);
+  if (!rc && member) rc = rt_alloc(&m->rt, (void **)&dm, sizeof(int) * (size_t)n);
+  if (!rc && member) rc = rt_h2d(&m->rt, dm, member, sizeof(int) * (size_t)n);
+  if (!rc) rc = rt_h2d(&m->rt, dT, temp, bn);
+  if (!rc) rc = rt_h2d(&m->rt, dk, cond, bn);
+  if (!rc) rc = rt_zero(&m->rt, dq, bn);
+  if (!rc && ddq) rc = rt_zero(&m->rt, ddq, 3 * bn);
+  if (!rc) {
+    const dem_dev keep = *D;
+    D->x = g->dx, D->rad = g->drad;
+    rc = m->ops->heat(m, dT, dk, dm, area, area_value, dq, ddq);
+    *D = keep;
+  }
+  if (!rc) rc = rt_d2h(&m->rt, heat, dq, bn);
+  if (!rc && ddq) rc = rt_d2h(&m->rt, dheat, ddq, 3 * bn);
+  rt_free(&m->rt, (void **)&dT, bn);
+  rt_free(&m->rt, (void **)&dk, bn);
+  rt_free(&m->rt, (void **)&dq, bn);
+  rt_free(&m->rt, (void **)&ddq, 3 * bn);
+  rt_free(&m->rt, (void **)&dm, sizeof(int) * (size_t)n);
+  return rc;
 }
 
 int sphdem_dem_debug_history(sphdem_dem m, int64_t ta, int64_t tb, double hist[4]) {

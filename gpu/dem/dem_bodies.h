@@ -1081,6 +1081,38 @@ SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec)
   }
 }
 
+/* Heat conduction through contact p (sphdem_dem_heat; LIGGGHTS fix heat/gran/conduction): where the two grains of
+ * the pair touch, the contact area A (area SPHDEM_DEM_HEAT_AREA_OVERLAP: the circle where the two spheres
+ * intersect, pi a^2 with a^2 = -(r - ra - rb)(r + ra - rb)(r - ra + rb)(r + ra + rb) / (4 r^2), or the smaller
+ * grain's cross-section where it lies within the other (r <= |ra - rb|); PROJECTION: the
+ * larger grain's cross-section; CONSTANT: A0), the conductance h = 4 ka kb / (ka + kb) sqrt(A) (the harmonic mean
+ * of the two conductivities; 0 where one is 0) and the heat flow Q = h (T_b - T_a) into a, out of b. q gets +Q at
+ * a and -Q at b; dq (3 per grain, may be NULL) gets Q (x_a - x_b) / 2 at both. Walls take no part, nor a pair
+ * of two grains with member 0 (member NULL: every grain is one). */
+SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member,
+                             int area, double A0, double *q, double *dq) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  double del[3], rsq, rb, radsum;
+  if (b < 0 || (member && !member[a] && !member[b]) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) return;
+  const double ra = D->rad[a];
+  double A = A0;
+  if (area == SPHDEM_DEM_HEAT_AREA_OVERLAP) /* a grain within the other (no such circle): the smaller's section */
+    A = rsq > (ra - rb) * (ra - rb) ? -M_PI / 4 * ((rsq - (ra + rb) * (ra + rb)) * (rsq - (ra - rb) * (ra - rb))) / rsq
+                                    : M_PI * (ra < rb ? ra * ra : rb * rb);
+  else if (area == SPHDEM_DEM_HEAT_AREA_PROJECTION)
+    A = M_PI * (ra > rb ? ra * ra : rb * rb);
+  const double ka = k[a], kb = k[b], ks = ka + kb;
+  const double h = (ka > 0.0 && kb > 0.0) ? 4.0 * ka * kb / ks * sqrt(A) : 0.0;
+  const double Q = (T[b] - T[a]) * h;
+  dem_add(&q[a], Q);
+  dem_add(&q[b], -Q);
+  if (dq)
+    for (int d = 0; d < 3; d++) {
+      dem_add(&dq[3 * a + d], 0.5 * Q * del[d]);
+      dem_add(&dq[3 * b + d], 0.5 * Q * del[d]);
+    }
+}
+
 /* The sums of grain i: its force and torque, and its share of the virial (atomic, nonzero terms only). */
 SPHDEM_HD void dem_store_grain(const dem_dev *D, int64_t i, const double *f, const double *t, const double *vs) {
   for (int d = 0; d < 3; d++) {

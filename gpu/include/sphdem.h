@@ -671,6 +671,21 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
 #define SPHDEM_DEM_CONTACT_DOUBLES 12 /* per contact of sphdem_dem_contacts: F_a, T_a, T_b, x_a - x_b */
 int64_t sphdem_dem_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
                             double *roll);
+/* Heat conduction through the contacts (LIGGGHTS fix heat/gran/conduction): for every touching pair of two grains
+ * of the current pair list, with the grains of g (those of the last sphdem_dem_compute(_store), in the same order),
+ * the heat flow Q = h (T_b - T_a) into a and out of b, h = 4 k_a k_b / (k_a + k_b) sqrt(A) (0 where a conductivity
+ * is 0), A the contact area: SPHDEM_DEM_HEAT_AREA_OVERLAP the circle where the two spheres intersect (the smaller
+ * grain's cross-section where it lies within the other), PROJECTION
+ * pi max(r_a, r_b)^2, CONSTANT area_value. temp and cond: per grain (own then ghosts, as g); member (per grain,
+ * may be NULL: all): a pair of two grains with member 0 is left out (LIGGGHTS' fix group); heat (n) is
+ * overwritten with each grain's sum of Q; dheat (3n, may be NULL) with the sum of Q (x_a - x_b) / 2 over its
+ * contacts (x_a - x_b the minimum image along the axes the context treats as periodic). Walls take no part. A pair
+ * with another rank's grain adds to that grain's row too (the caller drops it or sends it on, as the forces). */
+#define SPHDEM_DEM_HEAT_AREA_OVERLAP 0
+#define SPHDEM_DEM_HEAT_AREA_PROJECTION 1
+#define SPHDEM_DEM_HEAT_AREA_CONSTANT 2
+int sphdem_dem_heat(sphdem_dem dem, sphdem_grain_store g, const double *temp, const double *cond, const int *member,
+                    int area, double area_value, double *heat, double *dheat);
 /* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls
  * 0xffffffff - w) and SPHDEM_DEM_HIST_DOUBLES doubles per pair. get: returns the pair count; writes
  * at most max pairs (keys/hist may be NULL with max 0 to ask the count). set: the given list (any

@@ -17,11 +17,15 @@
 #include "domain.h"
 #include "fix.h"
 #include "fix_check_timestep_gran.h"
+#include "fix_heat_gran_conduction.h"
+#include "fix_property_atom.h"
 #include "fix_property_global.h"
+#include "fix_scalar_transport_equation.h"
 #include "force.h"
 #include "memory.h"
 #include "modify.h"
 #include "neighbor.h"
+#include "properties.h"
 #include "pair_gran_gpu_register.h"
 #include "sphdem_compat.h"
 #include "update.h"
@@ -44,8 +48,6 @@ struct Refused {
 };
 const Refused kRefused[] = {
     {"contact/atom/gran", 1, "it reads the contact list of the stock pair style gran (compute contact/atom works)"},
-    {"heat/gran", 0, "it needs the per-contact data of the stock pair style gran"},
-    {"heat/gran/conduction", 0, "it needs the per-contact data of the stock pair style gran"},
     {"contactproperty/atom", 0, "it stores per-contact data of the stock pair style gran"},
     {"continuum/weighted", 0, "it needs the contact forces of the stock pair style gran"},
     {"fiber/spring/simple", 0, "it needs the stock pair style gran"},
@@ -96,6 +98,76 @@ class FixCheckTimestepGranGPU : public FixCheckTimestepGran {
   }
 };
 Fix *check_timestep_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new FixCheckTimestepGranGPU(lmp, narg, arg); }
+
+/* fix heat/gran and heat/gran/conduction: the stock fix (its keywords, the transport equation it sets up, the
+ * heat exchanged with walls by fix wall/gran), with the conduction between grains computed by the DEM core from
+ * its contacts (sphdem_dem_heat) when the pair style is gran/gpu; with another pair style it is the stock fix. The
+ * stock fix reads the stock style's neighbour and history lists, which gran/gpu does not have. */
+class FixHeatGranCondGPU : public FixHeatGranCond {
+ public:
+  FixHeatGranCondGPU(LAMMPS *lmp, int narg, char **arg) : FixHeatGranCond(lmp, narg, arg) {}
+  void init() override {
+    gpu_ = uses_gran_gpu(lmp);
+    if (!gpu_) {
+      FixHeatGranCond::init();
+      return;
+    }
+    /* the stock checks and look-ups, without the stock pair style */
+    if (modify->n_fixes_style(style) > 1) error->fix_error(FLERR, this, "cannot have more than one fix of this style");
+    if (area_correction_flag_)
+      error->fix_error(FLERR, this, "'area_correction yes' is not supported with pair_style gran/gpu (use 'no')");
+    pair_gran = nullptr;
+    history_flag = 1;
+    fix_ste = modify->find_fix_scalar_transport_equation("heattransfer");
+    if (!fix_ste) error->fix_error(FLERR, this, "needs a fix transportequation/scalar to work with");
+    fix_temp = static_cast<FixPropertyAtom *>(modify->find_fix_property("Temp", "property/atom", "scalar", 0, 0, style));
+    fix_heatFlux =
+        static_cast<FixPropertyAtom *>(modify->find_fix_property("heatFlux", "property/atom", "scalar", 0, 0, style));
+    fix_heatSource =
+        static_cast<FixPropertyAtom *>(modify->find_fix_property("heatSource", "property/atom", "scalar", 0, 0, style));
+    fix_directionalHeatFlux = static_cast<FixPropertyAtom *>(
+        modify->find_fix_property("directionalHeatFlux", "property/atom", "vector", 0, 0, style));
+    const int nt = atom->get_properties()->max_type();
+    FixPropertyGlobal *k = static_cast<FixPropertyGlobal *>(
+        modify->find_fix_property("thermalConductivity", "property/global", "peratomtype", nt, 0, style));
+    k_type_.assign(nt + 1, 0.0);
+    for (int t = 1; t <= nt; t++) {
+      k_type_[t] = k->compute_vector(t - 1);
+      if (!(k_type_[t] >= 0.0))
+        error->fix_error(FLERR, this, "thermalConductivity must not be < 0 (pair_style gran/gpu)");
+    }
+    updatePtrs();
+  }
+  void post_force(int vflag) override {
+    if (!gpu_) {
+      FixHeatGranCond::post_force(vflag);
+      return;
+    }
+    updatePtrs();
+    const int nall = atom->nlocal + atom->nghost, *type = atom->type;
+    k_.resize(std::max(nall, 1));
+    for (int i = 0; i < nall; i++) k_[i] = type[i] >= 1 && type[i] < (int)k_type_.size() ? k_type_[type[i]] : 0.0;
+    /* a contact of two grains outside the group conducts nothing (the stock fix skips it) */
+    const int *mask = atom->mask;
+    if (igroup != 0) {
+      member_.resize(std::max(nall, 1));
+      for (int i = 0; i < nall; i++) member_[i] = (mask[i] & groupbit) != 0;
+    }
+    const int area = area_calculation_mode_ == 1 ? SPHDEM_DEM_HEAT_AREA_CONSTANT    /* stock CONSTANT */
+                     : area_calculation_mode_ == 2 ? SPHDEM_DEM_HEAT_AREA_PROJECTION /* stock PROJECTION */
+                                                   : SPHDEM_DEM_HEAT_AREA_OVERLAP;
+    std::string err;
+    if (!static_cast<PairGranGPUBase *>(force->pair)
+             ->heat_now(Temp, k_.data(), igroup != 0 ? member_.data() : nullptr, area, fixed_contact_area_, heatFlux, directionalHeatFlux, err))
+      error->one(FLERR, (std::string("Fix ") + style + " with pair_style gran/gpu: " + err).c_str());
+  }
+
+ private:
+  bool gpu_ = false;
+  std::vector<double> k_type_, k_; /* conductivity per type (1..), per atom of the step */
+  std::vector<int> member_;        /* per atom of the step: in the fix group */
+};
+Fix *heat_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new FixHeatGranCondGPU(lmp, narg, arg); }
 
 /* compute pair/gran/local with pair_style gran/gpu: the stock keywords and columns, one row per touching pair of two
  * grains, the contacts evaluated again by the DEM core with the atoms as they are at the output (as the stock
@@ -534,6 +606,8 @@ void sphdem_register_pair_gran_gpu(LAMMPS *lmp) {
   sphdem_compat::FixCreatorMap &fixes = *sphdem_compat::fix_map(lmp->modify);
   sphdem_compat::ComputeCreatorMap &computes = *sphdem_compat::compute_map(lmp->modify);
   fixes["check/timestep/gran"] = &check_timestep_gran_creator;
+  fixes["heat/gran"] = &heat_gran_creator;
+  fixes["heat/gran/conduction"] = &heat_gran_creator;
   auto pgl = computes.find("pair/gran/local");
   if (pgl != computes.end() && pgl->second != &pair_gran_local_creator) {
     g_stock_compute["pair/gran/local"] = pgl->second;

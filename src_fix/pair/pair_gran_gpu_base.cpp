@@ -639,6 +639,38 @@ int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<doub
   return k;
 }
 
+bool PairGranGPUBase::heat_now(const double *temp, const double *cond, const int *member, int area, double area_value,
+                               double *heat, double **dir, std::string &err) {
+  if (!dem_) {
+    err = "the pair style has evaluated no forces yet";
+    return false;
+  }
+  if (last_once_) {
+    err = "heat conduction needs every rank to evaluate its split pairs (newton off)";
+    return false;
+  }
+  const int nlocal = atom->nlocal, n = ghosts_ ? nlocal + atom->nghost : nlocal;
+  sphdem_grain_store g = grains_.put_atoms(lmp, sphdem_dem_backend(dem_), nlocal, n - nlocal, err);
+  if (!g) return false;
+  heat_q_.resize(std::max(n, 1));
+  heat_dq_.resize(dir ? 3 * std::max(n, 1) : 0);
+  if (sphdem_dem_heat(dem_, g, temp, cond, member, area, area_value, heat_q_.data(), dir ? heat_dq_.data() : nullptr)) {
+    err = sphdem_dem_last_error(dem_);
+    return false;
+  }
+  for (int i = 0; i < n; i++) {
+    int o = i;
+    if (i >= nlocal) {
+      o = image_of_[i - nlocal]; /* a periodic image of an own atom, or another rank's atom (< 0) */
+      if (o < 0) continue;
+    }
+    heat[o] += heat_q_[i];
+    if (dir)
+      for (int d = 0; d < 3; d++) dir[o][d] += heat_dq_[3 * i + d];
+  }
+  return true;
+}
+
 void PairGranGPUBase::add_virial_atom() {
   std::string err;
   std::vector<int32_t> ij;

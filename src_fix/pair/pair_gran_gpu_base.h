@@ -35,6 +35,13 @@ class PairGranGPUBase : public Pair {
    * rank's pairs only. Returns their number, or -1 with err set. */
   int64_t contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
                        std::vector<double> &roll, std::string &err);
+  /* Heat conduction through the touching pairs of two grains (sphdem_dem_heat; LIGGGHTS fix heat/gran/conduction):
+   * temp, cond and member (may be NULL) per atom (own atoms and ghosts), area one of SPHDEM_DEM_HEAT_AREA_* (area_value for CONSTANT).
+   * Each own atom's heat flow is added to heat[i] and its directional flux to dir[i] (may be NULL); a periodic
+   * image's share goes to the atom it is an image of; another rank's atom's share is left to that rank, which
+   * evaluates the pair too. Returns false with err set. */
+  bool heat_now(const double *temp, const double *cond, const int *member, int area, double area_value, double *heat,
+                double **dir, std::string &err);
 
  protected:
   std::string style_;       /* the style name, for messages */
@@ -162,6 +169,7 @@ class PairGranGPUBase : public Pair {
    * where this rank alone evaluates the pair (newton on, split pairs once: the engine's reverse communication),
    * a periodic image's to the atom itself otherwise. */
   void add_virial_atom();
+  std::vector<double> heat_q_, heat_dq_; /* heat_now: the core's sums per atom */
   bool last_once_ = false; /* the last evaluation gave split pairs' shares to the ghost rows (compute_grains) */
 };
 

@@ -22,7 +22,15 @@
                settling on a frozen periodic row, 20000 steps (positions < 1e-9 d, settled: KE below 1e-3
                of its peak, every grain resting on overlapping contacts); the material errors; a
                write_restart/read_restart continuation equal to the unbroken run (1e-9)
-  refused_liggghts LIG  compute contact/atom/gran, fix heat/gran, fix multisphere stop naming themselves
+  refused_liggghts LIG  compute contact/atom/gran, fix contactproperty/atom (given before the pair style), fix
+               multisphere stop naming themselves
+  heat_liggghts LIG [MPIEXEC]  fix heat/gran with gran/gpu: two touching grains at rest exchange heat as the
+               analytic conductance says (h = 2 k sqrt(A), A the circle where the spheres intersect: the temperature
+               difference within 1e-12 of (1 - 2 h dt / (m c))^n, the explicit transport step, and within 1e-3 of
+               its exponential; total heat kept to 1e-12); a thrown lattice bed, hot below: temperature, heat flux
+               and directional heat flux of every grain within 1e-10 of the stock style's (largest value) after 1500
+               steps, contact areas overlap, projection, constant, a fix group of half the grains; on 2 ranks cut
+               along z and along x; area_correction and a negative conductivity stop naming themselves
   pair_local_lammps LMP [MPIEXEC]  compute pair/local with gran/hertz|hooke/history/gpu: the stock rows (dist,
                force, fx..fz, the 10 single() values) within 1e-10 of each column's largest value, newton
                off and on, 1 and 2 ranks
@@ -806,10 +814,9 @@ def refused_liggghts(lig):
     ERROR naming them (given after pair_style: when created; before it: at the run's init)"""
     base = lig_script("headon", "gran/gpu", "model hertz tangential history")
     after = "pair_coeff * *\n"
-    heat = ("fix m7 all property/global thermalConductivity peratomtype 1.\n"
-            "fix m8 all property/global thermalCapacity peratomtype 10.\nfix heat all heat/gran initial_temperature 300\n")
     cases = [("compute contact/atom/gran", base.replace(after, after + "compute c all contact/atom/gran\n")),
-             ("fix heat/gran", base.replace("pair_style gran/gpu", heat + "pair_style gran/gpu")),
+             ("fix contactproperty/atom", base.replace("pair_style gran/gpu", "fix cp all contactproperty/atom cp 1 c 0\n"
+                                                       "pair_style gran/gpu")),
              ("fix multisphere", base.replace(after, after + "fix ms all multisphere\n"))]
     ok = True
     for k, (what, text) in enumerate(cases):
@@ -822,6 +829,159 @@ def refused_liggghts(lig):
     stock = lig_script("headon", "gran", "model hertz tangential history")
     return ok and excluded(lig, (stock.replace(after, after + ex), base.replace(after, after + ex), stock),
                            "dem_refused_lig/exclude", "gran/gpu")
+
+
+# fix heat/gran with gran/gpu. HEAT_TWO: two touching grains at rest (no integration of the motion), one hot; the fix
+# given before the pair style
+HEAT_TWO = """units si
+atom_style granular
+boundary f f f
+newton off
+atom_modify map array sort 0 0
+communicate single vel yes
+region box block -0.05 0.05 -0.05 0.05 -0.05 0.05 units box
+create_box 1 box
+neighbor 0.002 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 5e6
+fix m2 all property/global poissonsRatio peratomtype 0.45
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.7
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+fix m5 all property/global thermalConductivity peratomtype {k}
+fix m6 all property/global thermalCapacity peratomtype {c}
+fix heat all heat/gran initial_temperature 300
+pair_style {style}
+pair_coeff * *
+create_atoms 1 single -{half} 0 0 units box
+create_atoms 1 single {half} 0 0 units box
+set atom * diameter {d}
+set atom * density {rho}
+compute T all reduce sum f_Temp
+timestep {dt}
+thermo_style custom step f_heat c_T
+run 0
+set atom 1 property/atom Temp 400.0
+thermo {steps}
+run {steps}
+dump d all custom 1 two.dump id f_Temp f_heatFlux
+dump_modify d sort id format "%d %.17g %.17g"
+run 0
+"""
+
+
+def last_atoms(path):
+    """id -> the other columns of the last snapshot of a dump custom file"""
+    with open(path) as f:
+        last = f.read().split("ITEM: ATOMS")[-1].split("\n")[1:]
+    return {int(l.split()[0]): [float(w) for w in l.split()[1:]] for l in last if l.strip()}
+
+
+def heat_bed_script(style, fixargs="", group="all", extra="", capacity=0.02):
+    """the lattice bed of compute pair/gran/local (periodic x and y, a floor), thrown about, hot below"""
+    text = PGL_LIG.split("compute pgl")[0].replace("pair_style {style}", "pair_style " + style)
+    text = text.replace("fix m11 all", "fix m12 all property/global thermalConductivity peratomtype 5.\n"
+                        "fix m13 all property/global thermalCapacity peratomtype %g\nfix m11 all" % capacity)
+    return (text + extra + "fix heat %s heat/gran initial_temperature 300 %s\n" % (group, fixargs) +
+            "region hot block INF INF INF INF INF 0.025 units box\n"
+            "timestep 1e-6\nthermo 500\nrun 0\nset region hot property/atom Temp 600.0\nrun 1500\n"
+            "dump d all custom 1 heat.dump id x y z f_Temp f_heatFlux f_directionalHeatFlux[1] "
+            "f_directionalHeatFlux[2] f_directionalHeatFlux[3]\n"
+            "dump_modify d sort id format \"%d" + " %.17g" * 8 + "\"\nrun 0\n")
+
+
+def heat_liggghts(lig, mpiexec=None):
+    """fix heat/gran with gran/gpu (module text above)"""
+    ok = True
+    # two grains: d 10 mm at 9.9 mm, k 5 W/(m K), c 0.5 J/(kg K), 2500 kg/m^3
+    d, r, k, c, rho, dt, steps = 0.01, 0.0099, 5.0, 0.5, 2500.0, 1e-5, 4000
+    a2 = (d / 2) ** 2 - (r / 2) ** 2               # the radius^2 of the circle where the spheres intersect
+    h = 4 * k * k / (k + k) * math.sqrt(math.pi * a2)
+    m = rho * math.pi * d ** 3 / 6
+    lam = 2 * h / (m * c)                            # d(T1 - T2)/dt = -lam (T1 - T2)
+    exact_step = 100.0 * (1 - lam * dt) ** steps
+    exact = 100.0 * math.exp(-lam * dt * steps)
+    for style in ("gran/gpu", "gran"):
+        wd = os.path.join("dem_heat_lig", "two_" + style.replace("/", "_"))
+        rc, out = run([lig], wd, HEAT_TWO.format(style=style + " model hertz tangential history", k=k, c=c, d=d,
+                                                 rho=rho, half=r / 2, dt=dt, steps=steps))
+        if rc != 0 or "ERROR" in out:
+            print("FAIL fix heat/gran, two grains, %s: rc %d\n%s" % (style, rc, out[-1500:]))
+            return False
+        T = {i: v[0] for i, v in last_atoms(os.path.join(wd, "two.dump")).items()}
+        diff = T[1] - T[2]
+        heat0 = heat1 = None
+        for line in out.split("\n"):
+            w = line.split()
+            if len(w) == 3 and w[0] in ("0", str(steps)) and re.match(r"^-?[0-9.eE+-]+$", w[1]):
+                if w[0] == "0" and heat0 is None:
+                    heat0 = float(w[2])
+                if w[0] == str(steps):
+                    heat1 = float(w[2])
+        good = (abs(diff - exact_step) < 1e-12 * 100 and abs(diff - exact) < 1e-3 * abs(exact) and
+                heat1 is not None and abs(heat1 - 700.0) < 1e-12 * 700 and exact < 60)
+        print("%s fix heat/gran, two grains at rest, %s: T1 - T2 = %.15g after %d steps; the explicit step gives "
+              "%.15g (difference %.2g), the exponential %.15g (%.2g relative); sum of T %.15g (700)" %
+              ("PASS" if good else "FAIL", style, diff, steps, exact_step, diff - exact_step, exact,
+               (diff - exact) / exact, heat1 if heat1 is not None else float("nan")))
+        ok &= good
+    # the bed: stock gran against gran/gpu
+    model = "model hertz tangential history"
+    # (the thermal capacity puts the exchange of each contact area in the same range: the projection's area is
+    # about 250 times the overlap's here)
+    cases = [("contact_area overlap", "", "all", 1, None, 0.02), ("contact_area projection", "", "all", 1, None, 0.3),
+             ("contact_area constant 2e-6", "", "all", 1, None, 0.05),
+             ("", "group half id <= 100\n", "half", 1, None, 0.02)]
+    if mpiexec:
+        cases += [("", "", "all", 2, None, 0.02), ("", "", "all", 2, "2 1 1", 0.02)]
+    for fixargs, extra, group, np, grid, capacity in cases:
+        res = {}
+        for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
+            wd = os.path.join("dem_heat_lig", "bed_%s_%s_%d%s" % (fixargs.replace(" ", "_") or "default", group, np,
+                                                                  "_x" if grid else ""), tag)
+            text = heat_bed_script(style + " " + model, fixargs, group, extra, capacity)
+            if grid:
+                text = text.replace("newton off\n", "newton off\nprocessors %s\n" % grid)
+            cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lig] if np > 1 else [lig]
+            rc, out = run(cmd, wd, text)
+            if rc != 0 or "ERROR" in out:
+                print("FAIL fix heat/gran, bed, %s %s: rc %d\n%s" % (style, fixargs, rc, out[-1500:]))
+                return False
+            res[tag] = last_atoms(os.path.join(wd, "heat.dump"))
+        a, b = res["stock"], res["gpu"]
+        same_ids = set(a) == set(b)
+        worst = {}
+        for name, cols in (("x", (0, 1, 2)), ("T", (3,)), ("heat flux", (4,)), ("directional", (5, 6, 7))):
+            scale = max(abs(a[i][col]) for i in a for col in cols) or 1e-300
+            if name == "T":
+                scale = max(a[i][3] for i in a) - min(a[i][3] for i in a)
+            worst[name] = max(abs(a[i][col] - b[i][col]) for i in a for col in cols) / scale if same_ids else 1.0
+        hot = [a[i][3] for i in a if a[i][3] > 450]
+        cold = [a[i][3] for i in a if a[i][3] <= 450]
+        # the heat moved: the hot grains cooled by more than 5 K on average, the cold ones warmed
+        moved = bool(hot and cold) and sum(hot) / len(hot) < 595 and sum(cold) / len(cold) > 300.5
+        good = same_ids and moved and all(v < 1e-10 for v in worst.values())
+        print("%s fix heat/gran %s (group %s), %d rank(s)%s: %d grains, hot %.2f K and cold %.2f K on average; "
+              "gran/gpu vs gran: %s (bound 1e-10)" % (
+                  "PASS" if good else "FAIL", fixargs or "(default area)", group, np,
+                  " (processors %s)" % grid if grid else "", len(b), sum(hot) / max(len(hot), 1),
+                  sum(cold) / max(len(cold), 1), ", ".join("%s %.2g" % kv for kv in worst.items())))
+        ok &= good
+    # bad input
+    bad = [("fix heat all heat/gran initial_temperature 300 area_correction yes", "",
+            "'area_correction yes' is not supported with pair_style gran/gpu"),
+           ("", "fix m12 all property/global thermalConductivity peratomtype -1.\n",
+            "thermalConductivity must not be < 0")]
+    for k2, (fixline, extra, want) in enumerate(bad):
+        text = heat_bed_script("gran/gpu " + model, "", "all", "")
+        if fixline:
+            text = text.replace("fix heat all heat/gran initial_temperature 300 \n", fixline + "\n")
+        if extra:
+            text = text.replace("fix m12 all property/global thermalConductivity peratomtype 5.\n", extra)
+        rc, out = run([lig], os.path.join("dem_heat_lig", "bad%d" % k2), text)
+        good = rc != 0 and want in out and "ERROR" in out
+        print("fix heat/gran, %s: %s" % (want, "stops naming it" if good else "FAIL\n" + out[-800:]))
+        ok &= good
+    return ok
 
 
 # compute pair/gran/local: a periodic lattice bed of 245 grains overlapping by 0.2 % of d (also through the
@@ -1202,7 +1362,7 @@ MODES = {
     "pgl_liggghts": pgl_liggghts, "pair_local_lammps": pair_local_lammps,
     "stress_atom_lammps": stress_atom_lammps,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
-    "hysteresis_liggghts": hysteresis_liggghts,
+    "hysteresis_liggghts": hysteresis_liggghts, "heat_liggghts": heat_liggghts,
     "example": example, "errors": errors,
 }
 MODES.update({mode: (lambda lig, scene=scene: pour_liggghts(lig, scene=scene)) for mode, scene in POUR_SCENES.items()})

@@ -1414,6 +1414,130 @@ static void test_exclusions(void) {
   free_grains(&g);
 }
 
+/* Heat conduction through the contacts (sphdem_dem_heat). Two grains of unequal radii: the heat flow of each contact
+ * area against its analytic value (the overlap's circle radius from the two spheres' intersection, a^2 = r_a^2 - ((r^2
+ * + r_a^2 - r_b^2) / 2r)^2, a formula other than the one the core uses), within 1e-14. A periodic packing of 600
+ * grains (some lie within others) with random temperatures and conductivities (some 0) and half the grains outside the
+ * group: every grain's
+ * heat and directional heat against a sum over all pairs of grains by the minimum image (within 1e-12 of the
+ * largest), the heat summing to zero (1e-13 of the sum of |Q|). Bad input names itself. */
+static void test_heat(void) {
+  char msg[256];
+  { /* two grains */
+    const double lo[3] = {-2, -2, -2}, hi[3] = {2, 2, 2}, ra = 0.5, rb = 0.3, r = 0.7;
+    sphdem_dem_params p = hertz_params(0.05, -1, lo, hi, 0);
+    sphdem_dem A = make(&p);
+    int64_t tag[2] = {1, 2};
+    double x[6] = {0.1, 0.2, 0.3, 0.1 + r * 0.6, 0.2 - r * 0.8, 0.3}, v[6] = {0}, om[6] = {0};
+    double rad[2] = {ra, rb}, mass[2] = {1, 1}, f[6], t[6];
+    sphdem_grain_store st = NULL;
+    int rc = sphdem_grains_create(&st, test_device(), msg, sizeof msg);
+    int64_t stamp[SPHDEM_GRAINS_STAMP] = {1, 0, 0, 0, 0, 0};
+    rc |= sphdem_grains_put(st, stamp, 2, 0, x, v, om, rad, mass);
+    rc |= sphdem_dem_compute_store(A, st, tag, NULL, 1e-5, 0, f, t, NULL);
+    const double T[2] = {300, 400}, k[2] = {2, 3}, hk = 4 * 2 * 3 / 5.0;
+    const double c = (r * r + ra * ra - rb * rb) / (2 * r), a2 = ra * ra - c * c;
+    const double areas[3] = {M_PI * a2, M_PI * ra * ra, 0.1};
+    const char *names[3] = {"overlap", "projection", "constant"};
+    const int modes[3] = {SPHDEM_DEM_HEAT_AREA_OVERLAP, SPHDEM_DEM_HEAT_AREA_PROJECTION, SPHDEM_DEM_HEAT_AREA_CONSTANT};
+    for (int m = 0; m < 3 && !rc; m++) {
+      double q[2], dq[6];
+      rc = sphdem_dem_heat(A, st, T, k, NULL, modes[m], 0.1, q, dq);
+      const double Q = hk * sqrt(areas[m]) * (T[1] - T[0]);
+      double err = fmax(fabs(q[0] - Q), fabs(q[1] + Q)) / Q;
+      for (int d = 0; d < 3; d++)
+        err = fmax(err, fmax(fabs(dq[d] - 0.5 * Q * (x[d] - x[3 + d])), fabs(dq[3 + d] - 0.5 * Q * (x[d] - x[3 + d]))) / (Q * r));
+      printf("  heat, two grains, area %s: Q = %.15g (analytic %.15g), largest difference %.2g\n", names[m], q[0], Q, err);
+      TEST_ASSERT(!rc && err < 1e-14, "heat (%s): %.3g off the analytic flow (rc %d: %s)", names[m], err, rc,
+                  sphdem_dem_last_error(A));
+    }
+    /* bad input */
+    double q[2];
+    const double kneg[2] = {2, -1};
+    rc = sphdem_dem_heat(A, st, T, k, NULL, 7, 0.1, q, NULL);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "area 7"), "heat: bad area mode (%s)",
+                sphdem_dem_last_error(A));
+    rc = sphdem_dem_heat(A, st, T, k, NULL, SPHDEM_DEM_HEAT_AREA_CONSTANT, 0.0, q, NULL);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "constant contact area"), "heat: area 0 (%s)",
+                sphdem_dem_last_error(A));
+    rc = sphdem_dem_heat(A, st, T, kneg, NULL, SPHDEM_DEM_HEAT_AREA_OVERLAP, 0.0, q, NULL);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "conductivity -1"), "heat: negative k (%s)",
+                sphdem_dem_last_error(A));
+    stamp[0] = 2;
+    sphdem_grains_put(st, stamp, 1, 0, x, v, om, rad, mass);
+    rc = sphdem_dem_heat(A, st, T, k, NULL, SPHDEM_DEM_HEAT_AREA_OVERLAP, 0.0, q, NULL);
+    TEST_ASSERT(rc == SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "1 grains given"), "heat: grain count (%s)",
+                sphdem_dem_last_error(A));
+    sphdem_grains_destroy(&st);
+    sphdem_dem_destroy(&A);
+  }
+  { /* a periodic packing */
+    const int n = 600;
+    double lo[3], hi[3];
+    grains g = packing(n, 0.5, 0.5, lo, hi);
+    sphdem_dem_params p = hertz_params(0.02, -1, lo, hi, 1);
+    sphdem_dem A = make(&p);
+    sphdem_grain_store st = NULL;
+    int rc = sphdem_grains_create(&st, test_device(), msg, sizeof msg);
+    int64_t stamp[SPHDEM_GRAINS_STAMP] = {1, 0, 0, 0, 0, 0};
+    rc |= sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
+    rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, 1e-5, 0, g.f, g.t, NULL);
+    double *T = malloc(sizeof(double) * n), *k = malloc(sizeof(double) * n), *q = malloc(sizeof(double) * n);
+    double *dq = malloc(sizeof(double) * 3 * n), *qr = calloc(n, sizeof(double)), *dqr = calloc(3 * (size_t)n, sizeof(double));
+    int *mb = malloc(sizeof(int) * n);
+    for (int i = 0; i < n; i++) {
+      T[i] = 300 + 200 * urand();
+      k[i] = i % 7 == 0 ? 0.0 : 0.5 + 10 * urand();
+      mb[i] = i % 2;
+    }
+    rc |= sphdem_dem_heat(A, st, T, k, mb, SPHDEM_DEM_HEAT_AREA_OVERLAP, 0.0, q, dq);
+    /* every pair of grains by the minimum image */
+    double qabs = 0, qmax = 0, dmax = 0;
+    int npairs = 0;
+    for (int i = 0; i < n; i++)
+      for (int j = i + 1; j < n; j++) {
+        if (!mb[i] && !mb[j]) continue;
+        double del[3], r2 = 0;
+        for (int d = 0; d < 3; d++) {
+          const double L = hi[d] - lo[d];
+          del[d] = g.x[3 * i + d] - g.x[3 * j + d];
+          del[d] -= L * rint(del[d] / L);
+          r2 += del[d] * del[d];
+        }
+        const double ri = g.r[i], rj = g.r[j], rr = sqrt(r2);
+        if (rr >= ri + rj) continue;
+        const double c = (r2 + ri * ri - rj * rj) / (2 * rr);
+        const double A2 = rr > fabs(ri - rj) ? M_PI * (ri * ri - c * c) : M_PI * fmin(ri, rj) * fmin(ri, rj);
+        const double h = k[i] > 0 && k[j] > 0 ? 4 * k[i] * k[j] / (k[i] + k[j]) * sqrt(A2) : 0.0;
+        /* the flow into the grain of lower tag (tags grow with the index here) */
+        const double Q = h * (T[j] - T[i]);
+        qr[i] += Q, qr[j] -= Q;
+        for (int d = 0; d < 3; d++) dqr[3 * i + d] += 0.5 * Q * del[d], dqr[3 * j + d] += 0.5 * Q * del[d];
+        qabs += fabs(Q);
+        npairs++;
+      }
+    double dh = 0, ddh = 0, sum = 0;
+    for (int i = 0; i < n; i++) {
+      qmax = fmax(qmax, fabs(qr[i]));
+      dh = fmax(dh, fabs(q[i] - qr[i]));
+      sum += q[i];
+      for (int d = 0; d < 3; d++) {
+        dmax = fmax(dmax, fabs(dqr[3 * i + d]));
+        ddh = fmax(ddh, fabs(dq[3 * i + d] - dqr[3 * i + d]));
+      }
+    }
+    printf("  heat, periodic packing of %d grains: %d conducting contacts; heat %.2g, directional %.2g of the largest "
+           "off the sum over all pairs; total %.2g of sum |Q|\n", n, npairs, dh / qmax, ddh / dmax, fabs(sum) / qabs);
+    TEST_ASSERT(!rc && npairs > n / 2 && dh <= 1e-12 * qmax && ddh <= 1e-12 * dmax && fabs(sum) <= 1e-13 * qabs,
+                "heat, packing: %d contacts, heat %.3g, directional %.3g, total %.3g (rc %d: %s)", npairs, dh / qmax,
+                ddh / dmax, fabs(sum) / qabs, rc, sphdem_dem_last_error(A));
+    free(T); free(k); free(q); free(dq); free(qr); free(dqr); free(mb);
+    sphdem_grains_destroy(&st);
+    sphdem_dem_destroy(&A);
+    free_grains(&g);
+  }
+}
+
 int main(void) {
   test_bad_params();
   test_bad_grains();
@@ -1437,5 +1561,6 @@ int main(void) {
   test_changing_box();
   test_exclusions();
   test_contacts();
+  test_heat();
   return test_summary("unit_dem");
 }
