@@ -249,6 +249,8 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
                   D->key, D->hin, D->hout, D->rlist, D->rkey, D->key_old, D->hist_old, D->vir, D->mat,
                   D->rin, D->rout, D->roll_old, D->gran};
   for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) rt_free(&m->rt, &arrs[k], 0);
+  rt_free(&m->rt, (void **)&m->snap_h, 0);
+  rt_free(&m->rt, (void **)&m->snap_r, 0);
   free(m->hx0);
   free(m->hr0);
   free(m->cpu_gap);
@@ -984,6 +986,23 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   D->want_virial = virial != NULL;
   if (virial) TRY(rt_zero(&m->rt, D->vir, 6 * sizeof(double)));
   int64_t ntouch = 0;
+  m->snap_valid = 0;
+  if (m->snap_req) { /* the history this evaluation starts from, for sphdem_dem_step_contacts */
+    const int64_t np = D->np > 0 ? D->np : 1;
+    if (np > m->cap_snap) {
+      rt_free(&m->rt, (void **)&m->snap_h, 0);
+      rt_free(&m->rt, (void **)&m->snap_r, 0);
+      m->cap_snap = 0;
+      TRY(rt_alloc(&m->rt, (void **)&m->snap_h, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)(np + np / 4)));
+      TRY(rt_alloc(&m->rt, (void **)&m->snap_r, sizeof(double) * 3 * (size_t)(np + np / 4)));
+      m->cap_snap = np + np / 4;
+    }
+    TRY(rt_d2d(&m->rt, m->snap_h, D->hin, sizeof(double) * SPHDEM_DEM_NHIST * (size_t)D->np));
+    if (D->rin) TRY(rt_d2d(&m->rt, m->snap_r, D->rin, sizeof(double) * 3 * (size_t)D->np));
+    m->snap_update = D->update;
+    m->snap_valid = 1;
+    m->snap_req = 0;
+  }
   if (n) {
     uint64_t *slot = (uint64_t *)(D->vir + SPHDEM_DEM_VIR_COINCIDENT);
     TRY(rt_zero(&m->rt, slot, sizeof(uint64_t)));
@@ -1078,9 +1097,20 @@ int64_t sphdem_dem_debug_pairs(sphdem_dem m, int64_t *pairs, int64_t maxpairs) {
   return rc ? -rc : np;
 }
 
-int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
-                            double *roll) {
+int sphdem_dem_keep_step_history(sphdem_dem m) {
+  if (!m) return SPHDEM_ERR_ARG;
+  m->snap_req = 1;
+  return SPHDEM_OK;
+}
+
+/* sphdem_dem_contacts (step 0: the current history, not advanced) and sphdem_dem_step_contacts (step 1: the history
+ * the last evaluation started from, advanced into scratch as that evaluation did) */
+static int64_t dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
+                            double *roll, int step) {
   if (!m || max < 0 || (max > 0 && (!ab || !ft))) return -SPHDEM_ERR_ARG;
+  if (step && !m->snap_valid)
+    return -sphdem_dem_fail(m, SPHDEM_ERR_ARG, "step contacts: the last evaluation kept no history (call "
+                            "sphdem_dem_keep_step_history before it)");
   dem_dev *D = &m->D;
   int rc = sphdem_grains_check(g, &m->rt, m->backend, 0, NULL, "dem_contacts");
   if (rc) return -rc;
@@ -1108,6 +1138,10 @@ int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int
     const dem_dev keep = *D;
     D->x = g->dx, D->v = g->dv, D->om = g->dom, D->rad = g->drad, D->mass = g->dmass;
     D->hout = hs, D->rout = rs, D->update = 0, D->want_virial = 0;
+    if (step) {
+      D->hin = m->snap_h, D->update = m->snap_update;
+      if (D->rin) D->rin = m->snap_r;
+    }
     rc = m->ops->contact_record(m, rec);
     *D = keep;
   }
@@ -1138,6 +1172,15 @@ int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int
   free(hh);
   free(hr);
   return rc ? -rc : k;
+}
+
+int64_t sphdem_dem_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
+                            double *roll) {
+  return dem_contacts(m, g, max, ab, ft, hist, roll, 0);
+}
+
+int64_t sphdem_dem_step_contacts(sphdem_dem m, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft) {
+  return dem_contacts(m, g, max, ab, ft, NULL, NULL, 1);
 }
 
 int sphdem_dem_heat(sphdem_dem m, sphdem_grain_store g, const double *temp, const double *cond, const int *member,

@@ -181,6 +181,11 @@ struct sphdem_dem_s {
   int same_tags;               /* sphdem_dem_same_tags: the next call's tags are the last call's (not compared) */
   int cpu_adds;                /* the CPU forces of this call add to D->f, D->tq as they are (else overwrite) */
   double *acc_f;               /* accumulate where the backend overwrites: the forces here, then added */
+  /* sphdem_dem_keep_step_history: the history (and rolling history) the last evaluation started from, its
+   * update flag; snap_valid while no other evaluation has come since */
+  int snap_req, snap_valid, snap_update;
+  double *snap_h, *snap_r;
+  int64_t cap_snap;
   int64_t cap_acc;
   /* time split of sphdem_dem_compute (SPHDEM_DEM_T_*), calls since the last reset */
   double t[SPHDEM_DEM_NTIMERS];

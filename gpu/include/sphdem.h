@@ -671,6 +671,14 @@ int sphdem_dem_debug_history(sphdem_dem dem, int64_t tag_a, int64_t tag_b, doubl
 #define SPHDEM_DEM_CONTACT_DOUBLES 12 /* per contact of sphdem_dem_contacts: F_a, T_a, T_b, x_a - x_b */
 int64_t sphdem_dem_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft, double *hist,
                             double *roll);
+/* The contacts of one step exactly as that step evaluated them (a per-atom virial for laws whose evaluation with the
+ * kept history does not give the step's force again, e.g. LIGGGHTS' tangential damping of a sliding contact):
+ * sphdem_dem_keep_step_history before a sphdem_dem_compute(_store) has that evaluation keep a copy of the history it
+ * starts from (after its list build); sphdem_dem_step_contacts after it, with the same grains, evaluates every
+ * touching pair again from that copy, the history advanced into scratch as the step did (nothing of the context
+ * changes), and gives ab and ft as sphdem_dem_contacts does. Refused when the last evaluation kept no copy. */
+int sphdem_dem_keep_step_history(sphdem_dem dem);
+int64_t sphdem_dem_step_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t max, int32_t *ab, double *ft);
 /* Heat conduction through the contacts (LIGGGHTS fix heat/gran/conduction): for every touching pair of two grains
  * of the current pair list, with the grains of g (those of the last sphdem_dem_compute(_store), in the same order),
  * the heat flow Q = h (T_b - T_a) into a and out of b, h = 4 k_a k_b / (k_a + k_b) sqrt(A) (0 where a conductivity

@@ -595,8 +595,11 @@ void PairGranGPU::sync_params() {
 void PairGranGPU::compute(int eflag, int vflag) {
   if (eflag || vflag) ev_setup(eflag, vflag);
   else evflag = vflag_fdotr = vflag_global = vflag_atom = 0;
-  if (vflag_atom) fail("per-atom virial is not supported");
+  /* compute stress/atom: half of r_ab F_ab of each pair to each atom, from the step's own contacts (the LIGGGHTS laws
+   * evaluated again with the kept history would add the tangential damping to a sliding contact once more) */
+  if (vflag_atom && sphdem_dem_keep_step_history(dem_)) fail("per-atom virial: " + std::string(sphdem_dem_last_error(dem_)));
   compute_grains(nmat_ != 0, true);
+  if (vflag_atom) add_virial_atom(true);
 }
 
 static Pair *pair_gran_gpu_creator(LAMMPS *lmp) { return new PairGranGPU(lmp); }

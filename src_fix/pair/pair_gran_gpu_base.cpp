@@ -618,7 +618,7 @@ bool PairGranGPUBase::gather_step() const {
 }
 
 int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
-                                      std::vector<double> &roll, std::string &err) {
+                                      std::vector<double> &roll, std::string &err, bool step) {
   if (!dem_) {
     err = "the pair style has evaluated no forces yet";
     return -1;
@@ -631,7 +631,8 @@ int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<doub
   ft.resize(SPHDEM_DEM_CONTACT_DOUBLES * cap);
   hist.resize(SPHDEM_DEM_HIST_DOUBLES * cap);
   roll.resize(3 * cap);
-  const int64_t k = sphdem_dem_contacts(dem_, g, cap, ij.data(), ft.data(), hist.data(), roll.data());
+  const int64_t k = step ? sphdem_dem_step_contacts(dem_, g, cap, ij.data(), ft.data())
+                         : sphdem_dem_contacts(dem_, g, cap, ij.data(), ft.data(), hist.data(), roll.data());
   if (k < 0 || k > cap) {
     err = k < 0 ? sphdem_dem_last_error(dem_) : "more touching pairs than pairs";
     return -1;
@@ -671,11 +672,11 @@ bool PairGranGPUBase::heat_now(const double *temp, const double *cond, const int
   return true;
 }
 
-void PairGranGPUBase::add_virial_atom() {
+void PairGranGPUBase::add_virial_atom(bool step) {
   std::string err;
   std::vector<int32_t> ij;
   std::vector<double> ft, hist, roll;
-  const int64_t np = contacts_now(ij, ft, hist, roll, err);
+  const int64_t np = contacts_now(ij, ft, hist, roll, err, step);
   if (np < 0) fail_one("per-atom virial: " + err);
   const int nlocal = atom->nlocal;
   auto share = [&](int i, const double *v) {

@@ -32,9 +32,11 @@ class PairGranGPUBase : public Pair {
    * not advanced (LIGGGHTS' compute pair/gran/local; sphdem_dem_contacts): per pair the atom indices (ij, 2 each:
    * the core's grain order, own atoms then ghosts), the force on the first, the torques on the first and the
    * second and x_first - x_second as the core took it (ft, SPHDEM_DEM_CONTACT_DOUBLES each), the history (SPHDEM_DEM_HIST_DOUBLES each) and the rolling torques (roll, 3 each). This
-   * rank's pairs only. Returns their number, or -1 with err set. */
+   * rank's pairs only. Returns their number, or -1 with err set. step: the contacts exactly as the last evaluation
+   * made them (sphdem_dem_step_contacts; that evaluation was asked to keep its history; hist and roll are not
+   * given). */
   int64_t contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
-                       std::vector<double> &roll, std::string &err);
+                       std::vector<double> &roll, std::string &err, bool step = false);
   /* Heat conduction through the touching pairs of two grains (sphdem_dem_heat; LIGGGHTS fix heat/gran/conduction):
    * temp, cond and member (may be NULL) per atom (own atoms and ghosts), area one of SPHDEM_DEM_HEAT_AREA_* (area_value for CONSTANT).
    * Each own atom's heat flow is added to heat[i] and its directional flux to dir[i] (may be NULL); a periodic
@@ -167,8 +169,10 @@ class PairGranGPUBase : public Pair {
    * the laws whose evaluation with the kept history gives the step's force again (LAMMPS gran/hooke|hertz/history
    * and granular; unit_dem test_contacts). Own atoms get their shares; another rank's atom's share goes to its ghost row only
    * where this rank alone evaluates the pair (newton on, split pairs once: the engine's reverse communication),
-   * a periodic image's to the atom itself otherwise. */
-  void add_virial_atom();
+   * a periodic image's to the atom itself otherwise. step: from the step's own contacts (sphdem_dem_step_contacts;
+   * sphdem_dem_keep_step_history before the evaluation), for laws whose evaluation with the kept history does not
+   * give the step's force again (LIGGGHTS gran/gpu). */
+  void add_virial_atom(bool step = false);
   std::vector<double> heat_q_, heat_dq_; /* heat_now: the core's sums per atom */
   bool last_once_ = false; /* the last evaluation gave split pairs' shares to the ghost rows (compute_grains) */
 };

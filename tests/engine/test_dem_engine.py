@@ -41,6 +41,9 @@
                style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
                largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
                epsd2, hooke/hysteresis, hertz + epsd; on 1 rank and on 2; bad keywords name themselves
+  stress_atom_liggghts LIG [MPIEXEC]  compute stress/atom with gran/gpu: every atom's per-atom virial within 1e-10
+               of the stock style's on the thrown bed of pgl_liggghts (sliding contacts), hertz, hertz + sjkr +
+               epsd2, hooke/hysteresis on 1 rank, hertz on 2 ranks cut along z and along x
   pour_lammps LMP  fix pour into an empty box: no cutoff/sorting warnings, stock trajectory (1e-10)
   rigid_lammps LMP  fix rigid stops naming it; a bonded overlapping pair (atom_style hybrid sphere bond): /gpu
                     equals stock; neigh_modify exclude type 1 1 on the head-on pair: /gpu equals
@@ -1233,6 +1236,51 @@ def stress_atom_lammps(lmp, mpiexec=None):
     return ok
 
 
+def stress_atom_liggghts(lig, mpiexec=None):
+    """compute stress/atom (the pair's per-atom virial) with gran/gpu against the stock gran on the thrown lattice bed
+    of pgl_liggghts with friction 0.02 (contacts slide: the per-atom virial comes from the step's own contacts; the
+    contacts evaluated again with the kept history are 1e-3 off here): every atom's six
+    components within 1e-10 of each component's largest value; models hertz, hertz + sjkr + epsd2, hooke/hysteresis
+    on 1 rank, hertz on 2 ranks cut along z and along x"""
+    text = PGL_LIG.replace("compute pgl all pair/gran/local {keys}\n", "compute s all stress/atom pair\n")
+    text = text.replace("coefficientFriction peratomtypepair 1 0.5", "coefficientFriction peratomtypepair 1 0.05")
+    # the dump at step 400 of the run (not in a run 0, whose set-up evaluation does not advance the history)
+    text = text.replace("dump dl all local 1 pgl.dump {cols}\ndump_modify dl format \"{fmt}\"\nrun 0\n", "")
+    text = text.replace("run 400\n", "dump d all custom 200 sa.dump id c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6] x y z\n"
+                        "dump_modify d sort id format \"%d" + " %.17g" * 9 + "\"\nrun 200\n")
+    models = ["model hertz tangential history", "model hertz tangential history cohesion sjkr rolling_friction epsd2",
+              "model hooke/hysteresis tangential history"]
+    runs = [(m, 1, None) for m in models] + ([(models[0], 2, None), (models[0], 2, "2 1 1")] if mpiexec else [])
+    ok = True
+    for model, np, grid in runs:
+        res = {}
+        for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
+            wd = os.path.join("dem_sa_lig", "%s_%d%s" % (model.replace(" ", "_").replace("/", "_"), np,
+                                                         "_x" if grid else ""), tag)
+            cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lig] if np > 1 else [lig]
+            t = text.format(style=style + " " + model)
+            if grid:
+                t = t.replace("newton off\n", "newton off\nprocessors %s\n" % grid)
+            rc, out = run(cmd, wd, t)
+            if rc != 0 or "ERROR" in out:
+                print("FAIL compute stress/atom, %s %s: rc %d\n%s" % (style, model, rc, out[-1500:]))
+                return False
+            res[tag] = last_atoms(os.path.join(wd, "sa.dump"))
+        a, b = res["stock"], res["gpu"]
+        worst = max(max(abs(a[i][c] - b[i][c]) for i in a) / (max(abs(a[i][c]) for i in a) or 1e-300)
+                    for c in range(6)) if set(a) == set(b) else float("inf")
+        loaded = sum(1 for i in a if a[i][0] != 0.0)
+        dx = max(abs(a[i][c] - b[i][c]) for i in a for c in (6, 7, 8)) / 0.01 if set(a) == set(b) else 1.0
+        good = len(a) > 100 and loaded > 100 and worst < 1e-10
+        print("%s compute stress/atom, gran/gpu %s, %s: %d atoms (%d stressed), largest difference %.2g of its "
+              "component's largest (bound 1e-10); positions %.2g d apart" % ("PASS" if good else "FAIL", model,
+                                                      "1 rank" if np == 1 else "2 ranks" + (" (processors %s)" % grid
+                                                                                          if grid else ""),
+                                                      len(b), loaded, worst, dx))
+        ok &= good
+    return ok
+
+
 def excluded(exe, texts, wd, style):
     """neigh_modify exclude type 1 1 on the head-on pair (both grains type 1): /gpu equals stock, whose grains
     pass through each other; without the exclusion they collide (texts: stock, /gpu, stock without exclusion)"""
@@ -1360,7 +1408,7 @@ MODES = {
     "same_liggghts": lambda lig: same(lig, liggghts=True), "pour_liggghts": lambda lig: pour_liggghts(lig),
     "mesh_liggghts": lambda lig: pour_liggghts(lig, n=1500, mesh=True), "refused_liggghts": refused_liggghts,
     "pgl_liggghts": pgl_liggghts, "pair_local_lammps": pair_local_lammps,
-    "stress_atom_lammps": stress_atom_lammps,
+    "stress_atom_lammps": stress_atom_lammps, "stress_atom_liggghts": stress_atom_liggghts,
     "pour_lammps": lambda lmp: pour_lammps(lmp), "rigid_lammps": rigid_lammps, "errors_liggghts": errors_liggghts,
     "hysteresis_liggghts": hysteresis_liggghts, "heat_liggghts": heat_liggghts,
     "example": example, "errors": errors,

@@ -1362,6 +1362,86 @@ static void test_contacts(void) {
   }
 }
 
+/* sphdem_dem_step_contacts: the contacts of a step exactly as it evaluated them, also for the laws whose evaluation
+ * with the kept history does not give the step's force again: LIGGGHTS hertz with mu 0.3 (many contacts slide: the
+ * tangential damping), with epsd2 rolling, and LAMMPS hertz. The recorded forces and torques, summed per grain,
+ * equal the step's within 1e-12 of the largest; the history is unchanged; without sphdem_dem_keep_step_history
+ * before the last evaluation it is refused. */
+static void test_step_contacts(void) {
+  const int n = 600;
+  double lo[3], hi[3];
+  for (int c = 0; c < 3; c++) {
+    grains g = packing(n, 0.5, 0.5, lo, hi);
+    sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+    const char *what = c == 0 ? "liggghts hertz, mu 0.3" : c == 1 ? "liggghts hertz, mu 0.3, epsd2" : "lammps hertz";
+    if (c < 2) {
+      p.model = SPHDEM_DEM_HERTZ_LIGGGHTS; p.E = 5e6; p.nu = 0.45; p.en = 0.7; p.mu = 0.3;
+      if (c == 1) p.mu_r = 0.05, p.rolling_model = SPHDEM_DEM_ROLL_EPSD2;
+    }
+    sphdem_dem A = make(&p);
+    char msg[256];
+    sphdem_grain_store st = NULL;
+    int rc = sphdem_grains_create(&st, test_device(), msg, sizeof msg);
+    int64_t stamp[SPHDEM_GRAINS_STAMP] = {1, 0, 0, 0, 0, 0};
+    const double dt = 2e-5;
+    for (int s = 0; s < 8 && !rc; s++) { /* the grains do not move: the shear grows each step until they slide */
+      stamp[0] = s;
+      rc |= sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
+      if (s == 7) rc |= sphdem_dem_keep_step_history(A);
+      rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, s > 0, g.f, g.t, NULL);
+    }
+    const int64_t cap = 40 * (int64_t)n, np = sphdem_dem_get_history(A, NULL, NULL, 0);
+    int32_t *ab = malloc(sizeof(int32_t) * 2 * cap);
+    double *ft = malloc(sizeof(double) * SPHDEM_DEM_CONTACT_DOUBLES * cap);
+    uint64_t *k0 = malloc(sizeof(uint64_t) * np), *k1 = malloc(sizeof(uint64_t) * np);
+    double *h0 = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np), *h1 = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np);
+    sphdem_dem_get_history(A, k0, h0, np);
+    const int64_t nc = rc ? -1 : sphdem_dem_step_contacts(A, st, cap, ab, ft);
+    TEST_ASSERT(nc > n && nc <= cap, "step contacts (%s): %lld touching pairs (rc %d: %s)", what, (long long)nc, rc,
+                sphdem_dem_last_error(A));
+    double *fs = calloc(3 * (size_t)n, sizeof(double)), *ts = calloc(3 * (size_t)n, sizeof(double));
+    for (int64_t k = 0; k < nc && k < cap; k++) {
+      const int a = ab[2 * k], b = ab[2 * k + 1];
+      const double *c4 = ft + SPHDEM_DEM_CONTACT_DOUBLES * k;
+      for (int d = 0; d < 3; d++) fs[3 * a + d] += c4[d], fs[3 * b + d] -= c4[d], ts[3 * a + d] += c4[3 + d], ts[3 * b + d] += c4[6 + d];
+    }
+    /* the contacts of the kept history evaluated again without advancing it (sphdem_dem_contacts): not the step's
+     * force where contacts slide (LIGGGHTS) */
+    double *ft2 = malloc(sizeof(double) * SPHDEM_DEM_CONTACT_DOUBLES * cap), *fs2 = calloc(3 * (size_t)n, sizeof(double));
+    const int64_t nc2 = sphdem_dem_contacts(A, st, cap, ab, ft2, NULL, NULL);
+    for (int64_t k = 0; k < nc2 && k < cap; k++)
+      for (int d = 0; d < 3; d++) fs2[3 * ab[2 * k] + d] += ft2[SPHDEM_DEM_CONTACT_DOUBLES * k + d], fs2[3 * ab[2 * k + 1] + d] -= ft2[SPHDEM_DEM_CONTACT_DOUBLES * k + d];
+    double fbig = 0, tmax = 0, df = 0, dtq = 0, df2 = 0;
+    for (int i = 0; i < 3 * n; i++) {
+      fbig = fmax(fbig, fabs(g.f[i]));
+      tmax = fmax(tmax, fabs(g.t[i]));
+      df = fmax(df, fabs(fs[i] - g.f[i]));
+      dtq = fmax(dtq, fabs(ts[i] - g.t[i]));
+      df2 = fmax(df2, fabs(fs2[i] - g.f[i]));
+    }
+    printf("  step contacts (%s): %lld touching pairs; summed per grain vs the step: force %.2e, torque %.2e of the "
+           "largest (the kept history evaluated again: force %.2e)\n", what, (long long)nc, df / fbig, dtq / tmax,
+           df2 / fbig);
+    TEST_ASSERT(df <= 1e-12 * fbig && dtq <= 1e-12 * tmax && !(df != df) && !(dtq != dtq),
+                "step contacts (%s): force %.3g, torque %.3g off the step's", what, df / fbig, dtq / tmax);
+    TEST_ASSERT(c == 2 || df2 > 1e-6 * fbig, "step contacts (%s): the scene does not slide (%.3g)", what, df2 / fbig);
+    sphdem_dem_get_history(A, k1, h1, np);
+    TEST_ASSERT(!memcmp(k0, k1, sizeof(uint64_t) * np) && !memcmp(h0, h1, sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * np),
+                "step contacts (%s): the history changed", what);
+    /* an evaluation without the request: refused */
+    stamp[0] = 99;
+    rc = sphdem_grains_put(st, stamp, n, 0, g.x, g.v, g.om, g.r, g.m);
+    rc |= sphdem_dem_compute_store(A, st, g.tag, NULL, dt, 1, g.f, g.t, NULL);
+    const int64_t bad = sphdem_dem_step_contacts(A, st, cap, ab, ft);
+    TEST_ASSERT(rc == 0 && bad == -SPHDEM_ERR_ARG && strstr(sphdem_dem_last_error(A), "kept no history"),
+                "step contacts (%s): without the request: %lld '%s'", what, (long long)bad, sphdem_dem_last_error(A));
+    free(ab); free(ft); free(ft2); free(fs); free(ts); free(fs2); free(k0); free(k1); free(h0); free(h1);
+    sphdem_grains_destroy(&st);
+    sphdem_dem_destroy(&A);
+    free_grains(&g);
+  }
+}
+
 static void test_exclusions(void) {
   const int n = 500;
   double lo[3], hi[3];
@@ -1561,6 +1641,7 @@ int main(void) {
   test_changing_box();
   test_exclusions();
   test_contacts();
+  test_step_contacts();
   test_heat();
   return test_summary("unit_dem");
 }
