@@ -116,6 +116,8 @@ class FixHeatGranCondGPU : public FixHeatGranCond {
     if (modify->n_fixes_style(style) > 1) error->fix_error(FLERR, this, "cannot have more than one fix of this style");
     if (area_correction_flag_)
       error->fix_error(FLERR, this, "'area_correction yes' is not supported with pair_style gran/gpu (use 'no')");
+    if (store_contact_data_)
+      error->fix_error(FLERR, this, "'store_contact_data yes' is not supported with pair_style gran/gpu (use 'no')");
     pair_gran = nullptr;
     history_flag = 1;
     fix_ste = modify->find_fix_scalar_transport_equation("heattransfer");

@@ -30,7 +30,8 @@
                its exponential; total heat kept to 1e-12); a thrown lattice bed, hot below: temperature, heat flux
                and directional heat flux of every grain within 1e-10 of the stock style's (largest value) after 1500
                steps, contact areas overlap, projection, constant, a fix group of half the grains; on 2 ranks cut
-               along z and along x; area_correction and a negative conductivity stop naming themselves
+               along z and along x; area_correction, store_contact_data and a negative conductivity stop naming
+               themselves
   pair_local_lammps LMP [MPIEXEC]  compute pair/local with gran/hertz|hooke/history/gpu: the stock rows (dist,
                force, fx..fz, the 10 single() values) within 1e-10 of each column's largest value, newton
                off and on, 1 and 2 ranks
@@ -972,6 +973,8 @@ def heat_liggghts(lig, mpiexec=None):
     # bad input
     bad = [("fix heat all heat/gran initial_temperature 300 area_correction yes", "",
             "'area_correction yes' is not supported with pair_style gran/gpu"),
+           ("fix heat all heat/gran initial_temperature 300 store_contact_data yes", "",
+            "'store_contact_data yes' is not supported with pair_style gran/gpu"),
            ("", "fix m12 all property/global thermalConductivity peratomtype -1.\n",
             "thermalConductivity must not be < 0")]
     for k2, (fixline, extra, want) in enumerate(bad):
