@@ -302,9 +302,9 @@ def example(lmp, inp, engine="lammps"):
     text = open(inp).read()
     text, n1 = re.subn(r"^thermo\s+\d+\s*$", "thermo          1000", text, flags=re.M)
     # full precision in the final dump
-    if engine == "liggghts":
-        fmt = "dump_modify     d format \"%d" + " %.17g" * 10 + "\"\n"
-        text, n2 = re.subn(r"^(dump\s+d all custom .*\n)", lambda m: m.group(1) + fmt, text, flags=re.M)
+    if engine == "liggghts":  # (one %.17g per column after the id)
+        fmt = lambda line: "dump_modify     d format \"%d" + " %.17g" * (len(line.split()) - 7) + "\"\n"
+        text, n2 = re.subn(r"^(dump\s+d all custom .*\n)", lambda m: m.group(1) + fmt(m.group(1)), text, flags=re.M)
     else:
         text, n2 = re.subn(r"^dump_modify\s+d sort id\s*$", "dump_modify     d sort id format float %.17g", text,
                            flags=re.M)
@@ -326,7 +326,7 @@ def example(lmp, inp, engine="lammps"):
         if p.returncode != 0 or "ERROR" in out:
             print("FAIL %s: rc %d\n%s" % (style, p.returncode, out[-1500:]))
             return False
-        rows[tag] = thermo(out)
+        rows[tag] = thermo(out[out.rindex("Step"):])  # the table of the last run
         dumps[tag] = example_dump(os.path.join(wd, "dump.dem_drop." + steps))
 
     def distance(a, b):
