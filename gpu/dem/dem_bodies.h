@@ -1081,7 +1081,8 @@ SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec)
   }
 }
 
-/* Heat conduction through contact p (sphdem_dem_heat; LIGGGHTS fix heat/gran/conduction): where the two grains of
+/* Heat conduction through contact p (sphdem_dem_heat; the contact conductance of LIGGGHTS' fix heat/gran/conduction,
+ * after Chaudhuri et al. 2006, with uniform temperature within each grain): where the two grains of
  * the pair touch, the contact area A (area SPHDEM_DEM_HEAT_AREA_OVERLAP: the circle where the two spheres
  * intersect, pi a^2 with a^2 = -(r - ra - rb)(r + ra - rb)(r - ra + rb)(r + ra + rb) / (4 r^2), or the smaller
  * grain's cross-section where it lies within the other (r <= |ra - rb|); PROJECTION: the
