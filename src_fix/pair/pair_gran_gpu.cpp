@@ -159,8 +159,9 @@ class FixHeatGranCondGPU : public FixHeatGranCond {
                      : area_calculation_mode_ == 2 ? SPHDEM_DEM_HEAT_AREA_PROJECTION /* stock PROJECTION */
                                                    : SPHDEM_DEM_HEAT_AREA_OVERLAP;
     std::string err;
-    if (!static_cast<PairGranGPUBase *>(force->pair)
-             ->heat_now(Temp, k_.data(), igroup != 0 ? member_.data() : nullptr, area, fixed_contact_area_, heatFlux, directionalHeatFlux, err))
+    PairGranGPUBase *pair = static_cast<PairGranGPUBase *>(force->pair);
+    const int *member = igroup != 0 ? member_.data() : nullptr;
+    if (!pair->heat_now(Temp, k_.data(), member, area, fixed_contact_area_, heatFlux, directionalHeatFlux, err))
       error->one(FLERR, (std::string("Fix ") + style + " with pair_style gran/gpu: " + err).c_str());
   }
 
@@ -599,7 +600,8 @@ void PairGranGPU::compute(int eflag, int vflag) {
   else evflag = vflag_fdotr = vflag_global = vflag_atom = 0;
   /* compute stress/atom: half of r_ab F_ab of each pair to each atom, from the step's own contacts (the LIGGGHTS laws
    * evaluated again with the kept history would add the tangential damping to a sliding contact once more) */
-  if (vflag_atom && sphdem_dem_keep_step_history(dem_)) fail("per-atom virial: " + std::string(sphdem_dem_last_error(dem_)));
+  if (vflag_atom && sphdem_dem_keep_step_history(dem_))
+    fail("per-atom virial: " + std::string(sphdem_dem_last_error(dem_)));
   compute_grains(nmat_ != 0, true);
   if (vflag_atom) add_virial_atom(true);
 }
