@@ -1211,7 +1211,14 @@ int sphdem_dem_heat(sphdem_dem m, sphdem_grain_store g, const double *temp, cons
   if (np == 0) return SPHDEM_OK;
   rc = sphdem_grains_device(g, &m->rt);
   if (rc) return rc;
-  /* on the backend's memory: temperature, conductivity, the sums (zeroed) */
+  if (m->backend == SPHDEM_DEVICE_CPU) { /* the caller's arrays are the backend's memory (the sums zeroed above) */
+    const dem_dev keep = *D;
+    D->x = g->dx, D->rad = g->drad;
+    rc = m->ops->heat(m, temp, cond, member, area, area_value, heat, dheat);
+    *D = keep;
+    return rc;
+  }
+  /* on the device: temperature, conductivity, the sums (zeroed) */
   double *dT = NULL, *dk = NULL, *dq = NULL, *ddq = NULL;
   int *dm = NULL;
   const size_t bn = sizeof(double) * (size_t)n;

@@ -1090,11 +1090,13 @@ SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec)
  * of the two conductivities; 0 where one is 0) and the heat flow Q = h (T_b - T_a) into a, out of b. q gets +Q at
  * a and -Q at b; dq (3 per grain, may be NULL) gets Q (x_a - x_b) / 2 at both. Walls take no part, nor a pair
  * of two grains with member 0 (member NULL: every grain is one). */
-SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member,
-                             int area, double A0, double *q, double *dq) {
+/* dem_heat_flow: 1 when pair p conducts, with the flow Q into a and del = x_a - x_b; dem_heat_body adds it to the
+ * sums (atomic: the CUDA kernel; the CPU backend's one-thread loop adds the flow of dem_heat_flow directly). */
+SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member, int area,
+                            double A0, double *Q_, double *del) {
   const int32_t a = D->pa[p], b = D->pb[p];
-  double del[3], rsq, rb, radsum;
-  if (b < 0 || (member && !member[a] && !member[b]) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) return;
+  double rsq, rb, radsum;
+  if (b < 0 || (member && !member[a] && !member[b]) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) return 0;
   const double ra = D->rad[a];
   double A = A0;
   if (area == SPHDEM_DEM_HEAT_AREA_OVERLAP) /* a grain within the other (no such circle): the smaller's section */
@@ -1104,7 +1106,14 @@ SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const
     A = M_PI * (ra > rb ? ra * ra : rb * rb);
   const double ka = k[a], kb = k[b], ks = ka + kb;
   const double h = (ka > 0.0 && kb > 0.0) ? 4.0 * ka * kb / ks * sqrt(A) : 0.0;
-  const double Q = (T[b] - T[a]) * h;
+  *Q_ = (T[b] - T[a]) * h;
+  return 1;
+}
+SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member,
+                             int area, double A0, double *q, double *dq) {
+  double Q, del[3];
+  if (!dem_heat_flow(D, p, T, k, member, area, A0, &Q, del)) return;
+  const int32_t a = D->pa[p], b = D->pb[p];
   dem_add(&q[a], Q);
   dem_add(&q[b], -Q);
   if (dq)

@@ -373,6 +373,26 @@ int sphdem_dem_cpu_serial_pass(const struct sphdem_dem_s *m) {
   return m->D.P.algo != SPHDEM_DEM_PAIR_PARALLEL && c_serial(m->D.n);
 }
 
+/* Heat conduction through the contacts: one loop over the pairs on one thread, the flows added without atomics (an
+ * atomic add of a double is a compare-and-swap loop even on one thread; the pass is a small part of a step). */
+int sphdem_dem_cpu_heat(struct sphdem_dem_s *m, const double *T, const double *k, const int *mb, int area, double A0,
+                        double *q, double *dq) {
+  const dem_dev *D = &m->D;
+  for (int64_t p = 0; p < D->np; p++) {
+    double Q, del[3];
+    if (!dem_heat_flow(D, p, T, k, mb, area, A0, &Q, del)) continue;
+    const int32_t a = D->pa[p], b = D->pb[p];
+    q[a] += Q;
+    q[b] -= Q;
+    if (dq)
+      for (int d = 0; d < 3; d++) {
+        dq[3 * a + d] += 0.5 * Q * del[d];
+        dq[3 * b + d] += 0.5 * Q * del[d];
+      }
+  }
+  return SPHDEM_OK;
+}
+
 /* Pair-parallel forces: one thread sums without atomics, several with. */
 int sphdem_dem_cpu_pair_forces(struct sphdem_dem_s *m) {
   const dem_dev *D = &m->D;

@@ -32,7 +32,7 @@
   X(particle_forces, D->n, dyn64, own, (), (), dem_particle_force_body(D, i)) /* particle-parallel */     \
   X(contact_record, D->np, static, loop, (, double *rec), (, rec),   /* the contacts for output */          \
     dem_contact_record_body(D, i, rec))                                                                       \
-  X(heat, D->np, static, loop,                                       /* heat conduction through contacts */ \
+  X(heat, D->np, static, own,                                        /* heat conduction through contacts */ \
     (, const double *T, const double *k, const int *mb, int area, double A0, double *q, double *dq),            \
     (, T, k, mb, area, A0, q, dq), dem_heat_body(D, i, T, k, mb, area, A0, q, dq))
 
