@@ -29,6 +29,13 @@ SPHDEM_HD void dem_pair_virial(const double *del, const double *Fa, double *vir)
   vir[5] = del[1] * Fa[2];
 }
 
+/* The area of the circle where two overlapping spheres of radii ra, rb at distance r intersect: pi a^2 with
+ * a^2 = -(r - ra - rb)(r + ra - rb)(r - ra + rb)(r + ra + rb) / (4 r^2) (LIGGGHTS' contact area of cohesion sjkr and
+ * of fix heat/gran/conduction) */
+SPHDEM_HD double dem_lens_area(double r, double ra, double rb) {
+  return -M_PI / 4 * ((r - ra - rb) * (r + ra - rb) * (r - ra + rb) * (r + ra + rb)) / (r * r);
+}
+
 SPHDEM_HD void dem_add(double *p, double v) {
 #ifdef __CUDA_ARCH__
   atomicAdd(p, v);
@@ -343,8 +350,7 @@ SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const
   if (D->P.cohesion) {
     double Acont;
     if (D->P.cohesion == SPHDEM_DEM_COH_SJKR)
-      Acont = wall ? (ra * ra - r * r) * M_PI
-                   : -M_PI / 4 * ((r - ra - rb) * (r + ra - rb) * (r - ra + rb) * (r + ra + rb)) / (r * r);
+      Acont = wall ? (ra * ra - r * r) * M_PI : dem_lens_area(r, ra, rb);
     else
       Acont = wall ? M_PI * 2. * ra * (ra - r) : M_PI * 2. * (2. * ra * rb / (ra + rb)) * (ra + rb - r);
     const double Fn_coh = -M->ced * Acont;
@@ -1100,8 +1106,7 @@ SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const 
   const double ra = D->rad[a];
   double A = A0;
   if (area == SPHDEM_DEM_HEAT_AREA_OVERLAP) /* a grain within the other (no such circle): the smaller's section */
-    A = rsq > (ra - rb) * (ra - rb) ? -M_PI / 4 * ((rsq - (ra + rb) * (ra + rb)) * (rsq - (ra - rb) * (ra - rb))) / rsq
-                                    : M_PI * (ra < rb ? ra * ra : rb * rb);
+    A = rsq > (ra - rb) * (ra - rb) ? dem_lens_area(sqrt(rsq), ra, rb) : M_PI * (ra < rb ? ra * ra : rb * rb);
   else if (area == SPHDEM_DEM_HEAT_AREA_PROJECTION)
     A = M_PI * (ra > rb ? ra * ra : rb * rb);
   const double ka = k[a], kb = k[b], ks = ka + kb;
