@@ -168,7 +168,6 @@ int sphdem_dem_create(sphdem_dem *out, const sphdem_dem_params *p, sphdem_device
   }
   m->ops = &sphdem_dem_cpu_ops;
   m->backend = SPHDEM_DEVICE_CPU;
-  m->cpu_fuse = -1; /* by the share of touching pairs */
   sphdem_rt_init(&m->rt, SPHDEM_DEVICE_CPU);
   m->zero_copy = 1;
   if (dev != SPHDEM_DEVICE_CPU) {

@@ -252,16 +252,15 @@ SPHDEM_HD const dem_mat *dem_pair_material(const dem_dev *D, int32_t a, int32_t 
  * k_t = 8 G* sqrt(R* delta), gamma = -2 sqrt(5/6) beta sqrt(S m_eff) with S_n = 2 Y* sqrt(R* delta),
  * S_t = k_t; the tangential spring is capped at mu |F_n| (without damping when sliding); the
  * constant rolling torque mu_r k_n delta R* opposes the relative rotation, its normal part removed. */
-SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const double *del, double r, double ra,
-                                    double rb, double radsum, double meff, double *Fa, double *Ta, double *Tb,
-                                    double *hout) {
+SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const double *del, double r, double rinv,
+                                    double ra, double rb, double radsum, double meff, double *Fa, double *Ta,
+                                    double *Tb, double *hout) {
   const int32_t a = D->pa[p], b = D->pb[p];
   const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
   const double zero[3] = {0.0, 0.0, 0.0};
   const double *vb = wall ? zero : D->v + 3 * (int64_t)b, *wb = wall ? zero : D->om + 3 * (int64_t)b;
   const dem_mat *M = dem_pair_material(D, a, b);
-  const double rinv = 1.0 / r;
   const double en[3] = {del[0] * rinv, del[1] * rinv, del[2] * rinv};
   const double vr1 = va[0] - vb[0], vr2 = va[1] - vb[1], vr3 = va[2] - vb[2];
   const double vn = vr1 * en[0] + vr2 * en[1] + vr3 * en[2];
@@ -779,16 +778,33 @@ SPHDEM_HD void dem_carry_body(const dem_dev *D, int64_t p) {
   dem_carry_from(D, p, found);
 }
 
+/* The quantities of an overlapping pair that its separation and radii alone give: |r|, 1/|r|, 1/|r|^2 and the factor
+ * of the LAMMPS Hertz law, sqrt(delta r_a r_b / (r_a + r_b)) (a wall: sqrt(delta r_a); 1 for the other laws). The
+ * law below takes them from here; the one-thread pass takes them for a block of pairs in a loop of its own before
+ * the law (the square roots and divisions of different pairs independent of each other, so they overlap instead
+ * of heading each pair's chain of dependent operations), with the same operations, so the same bits. */
+DEM_HD_INLINE void dem_pair_roots(const double rsq, const double ra, const double rb, const double radsum,
+                                  const int wall, const int model, double *r_, double *rinv_, double *rsqinv_,
+                                  double *poly_) {
+  const double r = sqrt(rsq), delta = radsum - r;
+  *r_ = r;
+  *rinv_ = 1.0 / r;
+  *rsqinv_ = 1.0 / rsq;
+  *poly_ = model != SPHDEM_DEM_HERTZ ? 1.0 : wall ? sqrt(delta * ra) : sqrt(delta * ra * rb / radsum);
+}
+
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom; wall: b < 0 (fixed at
- * compile time by dem_contact_model). */
+ * compile time by dem_contact_model). pre: r, 1/r, 1/r^2 and the Hertz factor of dem_pair_roots, or NULL to take
+ * them here. */
 DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const int32_t a, const int32_t b, const double ra,
                                       const double *del, const double rsq, const double rb, const double radsum,
-                                      double *Fa, double *Ta, double *Tb, double *hout, double *vir, const int model,
-                                      const int wall) {
+                                      double *Fa, double *Ta, double *Tb, double *hout, double *vir, const double *pre,
+                                      const int model, const int wall) {
   const double *va = D->v + 3 * (int64_t)a, *wa = D->om + 3 * (int64_t)a;
   const double *hin = D->hin + SPHDEM_DEM_NHIST * p;
-  double meff, vr[3], wr[3], wrel[3];
-  const double r = sqrt(rsq), rinv = 1.0 / r, rsqinv = 1.0 / rsq;
+  double meff, vr[3], wr[3], wrel[3], r, rinv, rsqinv, hpoly;
+  if (pre) r = pre[0], rinv = pre[1], rsqinv = pre[2], hpoly = pre[3];
+  else dem_pair_roots(rsq, ra, rb, radsum, wall, model, &r, &rinv, &rsqinv, &hpoly);
   const double ma = D->mass[a];
   if (!wall) {
     const double *vb = D->v + 3 * (int64_t)b, *wb = D->om + 3 * (int64_t)b;
@@ -820,7 +836,7 @@ DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const int32_t
     return 1;
   }
   if (model == SPHDEM_DEM_HERTZ_LIGGGHTS) {
-    dem_contact_liggghts(D, p, wall, del, r, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
+    dem_contact_liggghts(D, p, wall, del, r, rinv, ra, rb, radsum, meff, Fa, Ta, Tb, hout);
     if (D->want_virial) {
       if (!wall) dem_pair_virial(del, Fa, vir), dem_pair_virial_shared(D, a, b, vir);
       else for (int d = 0; d < 6; d++) vir[d] = 0.0;
@@ -864,8 +880,7 @@ DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const int32_t
       gt = 2.0 * sqrt(kt / meff) * D->cdamp;
     }
     const double damp = meff * gn * vnnr * rsqinv;
-    double poly = 1.0;
-    if (model == SPHDEM_DEM_HERTZ) poly = wall ? sqrt(delta * ra) : sqrt(delta * ra * rb / radsum);
+    const double poly = hpoly;
     ccel = (kn * delta * rinv - damp) * poly;
     if (D->P.limit_damping && ccel < 0.0) ccel = 0.0;
     fn_el = kn * delta * poly;
@@ -952,11 +967,17 @@ DEM_HD_INLINE int dem_contact_model_w(const dem_dev *D, int64_t p, const int32_t
 
 /* The force part of dem_contact for an overlapping pair, its geometry from dem_contact_geom: the body above
  * compiled for a grain partner and for a wall apart (no branch on the partner inside the law). */
+DEM_HD_INLINE int dem_contact_model_pre(const dem_dev *D, int64_t p, const int32_t a, const int32_t b, const double ra,
+                                        const double *del, const double rsq, const double rb, const double radsum,
+                                        double *Fa, double *Ta, double *Tb, double *hout, double *vir,
+                                        const double *pre, const int model) {
+  if (b < 0) return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, NULL, model, 1);
+  return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, pre, model, 0);
+}
 DEM_HD_INLINE int dem_contact_model_ab(const dem_dev *D, int64_t p, const int32_t a, const int32_t b, const double ra,
                                        const double *del, const double rsq, const double rb, const double radsum,
                                        double *Fa, double *Ta, double *Tb, double *hout, double *vir, const int model) {
-  if (b < 0) return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 1);
-  return dem_contact_model_w(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, model, 0);
+  return dem_contact_model_pre(D, p, a, b, ra, del, rsq, rb, radsum, Fa, Ta, Tb, hout, vir, NULL, model);
 }
 DEM_HD_INLINE int dem_contact_model(const dem_dev *D, int64_t p, const double *del, const double rsq,
                                     const double rb, const double radsum, double *Fa, double *Ta, double *Tb,
@@ -1249,138 +1270,95 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
   return lo;
 }
 
-/* dem_pairs_serial_model in one loop (fused): the overlap test and the law of each pair together, for lists whose
- * visited pairs mostly touch (dense beds), where keeping each touching pair's separation for a second loop costs
- * more than it saves. The same pairs, added in the same order: the same bits as the two loops. */
-DEM_HD_INLINE int64_t dem_pairs_serial_fused(const dem_dev *D, unsigned char *tf, const int32_t *act, const int64_t nk,
-                                             int64_t *touching, const int model, const int uniform, const int virial) {
-  const int32_t *pa = D->pa, *pb = D->pb;
-  const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
-  int64_t nt = 0, m = 0;
-  int32_t g = -1;
-  int counted = 0;
-  double rg = 0.0, f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
-  double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
-  for (int64_t k = 0; k < nk; k++) {
-    const int64_t p = act ? act[k] : k;
-    int touch = 0;
-    double del[3], rsq, radsum;
-    const int32_t a = pa[p], b = pb[p];
-    if (!(gap0[p] > thr)) {
-      if (b >= 0) {
-        touch = dem_grain_overlap(D, a, b, x + 3 * (int64_t)a, rad[a], del, &rsq, &radsum);
-      } else {
-        double rw;
-        touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, rad[a], del, &rsq, &rw, &radsum);
-      }
-    }
-    if (!touch) {
-      if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
-        dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
-        tf[p] = 0;
-      }
-      continue;
-    }
-    const int32_t h = uniform ? a : D->head[a]; /* (copies sharing a tag: the run's head copy) */
-    if (h != g) { /* a new run of touching pairs: the last one's sum to its grain */
-      if (g >= 0) {
-        double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
-        for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
-        if (virial)
-          for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
-      }
-      g = h;
-      rg = rad[g];
-      counted = dem_pair_counted(D, g);
-      for (int d = 0; d < 3; d++) f[d] = t[d] = 0.0;
-      for (int d = 0; d < 6; d++) vs[d] = 0.0;
-    }
-    const double ra = uniform ? rg : rad[a], rb = b >= 0 ? rad[b] : 0.0;
-    dem_contact_model_ab(D, p, a, b, ra, del, rsq, rb, b >= 0 ? ra + rb : ra, F, Ta, Tb, D->hout + SPHDEM_DEM_NHIST * p,
-                         vir, model);
-    tf[p] = 1; /* (after the law's loads: a byte store may alias anything) */
-    if (b >= 0) {
-      double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
-      for (int d = 0; d < 3; d++) { fb[d] -= F[d]; tb[d] += Tb[d]; }
-    }
-    for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
-    if (virial)
-      for (int d = 0; d < 6; d++) vs[d] += vir[d];
-    nt += counted;
-    m++;
-  }
-  if (g >= 0) {
-    double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
-    for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
-    if (virial)
-      for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
-  }
-  *touching = m;
-  return nt;
-}
+/* The pairs the one-thread pass takes in one block: their overlap test, then the square roots of the touching ones,
+ * then the law (kept in L1: 7 doubles a pair and 4 for the roots) */
+#define DEM_PAIR_BLOCK 128
 
 /* The same pairs on one thread, each evaluated once, in list order (by the tags of a, then of b: the order
- * does not depend on the order of the grains): the force of each run of touching pairs of one grain a (fstart,
- * fend of dem_forward_range_body) summed and added to a at the run's end, -F and Tb added to grain b at once; f and
- * tq hold what is there already (zero, or the caller's forces to add to). No pair force buffer and no reverse pass.
- * Two loops: the first tests the overlap of each pair and keeps the touching ones (index, separation, |r|^2) in
- * tp, tdel (room for every pair visited: int32, 4 doubles each); the second applies the contact law to those.
- * Kept apart, the first loop has few live values (no spills of the law's registers around the test of the pairs
- * that do not touch) and the second no branch on the overlap.
+ * does not depend on the order of the grains): the force of each run of touching pairs of one grain a summed and
+ * added to a at the run's end, -F and Tb added to grain b at once; f and tq hold what is there already (zero, or
+ * the caller's forces to add to). No pair force buffer and no reverse pass.
+ * The visited pairs go in blocks of DEM_PAIR_BLOCK, each in three loops:
+ *  - the overlap test of each pair, without a branch on its outcome (touching or not changes from pair to pair in
+ *    a bed, and a branch on it is mispredicted often): every pair is written into the block's next slot, and the
+ *    slot is kept when the pair touches. The test's few values stay in registers, apart from the law's;
+ *  - the square roots and divisions that the separation and radii give (dem_pair_roots) for the block's touching
+ *    pairs: independent iterations, vectorized, where in the law each would head a chain of dependent operations;
+ *  - the law of those pairs.
  * tf marks every pair as the last evaluation left it (set all to 1 when unknown), D->gap0 is set (the CPU builds).
  * act (not NULL): only its nact pairs, in increasing order; every other pair is apart and marked so in tf (its
  * gap at the build exceeds every D->gap_thr since the marks were made), so it adds nothing and its history is
  * that of a separated pair already. The touching pairs are the same and are added in the same order, so the
- * forces are the same bits with and without act.
- * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag), so a's radius is read
- * once per run; else D->head gives each copy its run's head. virial: D->want_virial, fixed at compile time. Returns the touching pairs. */
+ * forces are the same bits with and without act, and whatever the block size.
+ * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag); else D->head gives
+ * each copy its run's head. virial: D->want_virial, fixed at compile time. *touching: the touching pairs; returns
+ * those counted (dem_pair_counted). */
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int32_t *act,
-                                             const int64_t nact, int32_t *tp, double *tdel, int64_t *touching,
-                                             const int model, const int uniform, const int virial, const int fused) {
+                                             const int64_t nact, int64_t *touching, const int model,
+                                             const int uniform, const int virial) {
   const int64_t nk = act ? nact : D->np;
-  /* the overlap of each visited pair (the arrays in locals: byte stores to tf may alias anything) */
+  /* the arrays in locals: byte stores to tf may alias anything */
   const int32_t *pa = D->pa, *pb = D->pb;
   const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
-  if (fused) return dem_pairs_serial_fused(D, tf, act, nk, touching, model, uniform, virial);
-  int64_t m = 0;
-  for (int64_t k = 0; k < nk; k++) {
-    const int64_t p = act ? act[k] : k;
-    int touch = 0;
-    double del[3], rsq, radsum;
-    if (!(gap0[p] > thr)) {
+  int64_t nt = 0, m = 0;
+  int32_t g = -1; /* the grain of the current run */
+  int counted = 0;
+  double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
+  double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
+  int32_t bp[DEM_PAIR_BLOCK];
+  double bd[6][DEM_PAIR_BLOCK], pre[4][DEM_PAIR_BLOCK]; /* separation, |r|^2, r_a, r_b; the roots */
+  for (int64_t k0 = 0; k0 < nk; k0 += DEM_PAIR_BLOCK) {
+    const int64_t k1 = nk - k0 < DEM_PAIR_BLOCK ? nk : k0 + DEM_PAIR_BLOCK;
+    int nb = 0;
+    for (int64_t k = k0; k < k1; k++) {
+      const int64_t p = act ? act[k] : k;
+      int touch;
+      double del[3] = {0.0, 0.0, 0.0}, rsq = 0.0, radsum, rb = 0.0;
       const int32_t a = pa[p], b = pb[p];
-      if (b >= 0) {
-        touch = dem_grain_overlap(D, a, b, x + 3 * (int64_t)a, rad[a], del, &rsq, &radsum);
+      const double ra = rad[a];
+      const int near = !(gap0[p] > thr);
+      if (b >= 0) { /* the test of dem_grain_overlap, its outcome a value */
+        rb = rad[b];
+        radsum = ra + rb;
+        rsq = dem_sep(D, x + 3 * (int64_t)a, x + 3 * (int64_t)b, del);
+        const double r2 = radsum * radsum;
+        const int apart = !(rsq < r2), coincident = rsq <= 1e-24 * r2;
+        touch = near & !apart & !coincident;
+        if (near & coincident) dem_flag_coincident(D, a, b); /* (centres within 1e-12 of the contact distance) */
       } else {
-        double rb;
-        touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, rad[a], del, &rsq, &rb, &radsum);
+        touch = near && dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, ra, del, &rsq, &rb, &radsum);
+      }
+      bp[nb] = (int32_t)p;
+      bd[0][nb] = del[0], bd[1][nb] = del[1], bd[2][nb] = del[2], bd[3][nb] = rsq, bd[4][nb] = ra, bd[5][nb] = rb;
+      nb += touch;
+      if (!touch && tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+        dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
+        tf[p] = 0;
       }
     }
-    if (touch) {
-      tp[m] = (int32_t)p;
-      double *o = tdel + 4 * m;
-      o[0] = del[0], o[1] = del[1], o[2] = del[2], o[3] = rsq;
-      m++;
-    } else if (tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
-      dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
-      tf[p] = 0;
-    }
-  }
-  /* the law of the touching pairs, in runs of one grain a */
-  int64_t nt = 0;
-  double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
-  for (int64_t k = 0; k < m;) {
-    const int32_t g = uniform ? pa[tp[k]] : D->head[pa[tp[k]]]; /* (copies sharing a tag: the run's head copy) */
-    const int64_t end = D->fend[g], k0 = k;
-    const double rg = rad[g];
-    double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
-    for (; k < m && tp[k] < end; k++) {
-      const int64_t p = tp[k];
-      const int32_t a = uniform ? g : pa[p], b = pb[p];
-      const double *o = tdel + 4 * k, ra = uniform ? rg : rad[a];
-      const double del[3] = {o[0], o[1], o[2]}, rb = b >= 0 ? rad[b] : 0.0;
-      dem_contact_model_ab(D, p, a, b, ra, del, o[3], rb, b >= 0 ? ra + rb : ra, F, Ta, Tb,
-                           D->hout + SPHDEM_DEM_NHIST * p, vir, model);
+    for (int j = 0; j < nb; j++) /* (a wall's roots are taken again by the law: the grain form here) */
+      dem_pair_roots(bd[3][j], bd[4][j], bd[5][j], bd[4][j] + bd[5][j], 0, model, &pre[0][j], &pre[1][j],
+                     &pre[2][j], &pre[3][j]);
+    for (int j = 0; j < nb; j++) {
+      const int64_t p = bp[j];
+      const int32_t a = pa[p], b = pb[p];
+      const int32_t h = uniform ? a : D->head[a]; /* (copies sharing a tag: the run's head copy) */
+      if (h != g) { /* a new run of touching pairs: the last one's sum to its grain */
+        if (g >= 0) {
+          double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
+          for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
+          if (virial)
+            for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
+        }
+        g = h;
+        counted = dem_pair_counted(D, g);
+        for (int d = 0; d < 3; d++) f[d] = t[d] = 0.0;
+        for (int d = 0; d < 6; d++) vs[d] = 0.0;
+      }
+      const double ra = bd[4][j], rb = bd[5][j], del[3] = {bd[0][j], bd[1][j], bd[2][j]};
+      const double roots[4] = {pre[0][j], pre[1][j], pre[2][j], pre[3][j]};
+      dem_contact_model_pre(D, p, a, b, ra, del, bd[3][j], rb, b >= 0 ? ra + rb : ra, F, Ta, Tb,
+                            D->hout + SPHDEM_DEM_NHIST * p, vir, roots, model);
       tf[p] = 1; /* (after the law's loads: a byte store may alias anything) */
       if (b >= 0) {
         double *fb = D->f + 3 * (int64_t)b, *tb = D->tq + 3 * (int64_t)b;
@@ -1389,8 +1367,11 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
       for (int d = 0; d < 3; d++) { f[d] += F[d]; t[d] += Ta[d]; }
       if (virial)
         for (int d = 0; d < 6; d++) vs[d] += vir[d];
+      nt += counted;
     }
-    nt += dem_pair_counted(D, g) ? k - k0 : 0;
+    m += nb;
+  }
+  if (g >= 0) {
     double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
     for (int d = 0; d < 3; d++) { fg[d] += f[d]; tg[d] += t[d]; }
     if (virial)

@@ -282,41 +282,37 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
 /* Each variant of the one-thread pass is a function of its own (one copy of the contact law each): inlined into
  * one function, the many copies make it too large for good register allocation (values kept on the stack). A local
  * copy of the constants and array pointers, which the stores of forces and history cannot alias. */
-/* an AVX2 copy of each beside the baseline one, chosen at load time (gcc, x86-64): the three-operand instructions
- * need fewer register copies; no FMA (not part of the avx2 target), so the same roundings and the same bits */
+/* an AVX-512 and an AVX2 copy of each beside the baseline one, chosen at load time (gcc, x86-64): the three-operand
+ * instructions need fewer register copies, and AVX-512's 32 vector registers keep the law's values out of the stack;
+ * no fused multiply-adds (this file is compiled with -ffp-contract=off), so the same roundings and the same bits */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define C_SERIAL_CLONES __attribute__((target_clones("avx2", "default")))
+#define C_SERIAL_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else
 #define C_SERIAL_CLONES
 #endif
-typedef int64_t (*c_serial_fn)(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int32_t *tp,
-                               double *tdel, int64_t *touching);
-#define C_SERIAL_FN(M, U, V, A, F)                                                                                   \
-  static __attribute__((noinline)) C_SERIAL_CLONES int64_t c_serial_##M##_##U##V##A##F(const dem_dev *D, unsigned char *tf,         \
-                                                                      const int32_t *act, int64_t nact, int32_t *tp, \
-                                                                      double *tdel, int64_t *touching) {             \
+typedef int64_t (*c_serial_fn)(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact,
+                               int64_t *touching);
+#define C_SERIAL_FN(M, U, V, A)                                                                                      \
+  static __attribute__((noinline)) C_SERIAL_CLONES int64_t c_serial_##M##_##U##V##A(                                 \
+      const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int64_t *touching) {                    \
     const dem_dev Dl = *D;                                                                                           \
-    return dem_pairs_serial_model(&Dl, tf, A ? act : NULL, nact, tp, tdel, touching, SPHDEM_DEM_##M, U, V, F);      \
+    return dem_pairs_serial_model(&Dl, tf, A ? act : NULL, nact, touching, SPHDEM_DEM_##M, U, V);                    \
   }
 /* uniform and no virial, uniform with the virial, copies sharing a tag (with the virial); each over all pairs or
- * over a list of them; each in two loops or fused */
-#define C_SERIAL_MODEL_F(M, F)                                                                                       \
-  C_SERIAL_FN(M, 1, 0, 0, F) C_SERIAL_FN(M, 1, 0, 1, F) C_SERIAL_FN(M, 1, 1, 0, F) C_SERIAL_FN(M, 1, 1, 1, F)        \
-  C_SERIAL_FN(M, 0, 1, 0, F) C_SERIAL_FN(M, 0, 1, 1, F)
+ * over a list of them */
 #define C_SERIAL_MODEL(M)                                                                                            \
-  C_SERIAL_MODEL_F(M, 0) C_SERIAL_MODEL_F(M, 1)                                                                      \
-  static const c_serial_fn c_serial_table_##M[12] = {                                                                \
-      c_serial_##M##_1000, c_serial_##M##_1010, c_serial_##M##_1100, c_serial_##M##_1110, c_serial_##M##_0100,      \
-      c_serial_##M##_0110, c_serial_##M##_1001, c_serial_##M##_1011, c_serial_##M##_1101, c_serial_##M##_1111,      \
-      c_serial_##M##_0101, c_serial_##M##_0111};
+  C_SERIAL_FN(M, 1, 0, 0) C_SERIAL_FN(M, 1, 0, 1) C_SERIAL_FN(M, 1, 1, 0) C_SERIAL_FN(M, 1, 1, 1)                    \
+  C_SERIAL_FN(M, 0, 1, 0) C_SERIAL_FN(M, 0, 1, 1)                                                                    \
+  static const c_serial_fn c_serial_table_##M[6] = {c_serial_##M##_100, c_serial_##M##_101, c_serial_##M##_110,      \
+                                                    c_serial_##M##_111, c_serial_##M##_010, c_serial_##M##_011};
 C_SERIAL_MODEL(HOOKE)
 C_SERIAL_MODEL(HERTZ)
 C_SERIAL_MODEL(HERTZ_MINDLIN)
 C_SERIAL_MODEL(GRANULAR)
 C_SERIAL_MODEL(HERTZ_LIGGGHTS)
 
-static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int32_t *tp,
-                              double *tdel, int64_t *touching, int uniform, int fused) {
+static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact,
+                              int64_t *touching, int uniform) {
   const c_serial_fn *t;
   switch (D->P.model) {
     case SPHDEM_DEM_HOOKE: t = c_serial_table_HOOKE; break;
@@ -326,7 +322,7 @@ static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t
     default: t = c_serial_table_HERTZ_LIGGGHTS; break;
   }
   const int v = !uniform ? 4 : D->want_virial ? 2 : 0;
-  return t[6 * (fused != 0) + v + (act != NULL)](D, tf, act, nact, tp, tdel, touching);
+  return t[v + (act != NULL)](D, tf, act, nact, touching);
 }
 
 /* The pairs the one-thread pass visits while the list stands (dilute scenes: most pairs of the list are
@@ -457,19 +453,8 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
       act = c_active(m, &nact);
       if (D->gap_thr > m->act_seen) m->act_seen = D->gap_thr;
     }
-    const int u = m->cpu_uniform;
-    int32_t *tp = (int32_t *)m->cpu_pfb; /* the pair force buffer (unused by this pass) holds the touching pairs */
-    double *tdel = m->cpu_pfb + np; /* (6 doubles a pair: 1 for the indices, 4 for each separation) */
-    /* fused when half or more of the pairs the last pass visited touched (dense beds; see dem_pairs_serial_fused):
-     * counted in instructions, a column of touching grains (3/4 of its pairs touching) takes 6 % fewer fused, a
-     * dilute gas (1/10 touching) 25 % fewer in two loops, a pour (1/2) the same either way */
-    const int64_t visit = act ? nact : np;
-    const int fused = m->cpu_fuse >= 0 ? m->cpu_fuse
-                                       : m->cpu_last_visit > 0 && 2 * m->cpu_last_touch >= m->cpu_last_visit;
     int64_t touching = 0;
-    nt = c_serial_pairs(D, tf, act, nact, tp, tdel, &touching, u, fused);
-    m->cpu_last_touch = touching;
-    m->cpu_last_visit = visit;
+    nt = c_serial_pairs(D, tf, act, nact, &touching, m->cpu_uniform);
     m->cpu_ntouch = nt;
     m->tf_valid = 1;
     return SPHDEM_OK;

@@ -171,8 +171,6 @@ struct sphdem_dem_s {
   int tf_valid;                /* cpu_tf marks the current list's pairs and the history was changed by the CPU
                                   particle-parallel pass only since (cleared by builds and history edits) */
   int64_t cpu_ntouch;          /* touching pairs counted by the CPU particle-parallel pass */
-  int64_t cpu_last_touch, cpu_last_visit; /* the one-thread pass: the pairs it found touching and those it visited */
-  int cpu_fuse;                /* the one-thread pass fused (1), in two loops (0), or chosen by the share touching (-1) */
   int cpu_prefilled;           /* the CPU count (one thread) wrote pa, pb, key already: the fill has no scan */
   int cpu_uniform;             /* every run of pairs of one tag has one grain a (set by the CPU builds) */
   const int32_t *flags_zero;   /* D->flags holds flags_zero_n zeros (no flags given) since the last call */

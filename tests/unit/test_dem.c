@@ -5,7 +5,7 @@
 #define TEST_RNG_SEED 88172645463325252ull
 #include "dem_granular_table.h"
 #include "testlib.h"
-#include "dem_internal.h" /* (the pass choice of the one-thread pass, for test_fused) */
+#include "dem_internal.h" /* (which pass the CPU backend takes, for test_serial_pass) */
 
 static sphdem_dem make(const sphdem_dem_params *p) {
   char msg[256];
@@ -1092,19 +1092,24 @@ static void test_history_hand_over(void) {
   free_grains(&g);
 }
 
-/* The one-thread pass in one loop (fused: dense beds) and in two (overlap test, then the law of the touching pairs:
- * dilute ones) gives the same bits: forces, torques, virial and history, over steps with contacts made and lost,
- * with and without the virial, and with copies of grains sharing a tag (SPHDEM_DEM_GHOST). */
-static void test_fused(void) {
-  for (int variant = 0; variant < 3; variant++) {
+/* The one-thread pass (the overlap test without a branch on its outcome, the square roots of a block of touching
+ * pairs taken ahead of the law) against the pair-parallel pass (the law takes its own roots, pair by pair): over
+ * steps with contacts made and lost, the history of every pair the same bits (it depends on the positions,
+ * velocities and the last history only, which both see alike), the forces, torques and virial the same to
+ * rounding (the two sum in different orders); with and without the virial, with copies of grains sharing a tag
+ * (SPHDEM_DEM_GHOST), and for the Hooke law (no Hertz root). */
+static void test_serial_pass(void) {
+  for (int variant = 0; variant < 4; variant++) {
     const int n = 500;
     double lo[3], hi[3]; /* dense: most listed pairs touch */
     grains g = packing(n, 0.45, 2.0, lo, hi);
     /* (500 grains: the one-thread pass at any thread count) */
     sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
-    sphdem_dem A = make(&p), B = make(&p);
-    A->cpu_fuse = 0;
-    B->cpu_fuse = 1;
+    if (variant == 3) p.model = SPHDEM_DEM_HOOKE;
+    sphdem_dem_params q = p;
+    q.algo = SPHDEM_DEM_PAIR_PARALLEL;
+    sphdem_dem A = make(&p), B = make(&q);
+    TEST_ASSERT(sphdem_dem_cpu_serial_pass(A) && !sphdem_dem_cpu_serial_pass(B), "serial pass: the passes compared");
     int32_t *fl = NULL;
     if (variant == 2) { /* the last 50 grains: copies of another rank's grains, two per tag */
       fl = calloc((size_t)n, sizeof(int32_t));
@@ -1112,36 +1117,48 @@ static void test_fused(void) {
     }
     double *fB = malloc(sizeof(double) * 3 * n), *tB = malloc(sizeof(double) * 3 * n), vA[6], vB[6];
     int same = 1, rc = 0;
+    double dmax = 0.0, fbig = 0.0, vdmax = 0.0, vmax = 0.0;
     int64_t contacts_first = -1, contacts_last = -1;
     for (int s = 0; s < 30; s++) {
-      double *vir = variant ? vA : NULL, *virB = variant ? vB : NULL;
-      rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, g.f, g.t, vir);
-      rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, fB, tB, virB);
-      for (int k = 0; k < 3 * n; k++) same &= g.f[k] == fB[k] && g.t[k] == tB[k];
-      for (int k = 0; variant && k < 6; k++) same &= vA[k] == vB[k];
+      const int vir = variant == 1 || variant == 2;
+      rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, g.f, g.t, vir ? vA : NULL);
+      rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, fl, 1e-4, 1, fB, tB, vir ? vB : NULL);
+      for (int k = 0; k < 3 * n; k++) {
+        if (fl && fl[k / 3]) continue; /* (the force on a copy is dropped) */
+        dmax = fmax(dmax, fmax(fabs(g.f[k] - fB[k]), fabs(g.t[k] - tB[k])));
+        fbig = fmax(fbig, fmax(fabs(fB[k]), fabs(tB[k])));
+      }
+      for (int k = 0; vir && k < 6; k++) vdmax = fmax(vdmax, fabs(vA[k] - vB[k])), vmax = fmax(vmax, fabs(vB[k]));
       sphdem_dem_stats st;
       sphdem_dem_stats_get(A, &st);
       if (s == 0) contacts_first = st.ncontacts;
       contacts_last = st.ncontacts;
+      int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0), nq = sphdem_dem_get_history(B, NULL, NULL, 0);
+      uint64_t *ka = malloc(sizeof(uint64_t) * (size_t)(np + 1)), *kb = malloc(sizeof(uint64_t) * (size_t)(nq + 1));
+      double *ha = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(np + 1));
+      double *hb = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(nq + 1));
+      same &= np == nq && sphdem_dem_get_history(A, ka, ha, np) == np && sphdem_dem_get_history(B, kb, hb, nq) == nq;
+      for (int64_t k = 0; same && k < np; k++) {
+        same &= ka[k] == kb[k];
+        for (int c = 0; c < SPHDEM_DEM_HIST_DOUBLES; c++)
+          same &= ha[SPHDEM_DEM_HIST_DOUBLES * k + c] == hb[SPHDEM_DEM_HIST_DOUBLES * k + c];
+      }
+      free(ka); free(kb); free(ha); free(hb);
       for (int k = 0; k < 3 * n; k++) g.x[k] += 1e-4 * g.v[k];
     }
-    int64_t np = sphdem_dem_get_history(A, NULL, NULL, 0), nq = sphdem_dem_get_history(B, NULL, NULL, 0);
-    uint64_t *ka = malloc(sizeof(uint64_t) * (size_t)(np + 1)), *kb = malloc(sizeof(uint64_t) * (size_t)(nq + 1));
-    double *ha = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(np + 1));
-    double *hb = malloc(sizeof(double) * SPHDEM_DEM_HIST_DOUBLES * (size_t)(nq + 1));
-    same &= np == nq && sphdem_dem_get_history(A, ka, ha, np) == np && sphdem_dem_get_history(B, kb, hb, nq) == nq;
-    for (int64_t k = 0; same && k < np; k++) {
-      same &= ka[k] == kb[k];
-      for (int q = 0; q < SPHDEM_DEM_HIST_DOUBLES; q++) same &= ha[SPHDEM_DEM_HIST_DOUBLES * k + q] == hb[SPHDEM_DEM_HIST_DOUBLES * k + q];
-    }
-    printf("  one-thread pass fused vs two loops, %s: %lld then %lld contacts, %lld pairs kept: %s\n",
-           variant == 0 ? "no virial" : variant == 1 ? "virial" : "virial, copies sharing a tag", (long long)contacts_first,
-           (long long)contacts_last, (long long)np, same ? "the same bits" : "DIFFERENT");
-    TEST_ASSERT(rc == 0 && contacts_first > 500 && contacts_last != contacts_first, "fused: rc %d (%s), %lld, %lld contacts",
-                rc, sphdem_dem_last_error(A), (long long)contacts_first, (long long)contacts_last);
-    TEST_ASSERT(same, "fused: the one-thread pass in one loop differs from the one in two");
+    const double rel = dmax / fbig, vrel = vmax > 0.0 ? vdmax / vmax : 0.0;
+    printf("  one-thread pass vs pair-parallel pass, %s: %lld then %lld contacts; history %s; forces and torques "
+           "%.2e of the largest, virial %.2e\n",
+           variant == 0 ? "hertz" : variant == 1 ? "hertz, virial" : variant == 2 ? "hertz, virial, copies sharing a tag"
+                                                                                 : "hooke",
+           (long long)contacts_first, (long long)contacts_last, same ? "the same bits" : "DIFFERENT", rel, vrel);
+    TEST_ASSERT(rc == 0 && contacts_first > 500 && contacts_last != contacts_first,
+                "serial pass: rc %d (%s), %lld, %lld contacts", rc, sphdem_dem_last_error(A),
+                (long long)contacts_first, (long long)contacts_last);
+    TEST_ASSERT(same, "serial pass: the history differs from the pair-parallel pass");
+    TEST_ASSERT(rel < 1e-13 && vrel < 1e-13, "serial pass: forces %.3e, virial %.3e of the largest apart", rel, vrel);
     sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
-    free(fB); free(tB); free(fl); free(ka); free(kb); free(ha); free(hb);
+    free(fB); free(tB); free(fl);
     free_grains(&g);
   }
 }
@@ -1635,7 +1652,7 @@ int main(void) {
   test_ghost_copies();
   test_ghost_once();
   test_skipped_copies();
-  test_fused();
+  test_serial_pass();
   test_history_hand_over();
   test_same_tags();
   test_changing_box();
