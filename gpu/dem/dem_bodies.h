@@ -252,7 +252,7 @@ SPHDEM_HD const dem_mat *dem_pair_material(const dem_dev *D, int32_t a, int32_t 
  * k_t = 8 G* sqrt(R* delta), gamma = -2 sqrt(5/6) beta sqrt(S m_eff) with S_n = 2 Y* sqrt(R* delta),
  * S_t = k_t; the tangential spring is capped at mu |F_n| (without damping when sliding); the
  * constant rolling torque mu_r k_n delta R* opposes the relative rotation, its normal part removed. */
-SPHDEM_HD void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const double *del, double r, double rinv,
+DEM_HD_INLINE void dem_contact_liggghts(const dem_dev *D, int64_t p, int wall, const double *del, double r, double rinv,
                                     double ra, double rb, double radsum, double meff, double *Fa, double *Ta,
                                     double *Tb, double *hout) {
   const int32_t a = D->pa[p], b = D->pb[p];
