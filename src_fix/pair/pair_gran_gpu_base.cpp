@@ -568,13 +568,15 @@ void PairGranGPUBase::hand_over_history() {
 
 void PairGranGPUBase::gather_history() {
   const int H = SPHDEM_DEM_HIST_DOUBLES, R = hand_rolling_ ? 3 : 0, W = H + R;
-  std::vector<uint64_t> keys, sk;
-  std::vector<double> hist, roll, sh;
+  std::vector<uint64_t> &keys = gscr_keys_, &sk = gscr_sk_, &rk = gscr_rk_;
+  std::vector<double> &hist = gscr_hist_, &roll = gscr_roll_, &sh = gscr_sh_, &rh = gscr_rh_;
   const bool bad = !sphdem_restart::get_history(dem_, keys, hist, R ? &roll : nullptr);
   const std::string err = sphdem_mpi::first_failure(world, bad, std::string("reading the contact history: ") +
                                                                     sphdem_dem_last_error(dem_));
   if (!err.empty()) fail(err);
   if (roll.size() != keys.size() * (size_t)R) roll.assign(keys.size() * (size_t)R, 0.0); /* none kept yet: 0 */
+  sk.clear();
+  sh.clear();
   for (size_t p = 0; p < keys.size(); p++)
     if (sphdem_restart::has_history(&hist[p * H])) {
       sk.push_back(keys[p]);
@@ -586,8 +588,8 @@ void PairGranGPUBase::gather_history() {
   MPI_Gather(&ns, 1, MPI_INT, cnt.data(), 1, MPI_INT, 0, world);
   int total = 0;
   for (int r = 0; r < nr; r++) dsp[r] = total, total += cnt[r], cnth[r] = cnt[r] * W, dsph[r] = dsp[r] * W;
-  std::vector<uint64_t> rk(comm->me == 0 ? (size_t)total : 0);
-  std::vector<double> rh(comm->me == 0 ? (size_t)total * W : 0);
+  rk.resize(comm->me == 0 ? (size_t)total : 0);
+  rh.resize(comm->me == 0 ? (size_t)total * W : 0);
   MPI_Gatherv(sk.data(), ns, MPI_UINT64_T, rk.data(), cnt.data(), dsp.data(), MPI_UINT64_T, 0, world);
   MPI_Gatherv(sh.data(), ns * W, MPI_DOUBLE, rh.data(), cnth.data(), dsph.data(), MPI_DOUBLE, 0, world);
   gathered_ = true;
@@ -595,10 +597,31 @@ void PairGranGPUBase::gather_history() {
   ghist_.clear();
   groll_.clear();
   if (comm->me != 0) return;
-  /* a pair split between two ranks is held by both (the same values): once, from the lower rank */
-  std::vector<int> order((size_t)total);
+  /* the pairs in key order; a pair split between two ranks is held by both (the same values): once, from the lower
+   * rank. Each rank's part comes in the order of its key-sorted list: the parts are merged pairwise (stable, the
+   * lower rank first among equal keys), a part out of order sorted first */
+  std::vector<int> &order = gscr_order_;
+  order.resize((size_t)total);
   for (int k = 0; k < total; k++) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return rk[a] < rk[b]; });
+  const auto by_key = [&](int a, int b) { return rk[a] < rk[b]; };
+  std::vector<int> bound(dsp);
+  bound.push_back(total);
+  for (int r = 0; r < nr; r++)
+    if (!std::is_sorted(rk.begin() + bound[r], rk.begin() + bound[r + 1]))
+      std::stable_sort(order.begin() + bound[r], order.begin() + bound[r + 1], by_key);
+  while (bound.size() > 2) {
+    std::vector<int> next;
+    for (size_t s = 0; s + 1 < bound.size(); s += 2) {
+      next.push_back(bound[s]);
+      if (s + 2 < bound.size())
+        std::inplace_merge(order.begin() + bound[s], order.begin() + bound[s + 1], order.begin() + bound[s + 2], by_key);
+    }
+    next.push_back(bound.back()); /* (an odd count of parts: the last one stays as it is this round) */
+    bound.swap(next);
+  }
+  gkeys_.reserve((size_t)total);
+  ghist_.reserve((size_t)total * H);
+  groll_.reserve((size_t)total * R);
   for (size_t t = 0; t < order.size(); t++) {
     if (t && rk[order[t]] == rk[order[t - 1]]) continue;
     const size_t o = (size_t)order[t] * W;

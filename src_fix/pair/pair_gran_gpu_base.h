@@ -96,6 +96,11 @@ class PairGranGPUBase : public Pair {
   std::vector<uint64_t> gkeys_;       /* rank 0: the history of every rank, gathered at the end of each run and on */
   std::vector<double> ghist_;         /* the steps of restart files, for write_restart */
   std::vector<double> groll_;         /* and their rolling history (3 per pair, hand_rolling_) */
+  /* the gathering's scratch, kept between runs (no fresh pages for each gathering): this rank's list, its pairs
+   * with a history, and on rank 0 the gathered keys, values and their order */
+  std::vector<uint64_t> gscr_keys_, gscr_sk_, gscr_rk_;
+  std::vector<double> gscr_hist_, gscr_roll_, gscr_sh_, gscr_rh_;
+  std::vector<int> gscr_order_;
   bool gathered_;
   /* many ranks: the failure check of a step's evaluation, reduced without a wait (completed at the next
    * evaluation, or at once on the set-up, restart and last steps) */
