@@ -1117,8 +1117,8 @@ SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec)
  * of the two conductivities; 0 where one is 0) and the heat flow Q = h (T_b - T_a) into a, out of b. q gets +Q at
  * a and -Q at b; dq (3 per grain, may be NULL) gets Q (x_a - x_b) / 2 at both. Walls take no part, nor a pair
  * of two grains with member 0 (member NULL: every grain is one). */
-/* dem_heat_flow: 1 when pair p conducts, with the flow Q into a and del = x_a - x_b; dem_heat_body adds it to the
- * sums (atomic: the CUDA kernel; the CPU backend's one-thread loop adds the flow of dem_heat_flow directly). */
+/* dem_heat_flow: 1 when pair p conducts, with the flow Q into a and del = x_a - x_b; dem_heat_add adds it to the
+ * sums (atomically in dem_heat_body, the CUDA kernel's; plainly in the CPU backend's one-thread loop). */
 SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member, int area,
                             double A0, double *Q_, double *del) {
   const int32_t a = D->pa[p], b = D->pb[p];
@@ -1135,11 +1135,20 @@ SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const 
   *Q_ = (T[b] - T[a]) * h;
   return 1;
 }
-SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member,
-                             int area, double A0, double *q, double *dq) {
-  double Q, del[3];
-  if (!dem_heat_flow(D, p, T, k, member, area, A0, &Q, del)) return;
+/* the flow Q of pair p (del = x_a - x_b) added to the sums: atomic adds (threads sharing the sums) or plain */
+DEM_HD_INLINE void dem_heat_add(const dem_dev *D, int64_t p, double Q, const double *del, double *q, double *dq,
+                                const int atomic) {
   const int32_t a = D->pa[p], b = D->pb[p];
+  if (!atomic) {
+    q[a] += Q;
+    q[b] -= Q;
+    if (dq)
+      for (int d = 0; d < 3; d++) {
+        dq[3 * a + d] += 0.5 * Q * del[d];
+        dq[3 * b + d] += 0.5 * Q * del[d];
+      }
+    return;
+  }
   dem_add(&q[a], Q);
   dem_add(&q[b], -Q);
   if (dq)
@@ -1147,6 +1156,11 @@ SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const
       dem_add(&dq[3 * a + d], 0.5 * Q * del[d]);
       dem_add(&dq[3 * b + d], 0.5 * Q * del[d]);
     }
+}
+SPHDEM_HD void dem_heat_body(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member,
+                             int area, double A0, double *q, double *dq) {
+  double Q, del[3];
+  if (dem_heat_flow(D, p, T, k, member, area, A0, &Q, del)) dem_heat_add(D, p, Q, del, q, dq, 1);
 }
 
 /* The sums of grain i: its force and torque, and its share of the virial (atomic, nonzero terms only). */
@@ -1291,16 +1305,16 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
  * that of a separated pair already. The touching pairs are the same and are added in the same order, so the
  * forces are the same bits with and without act, and whatever the block size.
  * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag); else D->head gives
- * each copy its run's head. virial: D->want_virial, fixed at compile time. *touching: the touching pairs; returns
- * those counted (dem_pair_counted). */
+ * each copy its run's head. virial: D->want_virial, fixed at compile time. Returns the touching pairs counted
+ * (dem_pair_counted). */
 DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf, const int32_t *act,
-                                             const int64_t nact, int64_t *touching, const int model,
-                                             const int uniform, const int virial) {
+                                             const int64_t nact, const int model, const int uniform,
+                                             const int virial) {
   const int64_t nk = act ? nact : D->np;
   /* the arrays in locals: byte stores to tf may alias anything */
   const int32_t *pa = D->pa, *pb = D->pb;
   const double *x = D->x, *rad = D->rad, *gap0 = D->gap0, thr = D->gap_thr;
-  int64_t nt = 0, m = 0;
+  int64_t nt = 0;
   int32_t g = -1; /* the grain of the current run */
   int counted = 0;
   double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
@@ -1369,7 +1383,6 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
         for (int d = 0; d < 6; d++) vs[d] += vir[d];
       nt += counted;
     }
-    m += nb;
   }
   if (g >= 0) {
     double *fg = D->f + 3 * (int64_t)g, *tg = D->tq + 3 * (int64_t)g;
@@ -1377,7 +1390,6 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
     if (virial)
       for (int d = 0; d < 6; d++) D->vir[d] += vs[d];
   }
-  *touching = m;
   return nt;
 }
 

@@ -290,13 +290,12 @@ static inline __attribute__((always_inline)) int64_t c_forward(const dem_dev *D,
 #else
 #define C_SERIAL_CLONES
 #endif
-typedef int64_t (*c_serial_fn)(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact,
-                               int64_t *touching);
+typedef int64_t (*c_serial_fn)(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact);
 #define C_SERIAL_FN(M, U, V, A)                                                                                      \
   static __attribute__((noinline)) C_SERIAL_CLONES int64_t c_serial_##M##_##U##V##A(                                 \
-      const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int64_t *touching) {                    \
+      const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact) {                                       \
     const dem_dev Dl = *D;                                                                                           \
-    return dem_pairs_serial_model(&Dl, tf, A ? act : NULL, nact, touching, SPHDEM_DEM_##M, U, V);                    \
+    return dem_pairs_serial_model(&Dl, tf, A ? act : NULL, nact, SPHDEM_DEM_##M, U, V);                              \
   }
 /* uniform and no virial, uniform with the virial, copies sharing a tag (with the virial); each over all pairs or
  * over a list of them */
@@ -311,8 +310,7 @@ C_SERIAL_MODEL(HERTZ_MINDLIN)
 C_SERIAL_MODEL(GRANULAR)
 C_SERIAL_MODEL(HERTZ_LIGGGHTS)
 
-static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact,
-                              int64_t *touching, int uniform) {
+static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t *act, int64_t nact, int uniform) {
   const c_serial_fn *t;
   switch (D->P.model) {
     case SPHDEM_DEM_HOOKE: t = c_serial_table_HOOKE; break;
@@ -322,7 +320,7 @@ static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t
     default: t = c_serial_table_HERTZ_LIGGGHTS; break;
   }
   const int v = !uniform ? 4 : D->want_virial ? 2 : 0;
-  return t[v + (act != NULL)](D, tf, act, nact, touching);
+  return t[v + (act != NULL)](D, tf, act, nact);
 }
 
 /* The pairs the one-thread pass visits while the list stands (dilute scenes: most pairs of the list are
@@ -376,15 +374,7 @@ int sphdem_dem_cpu_heat(struct sphdem_dem_s *m, const double *T, const double *k
   const dem_dev *D = &m->D;
   for (int64_t p = 0; p < D->np; p++) {
     double Q, del[3];
-    if (!dem_heat_flow(D, p, T, k, mb, area, A0, &Q, del)) continue;
-    const int32_t a = D->pa[p], b = D->pb[p];
-    q[a] += Q;
-    q[b] -= Q;
-    if (dq)
-      for (int d = 0; d < 3; d++) {
-        dq[3 * a + d] += 0.5 * Q * del[d];
-        dq[3 * b + d] += 0.5 * Q * del[d];
-      }
+    if (dem_heat_flow(D, p, T, k, mb, area, A0, &Q, del)) dem_heat_add(D, p, Q, del, q, dq, 0);
   }
   return SPHDEM_OK;
 }
@@ -453,8 +443,7 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
       act = c_active(m, &nact);
       if (D->gap_thr > m->act_seen) m->act_seen = D->gap_thr;
     }
-    int64_t touching = 0;
-    nt = c_serial_pairs(D, tf, act, nact, &touching, m->cpu_uniform);
+    nt = c_serial_pairs(D, tf, act, nact, m->cpu_uniform);
     m->cpu_ntouch = nt;
     m->tf_valid = 1;
     return SPHDEM_OK;
