@@ -192,6 +192,9 @@ void PairGranGPUBase::finish_check() {
 }
 
 void PairGranGPUBase::restore_history() {
+  /* between runs (write_restart, write_data, velocity ... call the engine's init, on every rank): the history of
+   * the last run's steps to rank 0, for a write_restart that follows */
+  if (ghosts_ && dem_ && history_dirty_ && update->whichflag == 0) gather_for_restart();
   if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
 }
 
@@ -631,13 +634,18 @@ void PairGranGPUBase::gather_history() {
   }
 }
 
-bool PairGranGPUBase::gather_step() const {
+bool PairGranGPUBase::restart_step() const {
 #ifdef SPHDEM_ENGINE_LIGGGHTS
-  const bool restart_step = output->restart_requested(update->ntimestep);
+  return output->restart_requested(update->ntimestep);
 #else
-  const bool restart_step = output->restart_flag && update->ntimestep == output->next_restart;
+  return output->restart_flag && update->ntimestep == output->next_restart;
 #endif
-  return update->ntimestep == update->laststep || restart_step;
+}
+
+void PairGranGPUBase::gather_for_restart() {
+  gather_history();
+  gather_more();
+  history_dirty_ = false;
 }
 
 int64_t PairGranGPUBase::contacts_now(std::vector<int32_t> &ij, std::vector<double> &ft, std::vector<double> &hist,
@@ -802,7 +810,7 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
     /* a failure stops every rank; on the steps between the set-up, restart files and the end of the run, the check
      * of this step ends at the next evaluation, so that the ranks do not wait for each other here */
     check_ranks(rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "",
-                update->setupflag || gather_step());
+                update->setupflag || update->ntimestep == update->laststep || restart_step());
   } else if (rc) {
     fail(std::string("DEM core: ") + (g ? sphdem_dem_last_error(dem_) : gerr));
   }
@@ -821,8 +829,10 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   }
   if (vflag_global)
     for (int k = 0; k < 6; k++) virial[k] += vir[k];
-  /* many ranks: rank 0 keeps every rank's history for a restart file written after the run or at this step */
-  if (ghosts_ && gather_step()) gather_history();
+  /* many ranks: rank 0 keeps every rank's history for a restart file written at this step; one written after the
+   * run gets it from write_restart's init (restore_history), so a run that writes none does not gather */
+  if (ghosts_ && !update->setupflag) history_dirty_ = true;
+  if (ghosts_ && restart_step()) gather_for_restart();
   if (timers_.on) {
     timers_.pack += tp1 - tp0;
     timers_.unpack += sphdem_pair_timers::now() - tp2;

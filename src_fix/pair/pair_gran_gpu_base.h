@@ -113,8 +113,13 @@ class PairGranGPUBase : public Pair {
   /* at each engine list build, after the history hand-over between ranks and before the core's own build
    * (collective on many ranks) */
   virtual void list_built() {}
-  /* the history of every rank goes to rank 0 at this step (the last of a run, or one that writes a restart file) */
-  bool gather_step() const;
+  /* this step writes a restart file (the engine's restart command): the history of every rank goes to rank 0 */
+  bool restart_step() const;
+  /* many ranks: the history changed since it was last gathered (a step ran); write_restart's init gathers it */
+  bool history_dirty_ = false;
+  /* many ranks, collective: the history (and a style's own per-pair data, gather_more) of every rank to rank 0 */
+  void gather_for_restart();
+  virtual void gather_more() {}
 
   [[noreturn]] void fail(const std::string &msg);     /* every rank calls it (the engine's collective stop) */
   [[noreturn]] void fail_one(const std::string &msg); /* this rank alone: the engine's one-rank stop */

@@ -447,7 +447,6 @@ void PairGranularGPU::compute(int eflag, int vflag) {
   if (!table_sent_) send_table();
   compute_grains(true, false); /* (the list order is followed in list_built, after the history hand-over) */
   if (vflag_atom) add_virial_atom(); /* compute stress/atom (and centroid/stress/atom: the same for pair forces) */
-  if (ghosts_ && track_order_ && gather_step()) gather_order();
 }
 
 /* Restart: the global cutoff and keywords, every type pair's coefficients, the pair order of the last list

@@ -50,6 +50,9 @@ class PairGranularGPU : public PairGranGPUBase {
   void follow_list_order();
   void merge_rank_orders(std::vector<uint64_t> &boundary);
   void gather_order();
+  void gather_more() override {
+    if (track_order_) gather_order();
+  }
 };
 
 }  // namespace LAMMPS_NS

@@ -10,7 +10,8 @@ vs stock at another rank count, printed alongside).
 
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
-                       np 2 read at np 1, and written at np 1 read at np 4, each vs the unbroken run; a bed in
+                       np 2 read at np 1 (write_restart after a run, and the restart command during one), and
+                       written at np 1 read at np 4, each vs the unbroken run; a bed in
                        one fifth of a box at np 4 with the cuts moved by balance between two runs and by fix
                        balance (grains go to ranks two subdomains away), /gpu vs stock; a box that fix deform
                        squeezes and stretches, /gpu vs stock at np 1 and np 2 (and the core's list builds);
@@ -19,7 +20,7 @@ vs stock at another rank count, printed alongside).
                        rank with the core's message
   liggghts MPIRUN LIG  the same scene with 'gran model hertz tangential history' vs gran/gpu (newton off,
                        LIGGGHTS' contact-history rule): /gpu vs stock at np 2, /gpu np 1 vs np 2; restart
-                       np 2 -> np 1; model hooke/hysteresis (largest overlap per contact) and rolling_friction
+                       np 2 -> np 1 (both ways); model hooke/hysteresis (largest overlap per contact) and rolling_friction
                        epsd2 and epsd (a rolling torque per contact) /gpu vs stock at np 2; the epsd2 restart
                        np 2 -> np 1 (the rolling torques of both ranks in the file)
 Python 3 only; exits 0 on pass, 1 on failure.
@@ -197,16 +198,23 @@ def compare(results, label, a, b, bound=BOUND, d=D):
     return dx
 
 
-def restart_pair(r, results, style, np_write, np_read, newton):
+def restart_pair(r, results, style, np_write, np_read, newton, keyword=False):
     """STEPS/2 steps at np_write, write_restart, read at np_read, STEPS/2 more: vs the same two runs in one
     input at np_write (a new run's setup alone moves the grains by ~3e-8 d here, with the stock style too:
-    the stock fix wall/gran, the sorting and the reneighbouring of the setup)"""
+    the stock fix wall/gran, the sorting and the reneighbouring of the setup). keyword: the file written by
+    the restart command in the middle of one run of STEPS steps"""
     half = STEPS // 2
-    tag = "restart_%d_%d_%s" % (np_write, np_read, newton)
+    tag = "restart_%d_%d_%s%s" % (np_write, np_read, newton, "_keyword" if keyword else "")
     u = r.go(tag + "/unbroken", np_write, r.script(style, np_write, newton, "run %d\nrun %d\n" % (half, half) +
                                                    r.dump("final.dump")))
     unbroken = load(os.path.join(u, "final.dump")) if u else None
-    w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, "run %d\nwrite_restart bed.restart\n" % half))
+    if keyword:
+        w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, "restart %d bed.*.restart\nrun %d\n" %
+                                                    (half, STEPS)))
+        if w:
+            os.replace(os.path.join(w, "bed.%d.restart" % half), os.path.join(w, "bed.restart"))
+    else:
+        w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, "run %d\nwrite_restart bed.restart\n" % half))
     if not w:
         results.append(False)
         return
@@ -225,7 +233,8 @@ def restart_pair(r, results, style, np_write, np_read, newton):
                 "thermo 500\nrun %d\n" % (np_read, newton, half) + r.dump("final.dump"))
     c = r.go(tag + "/read", np_read, cont, files=[os.path.join(w, "bed.restart")])
     b = load(os.path.join(c, "final.dump")) if c else None
-    compare(results, "restart np %d -> np %d vs unbroken np %d" % (np_write, np_read, np_write), unbroken, b)
+    compare(results, "restart%s np %d -> np %d vs unbroken np %d" % (" (restart command)" if keyword else "", np_write,
+                                                                   np_read, np_write), unbroken, b)
 
 
 def lammps(mpirun, lmp):
@@ -274,6 +283,7 @@ def lammps(mpirun, lmp):
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
             restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton)
             restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
+            restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton, keyword=True)
     for newton in ("on", "off"):
         res.append(balance_moves(r, newton))
     res.append(deforming_box(r))
@@ -451,6 +461,7 @@ def liggghts(mpirun, lig):
     compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
     compare(res, "/gpu np 1 vs stock np 1", g1, s1)
     restart_pair(r, res, "gran/gpu", 2, 1, "off")
+    restart_pair(r, res, "gran/gpu", 2, 1, "off", keyword=True)
     # model hooke/hysteresis: the largest overlap of each contact is a history value too
     hyst = Runner(mpirun, lig, True, os.path.join("dem_mpi_lig", "hysteresis"))
     hyst.text = LIG.replace("model hertz tangential history\n", "model hooke/hysteresis tangential history\n").replace(
