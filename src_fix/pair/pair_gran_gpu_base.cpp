@@ -192,9 +192,10 @@ void PairGranGPUBase::finish_check() {
 }
 
 void PairGranGPUBase::restore_history() {
-  /* between runs (write_restart, write_data, velocity ... call the engine's init, on every rank): the history of
-   * the last run's steps to rank 0, for a write_restart that follows */
-  if (ghosts_ && dem_ && history_dirty_ && update->whichflag == 0) gather_for_restart();
+  /* the engine's init after steps ran (write_restart calls it on every rank, between runs or among the commands of
+   * run ... every; so do the next run's set-up and write_data, velocity ...): the history of those steps to rank 0,
+   * for a write_restart that follows */
+  if (ghosts_ && dem_ && history_dirty_) gather_for_restart();
   if (pending_history_.apply(dem_)) fail(std::string("restoring the contact history: ") + sphdem_dem_last_error(dem_));
 }
 

@@ -10,7 +10,7 @@ vs stock at another rank count, printed alongside).
 
   lammps   MPIRUN LMP  gran/hertz/history vs gran/hertz/history/gpu, newton on and newton off: /gpu vs
                        stock at np 2 and np 4 (4 oversubscribed), /gpu np 1 vs np 2; a restart written at
-                       np 2 read at np 1 (write_restart after a run, and the restart command during one), and
+                       np 2 read at np 1 (write_restart after a run, by run ... every, and the restart command during one), and
                        written at np 1 read at np 4, each vs the unbroken run; a bed in
                        one fifth of a box at np 4 with the cuts moved by balance between two runs and by fix
                        balance (grains go to ranks two subdomains away), /gpu vs stock; a box that fix deform
@@ -198,19 +198,21 @@ def compare(results, label, a, b, bound=BOUND, d=D):
     return dx
 
 
-def restart_pair(r, results, style, np_write, np_read, newton, keyword=False):
+def restart_pair(r, results, style, np_write, np_read, newton, keyword=None):
     """STEPS/2 steps at np_write, write_restart, read at np_read, STEPS/2 more: vs the same two runs in one
     input at np_write (a new run's setup alone moves the grains by ~3e-8 d here, with the stock style too:
-    the stock fix wall/gran, the sorting and the reneighbouring of the setup). keyword: the file written by
-    the restart command in the middle of one run of STEPS steps"""
+    the stock fix wall/gran, the sorting and the reneighbouring of the setup). keyword "restart": the file
+    written by the restart command in the middle of one run of STEPS steps; "every": by write_restart among
+    the commands of run STEPS every STEPS/2"""
     half = STEPS // 2
-    tag = "restart_%d_%d_%s%s" % (np_write, np_read, newton, "_keyword" if keyword else "")
+    tag = "restart_%d_%d_%s%s" % (np_write, np_read, newton, "_" + keyword if keyword else "")
     u = r.go(tag + "/unbroken", np_write, r.script(style, np_write, newton, "run %d\nrun %d\n" % (half, half) +
                                                    r.dump("final.dump")))
     unbroken = load(os.path.join(u, "final.dump")) if u else None
     if keyword:
-        w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, "restart %d bed.*.restart\nrun %d\n" %
-                                                    (half, STEPS)))
+        cmd = ("restart %d bed.*.restart\nrun %d\n" % (half, STEPS) if keyword == "restart" else
+               "run %d every %d \"write_restart bed.*.restart\"\n" % (STEPS, half))
+        w = r.go(tag + "/write", np_write, r.script(style, np_write, newton, cmd))
         if w:
             os.replace(os.path.join(w, "bed.%d.restart" % half), os.path.join(w, "bed.restart"))
     else:
@@ -233,8 +235,8 @@ def restart_pair(r, results, style, np_write, np_read, newton, keyword=False):
                 "thermo 500\nrun %d\n" % (np_read, newton, half) + r.dump("final.dump"))
     c = r.go(tag + "/read", np_read, cont, files=[os.path.join(w, "bed.restart")])
     b = load(os.path.join(c, "final.dump")) if c else None
-    compare(results, "restart%s np %d -> np %d vs unbroken np %d" % (" (restart command)" if keyword else "", np_write,
-                                                                   np_read, np_write), unbroken, b)
+    how = {"restart": " (restart command)", "every": " (run every)"}.get(keyword, "")
+    compare(results, "restart%s np %d -> np %d vs unbroken np %d" % (how, np_write, np_read, np_write), unbroken, b)
 
 
 def lammps(mpirun, lmp):
@@ -283,7 +285,8 @@ def lammps(mpirun, lmp):
             compare(res, "/gpu np 4 vs stock np 4", g4, s4)
             restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton)
             restart_pair(r, res, "gran/hertz/history/gpu", 1, 4, newton)
-            restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton, keyword=True)
+            restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton, keyword="restart")
+            restart_pair(r, res, "gran/hertz/history/gpu", 2, 1, newton, keyword="every")
     for newton in ("on", "off"):
         res.append(balance_moves(r, newton))
     res.append(deforming_box(r))
@@ -461,7 +464,7 @@ def liggghts(mpirun, lig):
     compare(res, "/gpu np 1 vs /gpu np 2", g1, g2)
     compare(res, "/gpu np 1 vs stock np 1", g1, s1)
     restart_pair(r, res, "gran/gpu", 2, 1, "off")
-    restart_pair(r, res, "gran/gpu", 2, 1, "off", keyword=True)
+    restart_pair(r, res, "gran/gpu", 2, 1, "off", keyword="restart")
     # model hooke/hysteresis: the largest overlap of each contact is a history value too
     hyst = Runner(mpirun, lig, True, os.path.join("dem_mpi_lig", "hysteresis"))
     hyst.text = LIG.replace("model hertz tangential history\n", "model hooke/hysteresis tangential history\n").replace(
