@@ -99,7 +99,7 @@ def test_entry(exe, engine, exdir):
     fails = []
     res = {}
     for kind, script in (("dry", "in.dem" + suffix), ("wet", "in.dem_water" + suffix)):
-        wd = tempfile.mkdtemp(prefix="add_water_%s_%s_" % (engine, kind))
+        wd = os.path.abspath(tempfile.mkdtemp(prefix="add_water_%s_%s_" % (engine, kind), dir="."))  # in the build tree
         rc, out = run(exe, wd, script, exdir)
         if rc != 0 or "ERROR" in out:
             print("FAIL %s %s exited %d:\n%s" % (engine, script, rc, out[-2500:]))
@@ -168,7 +168,7 @@ def ranks_case(exe, engine, mpirun, exdir, script, steps, label):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     res, fails = {}, 0
     for np_, grid in ((1, None), (2, "1 1 2"), (4, "2 2 1")):
-        wd = tempfile.mkdtemp(prefix="add_water_ranks_%s_np%d_" % (engine, np_))
+        wd = os.path.abspath(tempfile.mkdtemp(prefix="add_water_ranks_%s_np%d_" % (engine, np_), dir="."))
         shutil.copy(os.path.join(exdir, "box.stl"), wd)
         sc = script if grid is None else re.sub(r"(?m)^(create_box.*)$", "processors %s\n\\1" % grid, script, count=1)
         with open(os.path.join(wd, "in.ranks"), "w") as f:

@@ -71,7 +71,7 @@ def first_dump(wd, what):
 
 def test_water(exe, exdir):
     fails = []
-    wd = tempfile.mkdtemp(prefix="drum_mesh_")
+    wd = os.path.abspath(tempfile.mkdtemp(prefix="drum_mesh_", dir="."))  # in the build tree, not /tmp
     shutil.copy(os.path.join(exdir, "drum.stl"), wd)
     cmd = [exe, "-in", os.path.join(exdir, "in.dem_water"), "-var", "nsettle", str(NSETTLE),
            "-var", "nrot", str(NROT), "-var", "ndump", str(NDUMP), "-log", "log.drum_mesh"]
