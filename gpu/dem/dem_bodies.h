@@ -1285,17 +1285,19 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
 }
 
 /* The pairs the one-thread pass takes in one block: their overlap test, then the square roots of the touching ones,
- * then the law (kept in L1: 7 doubles a pair and 4 for the roots) */
+ * then the law (kept in L1: 10 doubles a pair and 4 for the roots) */
 #define DEM_PAIR_BLOCK 128
 
 /* The same pairs on one thread, each evaluated once, in list order (by the tags of a, then of b: the order
  * does not depend on the order of the grains): the force of each run of touching pairs of one grain a summed and
  * added to a at the run's end, -F and Tb added to grain b at once; f and tq hold what is there already (zero, or
  * the caller's forces to add to). No pair force buffer and no reverse pass.
- * The visited pairs go in blocks of DEM_PAIR_BLOCK, each in three loops:
- *  - the overlap test of each pair, without a branch on its outcome (touching or not changes from pair to pair in
- *    a bed, and a branch on it is mispredicted often): every pair is written into the block's next slot, and the
- *    slot is kept when the pair touches. The test's few values stay in registers, apart from the law's;
+ * The visited pairs go in blocks of DEM_PAIR_BLOCK, each in four loops:
+ *  - the overlap test of each pair in a slot of its own, nothing carried from one pair to the next, so that the
+ *    chains of loads (pair, grains, positions) of many pairs overlap; the uncommon cases (walls, separations that
+ *    may need a periodic image, coincident centres) marked for the general test;
+ *  - the general test of those, and the list of the touching slots, without a branch on the outcome (touching or
+ *    not changes from pair to pair in a bed, and a branch on it is mispredicted often);
  *  - the square roots and divisions that the separation and radii give (dem_pair_roots) for the block's touching
  *    pairs: independent iterations, vectorized, where in the law each would head a chain of dependent operations;
  *  - the law of those pairs.
@@ -1319,42 +1321,67 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
   int counted = 0;
   double f[3] = {0, 0, 0}, t[3] = {0, 0, 0}, vs[6] = {0, 0, 0, 0, 0, 0};
   double F[3] = {0, 0, 0}, Ta[3] = {0, 0, 0}, Tb[3] = {0, 0, 0}, vir[6] = {0, 0, 0, 0, 0, 0};
-  int32_t bp[DEM_PAIR_BLOCK];
-  double bd[6][DEM_PAIR_BLOCK], pre[4][DEM_PAIR_BLOCK]; /* separation, |r|^2, r_a, r_b; the roots */
+  const double halfL2min = D->halfL2min;
+  int32_t bp[DEM_PAIR_BLOCK], kid[DEM_PAIR_BLOCK];
+  unsigned char bc[DEM_PAIR_BLOCK];
+  double bd[6][DEM_PAIR_BLOCK], cr[3][DEM_PAIR_BLOCK], pre[4][DEM_PAIR_BLOCK]; /* separation, |r|^2, r_a, r_b; the
+                                                                                  touching ones' |r|^2, r_a, r_b; roots */
   for (int64_t k0 = 0; k0 < nk; k0 += DEM_PAIR_BLOCK) {
-    const int64_t k1 = nk - k0 < DEM_PAIR_BLOCK ? nk : k0 + DEM_PAIR_BLOCK;
+    const int nm = (int)(nk - k0 < DEM_PAIR_BLOCK ? nk - k0 : DEM_PAIR_BLOCK);
+    /* 1: every pair's test in its own slot, nothing carried from one pair to the next (the loads of many pairs
+     * overlap). bc: 1 touching, 0 not, 2 to be taken by the general test below (a wall; a separation that may
+     * need a periodic image; centres within 1e-12 of the contact distance) */
+    for (int j = 0; j < nm; j++) {
+      const int64_t p = act ? act[k0 + j] : k0 + j;
+      const int32_t a = pa[p], b = pb[p], c = b >= 0 ? b : a;
+      const double *xa = x + 3 * (int64_t)a, *xb = x + 3 * (int64_t)c;
+      const double ra = rad[a], rb = rad[c];
+      const double s0 = xa[0] - xb[0], s1 = xa[1] - xb[1], s2 = xa[2] - xb[2];
+      const double rsq = s0 * s0 + s1 * s1 + s2 * s2; /* (dem_sep's sum: the same bits) */
+      const double radsum = ra + rb, r2 = radsum * radsum;
+      const int near = !(gap0[p] > thr), slow = (b < 0) | !(rsq < halfL2min) | (rsq <= 1e-24 * r2);
+      bp[j] = (int32_t)p;
+      bd[0][j] = s0, bd[1][j] = s1, bd[2][j] = s2, bd[3][j] = rsq, bd[4][j] = ra, bd[5][j] = rb;
+      bc[j] = (unsigned char)(near * (slow ? 2 : rsq < r2));
+    }
+    /* 2: the general test of the slots marked 2 (as dem_grain_overlap and dem_contact_geom_a), the touching
+     * slots listed in kid without a branch on the outcome, and the history of the pairs apart now that touched
+     * at the last evaluation (or unknown) cleared */
     int nb = 0;
-    for (int64_t k = k0; k < k1; k++) {
-      const int64_t p = act ? act[k] : k;
-      int touch;
-      double del[3] = {0.0, 0.0, 0.0}, rsq = 0.0, radsum, rb = 0.0;
-      const int32_t a = pa[p], b = pb[p];
-      const double ra = rad[a];
-      const int near = !(gap0[p] > thr);
-      if (b >= 0) { /* the test of dem_grain_overlap, its outcome a value */
-        rb = rad[b];
-        radsum = ra + rb;
-        rsq = dem_sep(D, x + 3 * (int64_t)a, x + 3 * (int64_t)b, del);
-        const double r2 = radsum * radsum;
-        const int apart = !(rsq < r2), coincident = rsq <= 1e-24 * r2;
-        touch = near & !apart & !coincident;
-        if (near & coincident) dem_flag_coincident(D, a, b); /* (centres within 1e-12 of the contact distance) */
-      } else {
-        touch = near && dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, ra, del, &rsq, &rb, &radsum);
+    for (int j = 0; j < nm; j++) {
+      const int64_t p = bp[j];
+      int touch = bc[j];
+      if (touch == 2) {
+        const int32_t a = pa[p], b = pb[p];
+        const double ra = rad[a];
+        double del[3] = {0.0, 0.0, 0.0}, rsq = 0.0, radsum, rb = 0.0;
+        if (b >= 0) {
+          rb = rad[b];
+          radsum = ra + rb;
+          rsq = dem_sep(D, x + 3 * (int64_t)a, x + 3 * (int64_t)b, del);
+          const double r2 = radsum * radsum;
+          const int coincident = rsq <= 1e-24 * r2;
+          touch = rsq < r2 && !coincident;
+          if (coincident) dem_flag_coincident(D, a, b); /* (centres within 1e-12 of the contact distance) */
+        } else {
+          touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, ra, del, &rsq, &rb, &radsum);
+        }
+        bd[0][j] = del[0], bd[1][j] = del[1], bd[2][j] = del[2], bd[3][j] = rsq, bd[4][j] = ra, bd[5][j] = rb;
       }
-      bp[nb] = (int32_t)p;
-      bd[0][nb] = del[0], bd[1][nb] = del[1], bd[2][nb] = del[2], bd[3][nb] = rsq, bd[4][nb] = ra, bd[5][nb] = rb;
+      kid[nb] = j; /* (with the roots' three inputs side by side for the vectorized loop) */
+      cr[0][nb] = bd[3][j], cr[1][nb] = bd[4][j], cr[2][nb] = bd[5][j];
       nb += touch;
-      if (!touch && tf[p]) { /* apart now, touching at the last evaluation (or unknown) */
+      if (!touch && tf[p]) {
         dem_separated_history(D, p, D->hout + SPHDEM_DEM_NHIST * p);
         tf[p] = 0;
       }
     }
     for (int j = 0; j < nb; j++) /* (a wall's roots are taken again by the law: the grain form here) */
-      dem_pair_roots(bd[3][j], bd[4][j], bd[5][j], bd[4][j] + bd[5][j], 0, model, &pre[0][j], &pre[1][j],
-                     &pre[2][j], &pre[3][j]);
+      dem_pair_roots(cr[0][j], cr[1][j], cr[2][j], cr[1][j] + cr[2][j], 0, model, &pre[0][j], &pre[1][j], &pre[2][j],
+                     &pre[3][j]);
     for (int j = 0; j < nb; j++) {
-      const int64_t p = bp[j];
+      const int q = kid[j];
+      const int64_t p = bp[q];
       const int32_t a = pa[p], b = pb[p];
       const int32_t h = uniform ? a : D->head[a]; /* (copies sharing a tag: the run's head copy) */
       if (h != g) { /* a new run of touching pairs: the last one's sum to its grain */
@@ -1369,9 +1396,9 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
         for (int d = 0; d < 3; d++) f[d] = t[d] = 0.0;
         for (int d = 0; d < 6; d++) vs[d] = 0.0;
       }
-      const double ra = bd[4][j], rb = bd[5][j], del[3] = {bd[0][j], bd[1][j], bd[2][j]};
+      const double ra = bd[4][q], rb = bd[5][q], del[3] = {bd[0][q], bd[1][q], bd[2][q]};
       const double roots[4] = {pre[0][j], pre[1][j], pre[2][j], pre[3][j]};
-      dem_contact_model_pre(D, p, a, b, ra, del, bd[3][j], rb, b >= 0 ? ra + rb : ra, F, Ta, Tb,
+      dem_contact_model_pre(D, p, a, b, ra, del, bd[3][q], rb, b >= 0 ? ra + rb : ra, F, Ta, Tb,
                             D->hout + SPHDEM_DEM_NHIST * p, vir, roots, model);
       tf[p] = 1; /* (after the law's loads: a byte store may alias anything) */
       if (b >= 0) {

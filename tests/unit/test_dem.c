@@ -1056,6 +1056,10 @@ static void test_history_hand_over(void) {
   for (int k = 0; k < H; k++) ho[H * (c + 1) + k] = 7.0;
   rc |= sphdem_dem_add_history(B, c + 2, ko, ho, NULL);
   rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
+  /* D: the same as B, for the reference of the pairs held (below) */
+  sphdem_dem D = make(&p);
+  rc |= sphdem_dem_add_history(D, c + 2, ko, ho, NULL);
+  rc |= sphdem_dem_compute(D, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
   /* C: the same pairs (each once, no unknown key) as the whole history to carry (sphdem_dem_set_history) */
   sphdem_dem C = make(&p);
   rc |= sphdem_dem_set_history(C, c, ko, ho);
@@ -1067,17 +1071,21 @@ static void test_history_hand_over(void) {
   for (int64_t q = 0; q < nb; q++) carried += hb[H * q] != 0.0 || hb[H * q + 1] != 0.0 || hb[H * q + 2] != 0.0;
   const int as_set = nb == nc && nb > 0 && !memcmp(kb, kc, sizeof(uint64_t) * (size_t)nb) &&
                      !memcmp(hb, hc, sizeof(double) * H * (size_t)nb);
-  /* a pair held already keeps its own values */
+  /* a pair held already keeps its own values: B handed the pairs again (other values) before a build is the same as
+   * D built without (the same bits; against B's history before, a sliding contact's history would differ in its
+   * last bits: each evaluation caps it again, as the stock style's set-up does) */
   for (int64_t q = 0; q < c; q++)
     for (int k = 0; k < H; k++) ho[H * q + k] *= 2.0;
   rc |= sphdem_dem_add_history(B, c, ko, ho, NULL);
   rc |= sphdem_dem_request_build(B);
   rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
-  double *hb2 = malloc(sizeof(double) * H * (size_t)(np + 2));
-  uint64_t *kb2 = malloc(sizeof(uint64_t) * (size_t)(np + 2));
-  const int64_t nb2 = sphdem_dem_get_history(B, kb2, hb2, np + 2);
-  const int same = nb2 == nb && !memcmp(kb2, kb, sizeof(uint64_t) * (size_t)nb) &&
-                   !memcmp(hb2, hb, sizeof(double) * H * (size_t)nb);
+  rc |= sphdem_dem_request_build(D);
+  rc |= sphdem_dem_compute(D, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-5, 0, g.f, g.t, NULL);
+  double *hb2 = malloc(sizeof(double) * H * (size_t)(np + 2)), *hd = malloc(sizeof(double) * H * (size_t)(np + 2));
+  uint64_t *kb2 = malloc(sizeof(uint64_t) * (size_t)(np + 2)), *kd = malloc(sizeof(uint64_t) * (size_t)(np + 2));
+  const int64_t nb2 = sphdem_dem_get_history(B, kb2, hb2, np + 2), nd = sphdem_dem_get_history(D, kd, hd, np + 2);
+  const int same = nb2 == nd && nd > 0 && !memcmp(kb2, kd, sizeof(uint64_t) * (size_t)nd) &&
+                   !memcmp(hb2, hd, sizeof(double) * H * (size_t)nd);
   printf("  handed over %lld pairs (one twice, one of no grains) before the first build: %lld of %lld pairs carry a "
          "tangential history, the same bits as the history set whole: %s; held pairs kept theirs: %s\n", (long long)c,
          (long long)carried, (long long)nb, as_set ? "yes" : "no", same ? "yes" : "no");
@@ -1088,7 +1096,8 @@ static void test_history_hand_over(void) {
                   strstr(sphdem_dem_last_error(B), "add_history") != NULL,
               "add_history without keys: '%s'", sphdem_dem_last_error(B));
   free(ka); free(ko); free(ha); free(ho); free(ro); free(kb); free(hb); free(kc); free(hc); free(kb2); free(hb2);
-  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B); sphdem_dem_destroy(&C);
+  free(kd); free(hd);
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B); sphdem_dem_destroy(&C); sphdem_dem_destroy(&D);
   free_grains(&g);
 }
 
@@ -1097,18 +1106,30 @@ static void test_history_hand_over(void) {
  * steps with contacts made and lost, the history of every pair the same bits (it depends on the positions,
  * velocities and the last history only, which both see alike), the forces, torques and virial the same to
  * rounding (the two sum in different orders); with and without the virial, with copies of grains sharing a tag
- * (SPHDEM_DEM_GHOST), and for the Hooke law (no Hertz root). */
+ * (SPHDEM_DEM_GHOST), for the Hooke law (no Hertz root), and in a box of six walls without periodic axes (the
+ * walls' pairs and the pairs of the periodic box's two sides take the general overlap test). */
 static void test_serial_pass(void) {
-  for (int variant = 0; variant < 4; variant++) {
+  for (int variant = 0; variant < 5; variant++) {
     const int n = 500;
     double lo[3], hi[3]; /* dense: most listed pairs touch */
     grains g = packing(n, 0.45, 2.0, lo, hi);
     /* (500 grains: the one-thread pass at any thread count) */
-    sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 1);
+    sphdem_dem_params p = hertz_params(0.02, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, variant != 4);
     if (variant == 3) p.model = SPHDEM_DEM_HOOKE;
     sphdem_dem_params q = p;
     q.algo = SPHDEM_DEM_PAIR_PARALLEL;
     sphdem_dem A = make(&p), B = make(&q);
+    if (variant == 4) {
+      sphdem_dem_wall w[6];
+      for (int k = 0; k < 6; k++) {
+        const int d = k / 2, up = k % 2;
+        for (int e = 0; e < 3; e++) w[k].point[e] = lo[e], w[k].normal[e] = 0.0;
+        w[k].point[d] = up ? hi[d] : lo[d];
+        w[k].normal[d] = up ? -1.0 : 1.0;
+      }
+      TEST_ASSERT(sphdem_dem_set_walls(A, 6, w) == SPHDEM_OK && sphdem_dem_set_walls(B, 6, w) == SPHDEM_OK,
+                  "serial pass: walls: %s", sphdem_dem_last_error(A));
+    }
     TEST_ASSERT(sphdem_dem_cpu_serial_pass(A) && !sphdem_dem_cpu_serial_pass(B), "serial pass: the passes compared");
     int32_t *fl = NULL;
     if (variant == 2) { /* the last 50 grains: copies of another rank's grains, two per tag */
@@ -1150,7 +1171,7 @@ static void test_serial_pass(void) {
     printf("  one-thread pass vs pair-parallel pass, %s: %lld then %lld contacts; history %s; forces and torques "
            "%.2e of the largest, virial %.2e\n",
            variant == 0 ? "hertz" : variant == 1 ? "hertz, virial" : variant == 2 ? "hertz, virial, copies sharing a tag"
-                                                                                 : "hooke",
+                                    : variant == 3 ? "hooke" : "hertz, six walls",
            (long long)contacts_first, (long long)contacts_last, same ? "the same bits" : "DIFFERENT", rel, vrel);
     TEST_ASSERT(rc == 0 && contacts_first > 500 && contacts_last != contacts_first,
                 "serial pass: rc %d (%s), %lld, %lld contacts", rc, sphdem_dem_last_error(A),
