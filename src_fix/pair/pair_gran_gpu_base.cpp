@@ -9,6 +9,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "compute.h"
 #include "domain.h"
 #include "fix.h"
 #include "memory.h"
@@ -702,6 +703,36 @@ bool PairGranGPUBase::heat_now(const double *temp, const double *cond, const int
       for (int d = 0; d < 3; d++) dir[o][d] += heat_dq_[3 * i + d];
   }
   return true;
+}
+
+bool PairGranGPUBase::pair_local_present() const {
+  for (int i = 0; i < modify->ncompute; i++)
+    if (std::strcmp(modify->compute[i]->style, "pair/local") == 0) return true;
+  return false;
+}
+
+const double *PairGranGPUBase::single_contact(int i, int j, bool &i_is_a) {
+  const int n = atom->nlocal + atom->nghost;
+  if (update->ntimestep != single_step_ || n != single_n_) {
+    std::string err;
+    const int64_t np = contacts_now(single_ij_, single_ft_, single_hist_, single_roll_, err);
+    if (np < 0) fail_one("compute pair/local: " + err);
+    single_map_.clear();
+    for (int64_t k = 0; k < np; k++) {
+      const uint64_t ta = (uint64_t)atom->tag[single_ij_[2 * k]], tb = (uint64_t)atom->tag[single_ij_[2 * k + 1]];
+      single_map_.emplace(ta < tb ? ta << 32 | tb : tb << 32 | ta, k);
+    }
+    single_step_ = update->ntimestep;
+    single_n_ = n;
+  }
+  const uint64_t ti = (uint64_t)atom->tag[i], tj = (uint64_t)atom->tag[j];
+  const auto it = single_map_.find(ti < tj ? ti << 32 | tj : tj << 32 | ti);
+  if (it == single_map_.end())
+    fail_one("compute pair/local: atoms " + std::to_string(ti) + " and " + std::to_string(tj) +
+             " overlap but the DEM core has no contact of them (is the pair excluded?)");
+  const int64_t k = it->second;
+  i_is_a = (uint64_t)atom->tag[single_ij_[2 * k]] == ti;
+  return &single_ft_[SPHDEM_DEM_CONTACT_DOUBLES * k];
 }
 
 void PairGranGPUBase::add_virial_atom(bool step) {

@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <mpi.h>
@@ -153,6 +154,16 @@ class PairGranGPUBase : public Pair {
   void finish_check(); /* the reduction of the last check_ranks: stops every rank when one failed */
   /* many ranks, collective: the history of every rank to rank 0 (each pair once), for write_restart */
   void gather_history();
+  /* single() (compute pair/local): the contact of the touching atoms i, j as the core evaluates it now (contacts_now,
+   * taken once per step and atom count): its SPHDEM_DEM_CONTACT_DOUBLES values (the force on a, the torques on a
+   * and on b, x_a - x_b), and whether i is its grain a; stops this rank where the core has no such contact */
+  const double *single_contact(int i, int j, bool &i_is_a);
+  bool pair_local_present() const; /* a compute pair/local is defined (it calls single() on each rank's own list) */
+  bigint single_step_ = -1; /* the step and atom count of the contacts below */
+  int single_n_ = -1;
+  std::unordered_map<uint64_t, int64_t> single_map_; /* (lower tag << 32 | higher tag) -> contact */
+  std::vector<int32_t> single_ij_;
+  std::vector<double> single_ft_, single_hist_, single_roll_;
   /* read_restart: rank 0 reads n items, every rank gets them; false (on every rank) when the file ends */
   bool read_head(FILE *fp, void *p, size_t size, size_t n);
   /* the checks of init_style common to both engines; atom_styles names the styles that fit */

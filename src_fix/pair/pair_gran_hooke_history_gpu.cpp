@@ -42,29 +42,12 @@ double PairGranHookeHistoryGPU::single(int i, int j, int, int, double rsq, doubl
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   const double radsum = atom->radius[i] + atom->radius[j];
   if (rsq >= radsum * radsum) return 0.0;
-  const int n = atom->nlocal + atom->nghost;
-  if (update->ntimestep != single_step_ || n != single_n_) {
-    std::string err;
-    const int64_t np = contacts_now(single_ij_, single_ft_, single_hist_, single_roll_, err);
-    if (np < 0) fail_one("compute pair/local: " + err);
-    single_map_.clear();
-    for (int64_t k = 0; k < np; k++) {
-      const uint64_t ta = (uint64_t)atom->tag[single_ij_[2 * k]], tb = (uint64_t)atom->tag[single_ij_[2 * k + 1]];
-      single_map_.emplace(ta < tb ? ta << 32 | tb : tb << 32 | ta, k);
-    }
-    single_step_ = update->ntimestep;
-    single_n_ = n;
-  }
-  const uint64_t ti = (uint64_t)atom->tag[i], tj = (uint64_t)atom->tag[j];
-  const auto it = single_map_.find(ti < tj ? ti << 32 | tj : tj << 32 | ti);
-  if (it == single_map_.end())
-    fail_one("compute pair/local: atoms " + std::to_string(ti) + " and " + std::to_string(tj) +
-             " overlap but the DEM core has no contact of them (is the pair excluded?)");
-  const int64_t k = it->second;
-  const double s = (uint64_t)atom->tag[single_ij_[2 * k]] == ti ? 1.0 : -1.0; /* the force on i */
+  bool i_is_a;
+  const double *F = single_contact(i, j, i_is_a);
+  const double s = i_is_a ? 1.0 : -1.0; /* the force on i */
   double **x = atom->x, **v = atom->v;
   const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
-  const double *F = &single_ft_[SPHDEM_DEM_CONTACT_DOUBLES * k], fi[3] = {s * F[0], s * F[1], s * F[2]};
+  const double fi[3] = {s * F[0], s * F[1], s * F[2]};
   /* the normal force along del (ccel del), the rest tangential */
   const double ccel = (fi[0] * del[0] + fi[1] * del[1] + fi[2] * del[2]) / rsq;
   double fs[3], vn[3], vt[3];
@@ -135,9 +118,7 @@ void PairGranHookeHistoryGPU::init_style() {
   scan_rigid_freeze();
   /* compute pair/local asks each rank for the pairs of its own list: with newton on a pair split between two ranks
    * is then evaluated on both (so that either rank has its contact) */
-  ghost_once_ok_ = true;
-  for (int i = 0; i < modify->ncompute; i++)
-    if (std::strcmp(modify->compute[i]->style, "pair/local") == 0) ghost_once_ok_ = false;
+  ghost_once_ok_ = !pair_local_present();
   /* the cutoff of the stock style (PairGranHookeHistory::init_style/init_one): per type the largest
    * radius of the grains, frozen ones apart, and of the particles fix pour / fix deposit will insert */
   const int nt = atom->ntypes;

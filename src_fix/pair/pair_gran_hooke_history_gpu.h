@@ -37,11 +37,6 @@ class PairGranHookeHistoryGPU : public PairGranGPUBase {
   void sync_params() override;
 
  private:
-  bigint single_step_ = -1;  /* the step and atom count of the contacts below */
-  int single_n_ = -1;
-  std::unordered_map<uint64_t, int64_t> single_map_; /* (lower tag << 32 | higher tag) -> contact */
-  std::vector<int32_t> single_ij_;
-  std::vector<double> single_ft_, single_hist_, single_roll_;
 };
 
 }  // namespace LAMMPS_NS

@@ -54,7 +54,54 @@ bool material_model(int normal) { return normal == SPHDEM_GRAN_HERTZ_MATERIAL ||
 }  // namespace
 
 PairGranularGPU::PairGranularGPU(LAMMPS *lmp) : PairGranGPUBase(lmp, "granular/gpu"), cutoff_global_(-1.0), table_sent_(false), track_order_(false),
-      order_owned_set_(false), gathered_order_(false) {}
+      order_owned_set_(false), gathered_order_(false) {
+  single_enable = 1;
+  single_extra = 12;
+  svector = new double[12];
+}
+
+PairGranularGPU::~PairGranularGPU() { delete[] svector; }
+
+/* compute pair/local: the stock single() values (29 Sep 2021) of the touching pair i, j from the core's contact (the
+ * force on i and the torques on i and j): fforce = F_n / r; svector the tangential force fs and |fs|, the rolling
+ * force fr and |fr|, the twisting torque M_t, and x_i - x_j. The stock style puts the torques on i and j as
+ * -(r_i - delta/2) (n x fs) + R_eff (n x fr) + M_t n and -(r_j - delta/2) (n x fs) - R_eff (n x fr) - M_t n, so
+ * half their difference, with (r_i - r_j)/2 (n x fs) added back, is M_t n + R_eff (n x fr) (fr lies in the
+ * tangent plane). */
+double PairGranularGPU::single(int i, int j, int itype, int jtype, double rsq, double, double, double &fforce) {
+  fforce = 0.0;
+  for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
+  const double ri = atom->radius[i], rj = atom->radius[j], radsum = ri + rj;
+  if (rsq >= radsum * radsum) return 0.0;
+  bool i_is_a;
+  const double *c = single_contact(i, j, i_is_a);
+  const double s = i_is_a ? 1.0 : -1.0;
+  const double *Ti = i_is_a ? c + 3 : c + 6, *Tj = i_is_a ? c + 6 : c + 3;
+  double **x = atom->x;
+  const double del[3] = {x[i][0] - x[j][0], x[i][1] - x[j][1], x[i][2] - x[j][2]};
+  const double r = std::sqrt(rsq), n[3] = {del[0] / r, del[1] / r, del[2] / r};
+  const double fi[3] = {s * c[0], s * c[1], s * c[2]};
+  const double fn = fi[0] * n[0] + fi[1] * n[1] + fi[2] * n[2];
+  double fs[3], w[3];
+  for (int d = 0; d < 3; d++) fs[d] = fi[d] - fn * n[d];
+  const double q[3] = {n[1] * fs[2] - n[2] * fs[1], n[2] * fs[0] - n[0] * fs[2], n[0] * fs[1] - n[1] * fs[0]};
+  for (int d = 0; d < 3; d++) w[d] = 0.5 * (Ti[d] - Tj[d] + (ri - rj) * q[d]);
+  const sphdem_dem_granular &m = at(itype, jtype);
+  const double mt = m.twisting != SPHDEM_GRAN_TWIST_NONE ? w[0] * n[0] + w[1] * n[1] + w[2] * n[2] : 0.0;
+  double fr[3] = {0.0, 0.0, 0.0};
+  if (m.rolling != SPHDEM_GRAN_ROLL_NONE) {
+    const double reff = ri * rj / radsum, u[3] = {w[0] - mt * n[0], w[1] - mt * n[1], w[2] - mt * n[2]};
+    fr[0] = (u[1] * n[2] - u[2] * n[1]) / reff; /* (u x n) / R_eff */
+    fr[1] = (u[2] * n[0] - u[0] * n[2]) / reff;
+    fr[2] = (u[0] * n[1] - u[1] * n[0]) / reff;
+  }
+  fforce = fn / r;
+  for (int d = 0; d < 3; d++) svector[d] = fs[d], svector[4 + d] = fr[d], svector[9 + d] = del[d];
+  svector[3] = std::sqrt(fs[0] * fs[0] + fs[1] * fs[1] + fs[2] * fs[2]);
+  svector[7] = std::sqrt(fr[0] * fr[0] + fr[1] * fr[1] + fr[2] * fr[2]);
+  svector[8] = mt;
+  return 0.0;
+}
 
 /* pair_style granular/gpu [cutoff] [device auto|cpu|gpu] [algo pair|particle] [timers on|off] */
 void PairGranularGPU::settings(int narg, char **arg) {
@@ -264,7 +311,9 @@ void PairGranularGPU::init_style() {
          "two histories for a pair across the boundary, one per atom, whose signs its history transfer can make "
          "differ); use newton on (the default)");
   track_order_ = roll_twist;
-  ghost_once_ok_ = !roll_twist; /* (the order of each pair's atoms in every rank's list is followed) */
+  /* (rolling, twisting: the order of each pair's atoms in every rank's list is followed; compute pair/local asks
+   * each rank for the pairs of its own list: a pair split between two ranks is then evaluated on both) */
+  ghost_once_ok_ = !roll_twist && !pair_local_present();
   bool rolling = false; /* rolling sds keeps a rolling displacement per contact: it goes with the hand-over */
   for (int i = 1; i <= nt; i++)
     for (int j = i; j <= nt; j++)

@@ -16,7 +16,9 @@ namespace LAMMPS_NS {
 class PairGranularGPU : public PairGranGPUBase {
  public:
   explicit PairGranularGPU(class LAMMPS *);
+  ~PairGranularGPU() override;
   void compute(int, int) override;
+  double single(int, int, int, int, double, double, double, double &) override;
   void settings(int, char **) override;
   void coeff(int, char **) override;
   void init_style() override;
