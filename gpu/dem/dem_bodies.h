@@ -1119,20 +1119,23 @@ SPHDEM_HD void dem_contact_record_body(const dem_dev *D, int64_t p, double *rec)
  * of two grains with member 0 (member NULL: every grain is one). */
 /* dem_heat_flow: 1 when pair p conducts, with the flow Q into a and del = x_a - x_b; dem_heat_add adds it to the
  * sums (atomically in dem_heat_body, the CUDA kernel's; plainly in the CPU backend's one-thread loop). */
-SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member, int area,
-                            double A0, double *Q_, double *del) {
-  const int32_t a = D->pa[p], b = D->pb[p];
-  double rsq, rb, radsum;
-  if (b < 0 || (member && !member[a] && !member[b]) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) return 0;
-  const double ra = D->rad[a];
+/* dem_heat_conductance: h of a contact of two touching grains (the flow into a is (T_b - T_a) h), from |x_a - x_b|^2,
+ * the radii, the conductivities and the kind of contact area (its value A0 for SPHDEM_DEM_HEAT_AREA_CONSTANT) */
+SPHDEM_HD double dem_heat_conductance(double rsq, double ra, double rb, double ka, double kb, int area, double A0) {
   double A = A0;
   if (area == SPHDEM_DEM_HEAT_AREA_OVERLAP) /* a grain within the other (no such circle): the smaller's section */
     A = rsq > (ra - rb) * (ra - rb) ? dem_lens_area(sqrt(rsq), ra, rb) : M_PI * (ra < rb ? ra * ra : rb * rb);
   else if (area == SPHDEM_DEM_HEAT_AREA_PROJECTION)
     A = M_PI * (ra > rb ? ra * ra : rb * rb);
-  const double ka = k[a], kb = k[b], ks = ka + kb;
-  const double h = (ka > 0.0 && kb > 0.0) ? 4.0 * ka * kb / ks * sqrt(A) : 0.0;
-  *Q_ = (T[b] - T[a]) * h;
+  const double ks = ka + kb;
+  return (ka > 0.0 && kb > 0.0) ? 4.0 * ka * kb / ks * sqrt(A) : 0.0;
+}
+SPHDEM_HD int dem_heat_flow(const dem_dev *D, int64_t p, const double *T, const double *k, const int *member, int area,
+                            double A0, double *Q_, double *del) {
+  const int32_t a = D->pa[p], b = D->pb[p];
+  double rsq, rb, radsum;
+  if (b < 0 || (member && !member[a] && !member[b]) || !dem_contact_geom(D, p, del, &rsq, &rb, &radsum)) return 0;
+  *Q_ = (T[b] - T[a]) * dem_heat_conductance(rsq, D->rad[a], rb, k[a], k[b], area, A0);
   return 1;
 }
 /* the flow Q of pair p (del = x_a - x_b) added to the sums: atomic adds (threads sharing the sums) or plain */

@@ -379,6 +379,10 @@ int sphdem_dem_cpu_heat(struct sphdem_dem_s *m, const double *T, const double *k
   return SPHDEM_OK;
 }
 
+double sphdem_dem_heat_conductance(double rsq, double ra, double rb, double ka, double kb, int area, double area_value) {
+  return dem_heat_conductance(rsq, ra, rb, ka, kb, area, area_value);
+}
+
 /* Pair-parallel forces: one thread sums without atomics, several with. */
 int sphdem_dem_cpu_pair_forces(struct sphdem_dem_s *m) {
   const dem_dev *D = &m->D;

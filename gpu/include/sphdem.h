@@ -694,6 +694,10 @@ int64_t sphdem_dem_step_contacts(sphdem_dem dem, sphdem_grain_store g, int64_t m
 #define SPHDEM_DEM_HEAT_AREA_CONSTANT 2
 int sphdem_dem_heat(sphdem_dem dem, sphdem_grain_store g, const double *temp, const double *cond, const int *member,
                     int area, double area_value, double *heat, double *dheat);
+/* h of one contact of sphdem_dem_heat (the flow into a is h (T_b - T_a)): rsq = |x_a - x_b|^2 of two touching grains
+ * of radii ra, rb and conductivities ka, kb; area and area_value as there. For output per contact (LIGGGHTS'
+ * compute pair/gran/local heatFlux). */
+double sphdem_dem_heat_conductance(double rsq, double ra, double rb, double ka, double kb, int area, double area_value);
 /* Contact history for restart files: the current pair list's keys ((tag_a << 32) | tag_b, walls
  * 0xffffffff - w) and SPHDEM_DEM_HIST_DOUBLES doubles per pair. get: returns the pair count; writes
  * at most max pairs (keys/hist may be NULL with max 0 to ask the count). set: the given list (any

@@ -148,16 +148,14 @@ class FixHeatGranCondGPU : public FixHeatGranCond {
     updatePtrs();
     const int nall = atom->nlocal + atom->nghost, *type = atom->type;
     k_.resize(std::max(nall, 1));
-    for (int i = 0; i < nall; i++) k_[i] = type[i] >= 1 && type[i] < (int)k_type_.size() ? k_type_[type[i]] : 0.0;
+    for (int i = 0; i < nall; i++) k_[i] = k_of(type[i]);
     /* a contact of two grains outside the group conducts nothing (the stock fix skips it) */
     const int *mask = atom->mask;
     if (igroup != 0) {
       member_.resize(std::max(nall, 1));
       for (int i = 0; i < nall; i++) member_[i] = (mask[i] & groupbit) != 0;
     }
-    const int area = area_calculation_mode_ == 1 ? SPHDEM_DEM_HEAT_AREA_CONSTANT    /* stock CONSTANT */
-                     : area_calculation_mode_ == 2 ? SPHDEM_DEM_HEAT_AREA_PROJECTION /* stock PROJECTION */
-                                                   : SPHDEM_DEM_HEAT_AREA_OVERLAP;
+    const int area = core_area();
     std::string err;
     PairGranGPUBase *pair = static_cast<PairGranGPUBase *>(force->pair);
     const int *member = igroup != 0 ? member_.data() : nullptr;
@@ -165,10 +163,25 @@ class FixHeatGranCondGPU : public FixHeatGranCond {
       error->one(FLERR, (std::string("Fix ") + style + " with pair_style gran/gpu: " + err).c_str());
   }
 
+  /* compute pair/gran/local heatFlux (after prepare_output): the flow into i through its contact with j (rsq =
+   * |x_i - x_j|^2), with the temperatures as they are, as the stock fix gives it to that compute */
+  void prepare_output() { updatePtrs(); }
+  double contact_flux(int i, int j, double rsq) const {
+    const int *type = atom->type;
+    return (Temp[j] - Temp[i]) * sphdem_dem_heat_conductance(rsq, atom->radius[i], atom->radius[j], k_of(type[i]),
+                                                             k_of(type[j]), core_area(), fixed_contact_area_);
+  }
+
  private:
   bool gpu_ = false;
   std::vector<double> k_type_, k_; /* conductivity per type (1..), per atom of the step */
   std::vector<int> member_;        /* per atom of the step: in the fix group */
+  double k_of(int t) const { return t >= 1 && t < (int)k_type_.size() ? k_type_[t] : 0.0; }
+  int core_area() const {
+    return area_calculation_mode_ == 1 ? SPHDEM_DEM_HEAT_AREA_CONSTANT      /* stock CONSTANT */
+           : area_calculation_mode_ == 2 ? SPHDEM_DEM_HEAT_AREA_PROJECTION /* stock PROJECTION */
+                                         : SPHDEM_DEM_HEAT_AREA_OVERLAP;
+  }
 };
 Fix *heat_gran_creator(LAMMPS *lmp, int narg, char **arg) { return new FixHeatGranCondGPU(lmp, narg, arg); }
 
@@ -196,16 +209,18 @@ class ComputePairGranLocalGPU : public Compute {
         continue;
       }
       any = true;
-      if (kw == "heatFlux" || kw == "ms_id")
-        bad(kw + " is not available with pair_style gran/gpu (" +
-            (kw == "heatFlux" ? "fix heat/gran is not supported with it" : "fix multisphere is not supported with it") + ")");
+      if (kw == "ms_id") bad("ms_id is not available with pair_style gran/gpu (fix multisphere is not supported with it)");
+      if (kw == "heatFlux") {
+        heat_ = 1;
+        continue;
+      }
       int *flag = nullptr;
       std::string names;
       for (const auto &f : flags) {
         if (kw == f.first) flag = f.second;
         names += std::string(f.first) + ", ";
       }
-      if (!flag) bad("unknown keyword '" + kw + "' (" + names + "verbose)");
+      if (!flag) bad("unknown keyword '" + kw + "' (" + names + "heatFlux, verbose)");
       *flag = 1;
     }
     if (!any) pos_ = vel_ = id_ = f_ = tq_ = hist_ = area_ = 1; /* the stock defaults */
@@ -216,8 +231,20 @@ class ComputePairGranLocalGPU : public Compute {
     pair_ = dynamic_cast<PairGranGPU *>(force->pair_match("gran/gpu", 1));
     if (!pair_) bad("the pair style is no longer gran/gpu");
     nhist_ = 3 + (pair_->hysteresis() ? 1 : 0) + (pair_->rolling_history() ? 3 : 0);
+    /* heatFlux: the flow of fix heat/gran (heat/gran/conduction) through each contact, the last column (the stock
+     * compute's checks: the fix defined before this compute, the same group) */
+    heat_fix_ = nullptr;
+    if (heat_) {
+      for (int k = 0; k < modify->nfix; k++)
+        if (std::strcmp(modify->fix[k]->style, "heat/gran") == 0 ||
+            std::strcmp(modify->fix[k]->style, "heat/gran/conduction") == 0)
+          heat_fix_ = dynamic_cast<FixHeatGranCondGPU *>(modify->fix[k]);
+      if (!heat_fix_) bad("heatFlux needs fix heat/gran or heat/gran/conduction, defined before this compute");
+      if (heat_fix_->groupbit != groupbit)
+        bad("heatFlux: the group of this compute and of fix heat/gran must be the same (as the stock compute)");
+    }
     const int nv = 6 * pos_ + 6 * vel_ + 3 * id_ + 3 * (f_ + fn_ + ft_ + tq_ + tqn_ + tqt_) + nhist_ * hist_ + area_ +
-                   delta_ + 3 * cp_;
+                   delta_ + 3 * cp_ + heat_;
     if (nv != nvalues_) { /* (another model between runs: rows of another width) */
       memory->destroy(array_);
       array_local = array_ = nullptr;
@@ -232,7 +259,8 @@ class ComputePairGranLocalGPU : public Compute {
 
  private:
   int pos_ = 0, vel_ = 0, id_ = 0, f_ = 0, fn_ = 0, ft_ = 0, tq_ = 0, tqn_ = 0, tqt_ = 0, hist_ = 0, area_ = 0,
-      delta_ = 0, cp_ = 0;
+      delta_ = 0, cp_ = 0, heat_ = 0;
+  FixHeatGranCondGPU *heat_fix_ = nullptr;
   bool verbose_ = false;
   int nvalues_ = 0, nhist_ = 3, nmax_ = 0;
   double **array_ = nullptr;
@@ -268,6 +296,7 @@ void ComputePairGranLocalGPU::compute_local() {
   const int nlocal = atom->nlocal, *mask = atom->mask;
   double **x = atom->x, **v = atom->v, *radius = atom->radius;
   const tagint *tag = atom->tag;
+  if (heat_) heat_fix_->prepare_output();
   int rows = 0;
   for (int64_t k = 0; k < np; k++) {
     const int a = ij_[2 * k], b = ij_[2 * k + 1];
@@ -334,6 +363,11 @@ void ComputePairGranLocalGPU::compute_local() {
       const double cp[3] = {(x[i][0] * rj + xj[0] * ri) / (ri + rj), (x[i][1] * rj + xj[1] * ri) / (ri + rj),
                             (x[i][2] * rj + xj[2] * ri) / (ri + rj)};
       put3(cp);
+    }
+    if (heat_) { /* through a periodic boundary on one rank: the image of j next to i, whose temperature the stock
+                  * compute reads (the engine sends it at the next step: at the output it is that of the step's start) */
+      const int jt = through && atom->sametag ? domain->closest_image(i, j) : j;
+      row[c++] = heat_fix_->contact_flux(i, jt, rsq);
     }
   }
   size_local_rows = rows;

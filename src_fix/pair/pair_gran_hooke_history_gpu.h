@@ -7,8 +7,6 @@ PairStyle(gran/hooke/history/gpu,PairGranHookeHistoryGPU)
 #ifndef SPHDEM_PAIR_GRAN_HOOKE_HISTORY_GPU_H
 #define SPHDEM_PAIR_GRAN_HOOKE_HISTORY_GPU_H
 
-#include <unordered_map>
-
 #include "pair_gran_gpu_base.h"
 
 namespace LAMMPS_NS {
@@ -19,7 +17,7 @@ class PairGranHookeHistoryGPU : public PairGranGPUBase {
   ~PairGranHookeHistoryGPU() override;
   /* compute pair/local: the stock values of a pair (fforce the normal force over the distance; svector the
    * tangential force, its magnitude, the normal and the tangential relative velocity), from the core's contacts of
-   * the step (contacts_now, evaluated once per step) */
+   * the step (single_contact) */
   double single(int, int, int, int, double, double, double, double &) override;
   void compute(int, int) override;
   void settings(int, char **) override;
@@ -35,8 +33,6 @@ class PairGranHookeHistoryGPU : public PairGranGPUBase {
   int model;                /* sphdem_dem_model */
 
   void sync_params() override;
-
- private:
 };
 
 }  // namespace LAMMPS_NS

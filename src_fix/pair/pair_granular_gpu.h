@@ -18,6 +18,8 @@ class PairGranularGPU : public PairGranGPUBase {
   explicit PairGranularGPU(class LAMMPS *);
   ~PairGranularGPU() override;
   void compute(int, int) override;
+  /* compute pair/local: the stock values of a pair (fforce the normal force over the distance; svector the
+   * tangential force and its magnitude, the rolling force and its magnitude, the twisting torque, x_i - x_j) */
   double single(int, int, int, int, double, double, double, double &) override;
   void settings(int, char **) override;
   void coeff(int, char **) override;

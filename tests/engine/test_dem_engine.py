@@ -41,7 +41,8 @@
   pgl_liggghts LIG [MPIEXEC]  compute pair/gran/local with gran/gpu: the rows of the stock compute with the stock
                style (the same pairs, first atoms and periodic flags; every column within 1e-10 of its
                largest value) on a lattice bed after 400 steps, every keyword, models hertz, hertz + sjkr +
-               epsd2, hooke/hysteresis, hertz + epsd; on 1 rank and on 2; bad keywords name themselves
+               epsd2, hooke/hysteresis, hertz + epsd; heatFlux with fix heat/gran (hot below); on 1 rank and
+               on 2; bad keywords (and heatFlux without the heat fix) name themselves
   stress_atom_liggghts LIG [MPIEXEC]  compute stress/atom with gran/gpu: every atom's per-atom virial within 1e-10
                of the stock style's on the thrown bed of pgl_liggghts (sliding contacts), hertz, hertz + sjkr +
                epsd2, hooke/hysteresis on 1 rank, hertz on 2 ranks cut along z and along x
@@ -1061,16 +1062,23 @@ def pgl_liggghts(lig, mpiexec=None):
               ("model hooke/hysteresis tangential history", 4), ("model hertz tangential history rolling_friction epsd", 6)]
     # 2 ranks: cut along z (the default grid), and along x, where pairs between the ranks through the periodic y
     # boundary are taken by the minimum image
-    runs = [(m, nh, 1, None) for m, nh in models] + \
-        ([(models[1][0], 6, 2, None), (models[0][0], 3, 2, "2 1 1")] if mpiexec else [])
-    for model, nh, np, grid in runs:
-        ncols = 33 + nh + 5
+    runs = [(m, nh, 1, None, False) for m, nh in models] + [(models[0][0], 3, 1, None, True)] + \
+        ([(models[1][0], 6, 2, None, False), (models[0][0], 3, 2, "2 1 1", False),
+          (models[0][0], 3, 2, "2 1 1", True)] if mpiexec else [])
+    for model, nh, np, grid, heat in runs:
+        ncols = 33 + nh + 5 + heat
         rows = {}
         for tag, style in (("stock", "gran"), ("gpu", "gran/gpu")):
-            wd = os.path.join("dem_pgl_lig", "%s_%d%s" % (model.replace(" ", "_").replace("/", "_"), np,
-                                                          "_x" if grid else ""), tag)
+            wd = os.path.join("dem_pgl_lig", "%s_%d%s%s" % (model.replace(" ", "_").replace("/", "_"), np,
+                                                            "_x" if grid else "", "_heat" if heat else ""), tag)
             cmd = [mpiexec, "-np", str(np), "--oversubscribe", "--allow-run-as-root", lig] if np > 1 else [lig]
-            text = pgl_script(style + " " + model, PGL_KEYS, ncols)
+            text = pgl_script(style + " " + model, PGL_KEYS + (" heatFlux" if heat else ""), ncols)
+            if heat:  # fix heat/gran (before the compute, as the stock compute needs), hot below
+                text = text.replace("compute pgl", "fix m12 all property/global thermalConductivity peratomtype 5.\n"
+                                    "fix m13 all property/global thermalCapacity peratomtype 0.02\n"
+                                    "fix heat all heat/gran initial_temperature 300\n"
+                                    "region hot block INF INF INF INF INF 0.025 units box\nrun 0\n"
+                                    "set region hot property/atom Temp 600.0\ncompute pgl")
             if grid:
                 text = text.replace("newton off\n", "newton off\nprocessors %s\n" % grid)
             rc, out = run(cmd, wd, text)
@@ -1090,14 +1098,18 @@ def pgl_liggghts(lig, mpiexec=None):
                 worst, where = d, c + 1
         periodic = sum(1 for k in common if a[k][14] == 1.0)
         good = len(a) > 300 and set(a) == set(b) and periodic > 10 and worst < 1e-10
-        print("%s compute pair/gran/local, gran/gpu %s, %d rank(s)%s: %d rows (stock %d, %d through a periodic "
+        if heat:  # the heat went somewhere: most rows carry a flow
+            flowing = sum(1 for k in common if a[k][ncols - 1] != 0.0)
+            good &= flowing > len(common) // 2
+        print("%s compute pair/gran/local, gran/gpu %s%s, %d rank(s)%s: %d rows (stock %d, %d through a periodic "
               "boundary), the same pairs and first atoms: %s; largest difference %.2g of its column (column %d; "
-              "bound 1e-10)" % ("PASS" if good else "FAIL", model, np, " (processors %s)" % grid if grid else "",
-                                len(b), len(a), periodic, set(a) == set(b),
-                                worst, where))
+              "bound 1e-10)" % ("PASS" if good else "FAIL", model, " with heatFlux (fix heat/gran)" if heat else "",
+                                np, " (processors %s)" % grid if grid else "", len(b), len(a), periodic,
+                                set(a) == set(b), worst, where))
         ok &= good
     # bad keywords, and a compute of the stock style left behind
-    bad = [("heatFlux", "heatFlux is not available with pair_style gran/gpu"),
+    bad = [("heatFlux", "heatFlux needs fix heat/gran or heat/gran/conduction"),
+           ("ms_id", "ms_id is not available with pair_style gran/gpu"),
            ("force bogus", "unknown keyword 'bogus' (pos, vel, id, force,")]
     for k, (keys, want) in enumerate(bad):
         rc, out = run([lig], os.path.join("dem_pgl_lig", "bad%d" % k),
