@@ -1538,7 +1538,8 @@ static void test_exclusions(void) {
  * grains (some lie within others) with random temperatures and conductivities (some 0) and half the grains outside the
  * group: every grain's
  * heat and directional heat against a sum over all pairs of grains by the minimum image (within 1e-12 of the
- * largest), the heat summing to zero (1e-13 of the sum of |Q|). Bad input names itself. */
+ * largest), the heat summing to zero (1e-13 of the sum of |Q|); sphdem_dem_heat_conductance gives the two grains'
+ * flow too. Bad input names itself. */
 static void test_heat(void) {
   char msg[256];
   { /* two grains */
@@ -1565,9 +1566,16 @@ static void test_heat(void) {
       double err = fmax(fabs(q[0] - Q), fabs(q[1] + Q)) / Q;
       for (int d = 0; d < 3; d++)
         err = fmax(err, fmax(fabs(dq[d] - 0.5 * Q * (x[d] - x[3 + d])), fabs(dq[3 + d] - 0.5 * Q * (x[d] - x[3 + d]))) / (Q * r));
-      printf("  heat, two grains, area %s: Q = %.15g (analytic %.15g), largest difference %.2g\n", names[m], q[0], Q, err);
+      /* the conductance of the one contact, as the output per contact takes it: the same flow */
+      double rsq = 0.0;
+      for (int d = 0; d < 3; d++) rsq += (x[d] - x[3 + d]) * (x[d] - x[3 + d]);
+      const double h = sphdem_dem_heat_conductance(rsq, ra, rb, k[0], k[1], modes[m], 0.1);
+      const double hq = fabs(h * (T[1] - T[0]) - Q) / Q;
+      printf("  heat, two grains, area %s: Q = %.15g (analytic %.15g), largest difference %.2g; h (T_b - T_a) from "
+             "sphdem_dem_heat_conductance %.2g off\n", names[m], q[0], Q, err, hq);
       TEST_ASSERT(!rc && err < 1e-14, "heat (%s): %.3g off the analytic flow (rc %d: %s)", names[m], err, rc,
                   sphdem_dem_last_error(A));
+      TEST_ASSERT(hq < 1e-14 && fabs(h * (T[1] - T[0]) - q[0]) <= 1e-15 * Q, "heat_conductance (%s): %.3g off", names[m], hq);
     }
     /* bad input */
     double q[2];
