@@ -1347,29 +1347,18 @@ DEM_HD_INLINE int64_t dem_pairs_serial_model(const dem_dev *D, unsigned char *tf
       bd[0][j] = s0, bd[1][j] = s1, bd[2][j] = s2, bd[3][j] = rsq, bd[4][j] = ra, bd[5][j] = rb;
       bc[j] = (unsigned char)(near * (slow ? 2 : rsq < r2));
     }
-    /* 2: the general test of the slots marked 2 (as dem_grain_overlap and dem_contact_geom_a), the touching
+    /* 2: the general test of the slots marked 2 (dem_contact_geom_a), the touching
      * slots listed in kid without a branch on the outcome, and the history of the pairs apart now that touched
      * at the last evaluation (or unknown) cleared */
     int nb = 0;
     for (int j = 0; j < nm; j++) {
       const int64_t p = bp[j];
       int touch = bc[j];
-      if (touch == 2) {
-        const int32_t a = pa[p], b = pb[p];
-        const double ra = rad[a];
-        double del[3] = {0.0, 0.0, 0.0}, rsq = 0.0, radsum, rb = 0.0;
-        if (b >= 0) {
-          rb = rad[b];
-          radsum = ra + rb;
-          rsq = dem_sep(D, x + 3 * (int64_t)a, x + 3 * (int64_t)b, del);
-          const double r2 = radsum * radsum;
-          const int coincident = rsq <= 1e-24 * r2;
-          touch = rsq < r2 && !coincident;
-          if (coincident) dem_flag_coincident(D, a, b); /* (centres within 1e-12 of the contact distance) */
-        } else {
-          touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, ra, del, &rsq, &rb, &radsum);
-        }
-        bd[0][j] = del[0], bd[1][j] = del[1], bd[2][j] = del[2], bd[3][j] = rsq, bd[4][j] = ra, bd[5][j] = rb;
+      if (touch == 2) { /* the geometry of the other passes (only a touching pair's values are read below) */
+        const int32_t a = pa[p];
+        double del[3], radsum;
+        touch = dem_contact_geom_a(D, p, a, x + 3 * (int64_t)a, rad[a], del, &bd[3][j], &bd[5][j], &radsum);
+        bd[0][j] = del[0], bd[1][j] = del[1], bd[2][j] = del[2];
       }
       kid[nb] = j; /* (with the roots' three inputs side by side for the vectorized loop) */
       cr[0][nb] = bd[3][j], cr[1][nb] = bd[4][j], cr[2][nb] = bd[5][j];
