@@ -329,8 +329,13 @@ static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t
  * in tf), the pass visits only the pairs whose gap at the build is <= bound, kept in increasing order in
  * m->cpu_act; bound never decreases and stays >= every D->gap_thr seen since that first pass, so a pair left out
  * has been apart (and marked so) at every step since. When D->gap_thr passes bound, the list is taken again with a
- * larger bound (at most a few times per build: each new bound at least doubles the threshold). Returns the pairs
- * to visit, or NULL for all of them (three quarters or more of the list). */
+ * larger bound. The margin weighs the two costs: a pair visited in vain costs about as much as a tested one (its
+ * loads of positions and radii), each taking of the list a fast loop over all the pairs' gaps. With the
+ * threshold growing by g per evaluation and the gaps spread evenly over the skin s, a margin M costs per evaluation
+ * about the pairs within M/2 of the threshold plus the whole list every M/g evaluations: least near
+ * M = sqrt(2 (c_list / c_pair) g s), c_list / c_pair about 1/4 here: M = sqrt(g s / 2), at least s/128. (A margin of
+ * the threshold itself left a fifth of the visited pairs beyond it in a dilute gas, and two thirds over a short run
+ * after a build.) Returns the pairs to visit, or NULL for all of them (three quarters or more of the list). */
 static const int32_t *c_active(struct sphdem_dem_s *m, int64_t *nact) {
   const dem_dev *D = &m->D;
   const int64_t np = D->np;
@@ -344,7 +349,10 @@ static const int32_t *c_active(struct sphdem_dem_s *m, int64_t *nact) {
     return NULL;
   }
   const double thr = fmax(D->gap_thr, m->act_seen);
-  const double bound = thr + fmax(thr, fmax(0.0625 * D->P.skin, 1e-6 * m->dmax_built));
+  /* the threshold's growth per evaluation since the whole pass (0 at the build) */
+  const double rate = (thr - m->act_thr0) / (double)(m->act_calls > 0 ? m->act_calls : 1);
+  const double margin = m->act_calls > 0 ? sqrt(0.5 * rate * D->P.skin) : 0.0625 * D->P.skin;
+  const double bound = thr + fmax(margin, fmax(0.0078125 * D->P.skin, 1e-6 * m->dmax_built));
   const double *gap = D->gap0;
   int32_t *act = m->cpu_act;
   int64_t n = 0;
@@ -442,8 +450,10 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
       m->act_all = 0;
       m->act_n = -1;
       m->act_thr = -HUGE_VAL;
-      m->act_seen = D->gap_thr;
+      m->act_seen = m->act_thr0 = D->gap_thr;
+      m->act_calls = 0;
     } else {
+      m->act_calls++;
       act = c_active(m, &nact);
       if (D->gap_thr > m->act_seen) m->act_seen = D->gap_thr;
     }

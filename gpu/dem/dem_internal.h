@@ -163,6 +163,8 @@ struct sphdem_dem_s {
   int64_t cap_act, act_n;      /* capacity; act_n pairs in it (< 0: not taken yet) */
   double act_thr;              /* cpu_act holds every pair of gap <= act_thr */
   double act_seen;             /* the largest D->gap_thr since the pass over the whole list */
+  double act_thr0;             /* D->gap_thr at that pass */
+  int64_t act_calls;           /* the evaluations since that pass */
   int act_all;                 /* visit every pair until the next pass over the whole list */
   int32_t *cpu_head;           /* D.head of the CPU backend */
   int64_t cap_head;
