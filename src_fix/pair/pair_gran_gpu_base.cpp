@@ -25,7 +25,7 @@ using namespace LAMMPS_NS;
 PairGranGPUBase::PairGranGPUBase(LAMMPS *lmp, const std::string &style)
     : Pair(lmp), style_(style), device_(SPHDEM_DEVICE_AUTO), algo_(SPHDEM_DEM_PARTICLE_PARALLEL),
       freeze_group_bit_(0), dem_(nullptr), ghosts_(comm->nprocs > 1), ghost_once_ok_(true), hand_rolling_(false), nall_mapped_(-1),
-      owned_prev_set_(false), own_map_valid_(false), gathered_(false), check_req_(MPI_REQUEST_NULL), check_mine_(0), check_any_(0) {
+      owned_prev_set_(false), own_map_valid_(false), gathered_(false), check_req_(MPI_REQUEST_NULL), check_mine_(0), check_any_(0), check_pending_(0) {
   single_enable = 0;
   no_virial_fdotr_compute = 1; /* the virial is summed per pair by the core */
   restartinfo = 1; /* settings, coefficients and the per-pair contact history go into restart files */
@@ -170,9 +170,16 @@ void PairGranGPUBase::create_core() {
 }
 
 void PairGranGPUBase::check_ranks(bool bad, const std::string &why, bool now) {
+  if (bad && !check_pending_) {
+    check_pending_ = 1;
+    check_pending_msg_ = why;
+  }
+  if (!now && update->ntimestep % kCheckEvery != 0) return; /* (the same steps on every rank) */
   finish_check();
-  check_mine_ = bad ? 1 : 0;
-  check_msg_ = bad ? why : std::string();
+  check_mine_ = check_pending_;
+  check_msg_ = check_pending_msg_;
+  check_pending_ = 0;
+  check_pending_msg_.clear();
   if (now) {
     const std::string err = sphdem_mpi::first_failure(world, bad, check_msg_);
     check_mine_ = 0;
@@ -769,7 +776,9 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
   /* the engine's exclusions, set up with its neighbour settings (at each run's set-up) */
   if (update->setupflag) setup_exclusions();
   const double tp0 = timers_.on ? sphdem_pair_timers::now() : 0.0;
-  if (ghosts_) finish_check(); /* the last step's failure check */
+  /* an engine list build: a failure kept since the last check stops every rank before the hand-over (the engine
+   * rebuilds on every rank at the same step) */
+  if (ghosts_ && neighbor->ago == 0 && !update->setupflag) check_ranks(false, "", true);
   own_map_valid_ = false;
   if (ghosts_ && neighbor->ago == 0) update_core_periodic();
   if (ghosts_ && (neighbor->ago == 0 || n != nall_mapped_)) map_ghosts(nlocal, n);
@@ -839,8 +848,8 @@ void PairGranGPUBase::compute_grains(bool material_types, bool follow_list_build
                                         n > 0 ? f[0] : nullptr, n > 0 ? t[0] : nullptr, vflag_global ? vir : nullptr)
              : SPHDEM_ERR_ARG;
   if (ghosts_) {
-    /* a failure stops every rank; on the steps between the set-up, restart files and the end of the run, the check
-     * of this step ends at the next evaluation, so that the ranks do not wait for each other here */
+    /* a failure stops every rank; on the steps between the set-up, restart files and the end of the run, within
+     * kCheckEvery steps or at the next list build, so that the ranks do not wait for each other at every step */
     check_ranks(rc != 0, rc ? (g ? sphdem_dem_last_error(dem_) : gerr) : "",
                 update->setupflag || update->ntimestep == update->laststep || restart_step());
   } else if (rc) {
