@@ -181,7 +181,7 @@ void PairGranGPUBase::check_ranks(bool bad, const std::string &why, bool now) {
   check_pending_ = 0;
   check_pending_msg_.clear();
   if (now) {
-    const std::string err = sphdem_mpi::first_failure(world, bad, check_msg_);
+    const std::string err = sphdem_mpi::first_failure(world, check_mine_ != 0, check_msg_);
     check_mine_ = 0;
     if (!err.empty()) fail("DEM core: " + err);
   } else {

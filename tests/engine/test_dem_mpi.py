@@ -415,24 +415,29 @@ def exclusions(r):
 
 
 def failure_on_one_rank(r):
-    """a grain of one rank made invalid mid-run (fix adapt shrinks grain 5, on rank 0, to diameter 0 at step 300): the
-    core refuses it on that rank, and every rank stops with its message (no hang, no other error first) within 20
-    steps: the ranks compare their failures every 10 steps without waiting for each other (and at list builds)"""
-    tag = "failure_np2"
-    wd = os.path.join(r.root, tag)
-    text = r.script("gran/hertz/history/gpu", 2, "on", "group one id 5\nvariable d equal \"(step < 300) * 2e-3\"\n"
-                    "fix shrink one adapt 1 atom diameter v_d\nthermo 1\nrun 1000\n")
-    text = text.replace("../bed.data", os.path.abspath(os.path.join(r.root, "bed.data")))
-    text = text.replace("atom_style sphere\n", "atom_style sphere 1\n")  # radii that fix adapt may change
-    rc, out = E.run(r.cmd(2), wd, text, timeout=120)
-    err = [l for l in out.splitlines() if "ERROR" in l]
-    good = rc not in (0, 124) and len(err) >= 1 and "DEM core" in err[0] and "(rank 0)" in err[0] and "(grain 5)" in err[0]
-    steps = [int(l.split()[0]) for l in out.splitlines() if re.match(r"^\s*\d+\s+\d+\s", l)]
-    last = steps[-1] if steps else -1
-    good = good and 299 <= last < 320  # the last step that ended before the stop
-    print("  %-58s %s" % ("a grain made invalid on rank 0 at step 300 (np 2):",
-                          "every rank stops after step %d with: %s" % (last, err[0].strip()) if good else
-                          "FAIL rc %d, last step %d\n%s" % (rc, last, out[-1500:])))
+    """a grain of one rank made invalid mid-run (fix adapt shrinks grain 5, on rank 0, to diameter 0): the core refuses
+    it on that rank, and every rank stops with its message (no hang, no other error first). The ranks compare their
+    failures every 10 steps without waiting for each other, and at the start of each step of a list build: from
+    step 300 with the lists kept, the stop comes within 20 steps; from step 301 with a list build at every step
+    (neigh_modify check no), after step 301 (the failure found at the build of step 302)"""
+    good = True
+    for first, neigh, lo, hi in ((300, "", 299, 320), (301, "neigh_modify delay 0 every 1 check no\n", 301, 302)):
+        tag = "failure_np2_%d" % first
+        wd = os.path.join(r.root, tag)
+        text = r.script("gran/hertz/history/gpu", 2, "on", "group one id 5\nvariable d equal \"(step < %d) * 2e-3\"\n"
+                        "fix shrink one adapt 1 atom diameter v_d mass no\n%sthermo 1\nrun 1000\n" % (first, neigh))
+        text = text.replace("../bed.data", os.path.abspath(os.path.join(r.root, "bed.data")))
+        text = text.replace("atom_style sphere\n", "atom_style sphere 1\n")  # radii that fix adapt may change
+        rc, out = E.run(r.cmd(2), wd, text, timeout=120)
+        err = [l for l in out.splitlines() if "ERROR" in l]
+        ok = rc not in (0, 124) and len(err) >= 1 and "DEM core" in err[0] and "(rank 0)" in err[0] and "(grain 5)" in err[0]
+        steps = [int(l.split()[0]) for l in out.splitlines() if re.match(r"^\s*\d+\s+\d+\s", l)]
+        last = steps[-1] if steps else -1
+        ok = ok and lo <= last <= hi  # the last step that ended before the stop
+        what = "a grain made invalid on rank 0 at step %d (np 2%s):" % (first, ", builds" if neigh else "")
+        print("  %-58s %s" % (what, "every rank stops after step %d with: %s" % (last, err[0].strip()) if ok else
+                              "FAIL rc %d, last step %d (must be %d..%d)\n%s" % (rc, last, lo, hi, out[-1500:])))
+        good = good and ok
     return good
 
 
