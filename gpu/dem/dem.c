@@ -254,6 +254,7 @@ int sphdem_dem_destroy(sphdem_dem *pm) {
   free(m->hr0);
   free(m->cpu_gap);
   free(m->cpu_act);
+  free(m->cpu_xact);
   free(m->cpu_head);
   free(m->acc_f);
   free(m->cpu_bt);
@@ -972,9 +973,10 @@ int sphdem_dem_compute_store(sphdem_dem m, sphdem_grain_store g, const int64_t *
   /* no grain moved by more than sqrt(d2max) nor grew by more than drmax since the build, and the periodic
    * lengths changed by dbox */
   D->gap_thr = 2.0 * (sqrt(d2max) + drmax) + dbox;
+  m->gap_rest = 2.0 * drmax + dbox;
   if (m->need_build) {
     TRY(build(m, n, x, 2.0 * rmax));
-    D->gap_thr = 0.0;
+    D->gap_thr = m->gap_rest = 0.0;
     if (n) memcpy(m->hr0, radius, sizeof(double) * n);
     t1 = rt_now();
     m->t[SPHDEM_DEM_T_DETECT] += t1 - t0;

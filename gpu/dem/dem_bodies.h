@@ -1306,8 +1306,8 @@ SPHDEM_HD int64_t dem_run_start(const dem_dev *D, int64_t p) {
  *  - the law of those pairs.
  * tf marks every pair as the last evaluation left it (set all to 1 when unknown), D->gap0 is set (the CPU builds).
  * act (not NULL): only its nact pairs, in increasing order; every other pair is apart and marked so in tf (its
- * gap at the build exceeds every D->gap_thr since the marks were made), so it adds nothing and its history is
- * that of a separated pair already. The touching pairs are the same and are added in the same order, so the
+ * gap at the build exceeds what its grains can have moved since the marks were made: c_active in dem_cpu.c), so
+ * it adds nothing and its history is that of a separated pair already. The touching pairs are the same and are added in the same order, so the
  * forces are the same bits with and without act, and whatever the block size.
  * uniform: every pair of a run has the same grain a (no copies of one grain sharing a tag); else D->head gives
  * each copy its run's head. virial: D->want_virial, fixed at compile time. Returns the touching pairs counted

@@ -323,50 +323,77 @@ static int64_t c_serial_pairs(const dem_dev *D, unsigned char *tf, const int32_t
   return t[v + (act != NULL)](D, tf, act, nact);
 }
 
+/* The largest squared move of the n grains at x since the positions xs (a loop the compiler vectorises; the
+ * positions are finite: the rebuild check has seen them). */
+__attribute__((optimize("finite-math-only", "no-signed-zeros"))) static double c_move2(const double *restrict x,
+                                                                                       const double *restrict xs,
+                                                                                       int64_t n) {
+  double d2max = 0.0;
+  for (int64_t i = 0; i < n; i++) {
+    const double dx = x[3 * i] - xs[3 * i], dy = x[3 * i + 1] - xs[3 * i + 1], dz = x[3 * i + 2] - xs[3 * i + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    d2max = d2 > d2max ? d2 : d2max;
+  }
+  return d2max;
+}
+
 /* The pairs the one-thread pass visits while the list stands (dilute scenes: most pairs of the list are
- * further apart than the grains have moved since the build, and looking at each of them every step costs a
+ * further apart than their grains have moved since the build, and looking at each of them every step costs a
  * load and a hard-to-predict branch). After the first pass over the whole list (which leaves every pair marked
- * in tf), the pass visits only the pairs whose gap at the build is <= bound, kept in increasing order in
- * m->cpu_act; bound never decreases and stays >= every D->gap_thr seen since that first pass, so a pair left out
- * has been apart (and marked so) at every step since. When D->gap_thr passes bound, the list is taken again with a
- * larger bound. The margin weighs the two costs: a pair visited in vain costs about as much as a tested one (its
- * loads of positions and radii), each taking of the list a fast loop over all the pairs' gaps. With the
- * threshold growing by g per evaluation and the gaps spread evenly over the skin s, a margin M costs per evaluation
- * about the pairs within M/2 of the threshold plus the whole list every M/g evaluations: least near
- * M = sqrt(2 (c_list / c_pair) g s), c_list / c_pair about 1/4 here: M = sqrt(g s / 2), at least s/128. (A margin of
- * the threshold itself left a fifth of the visited pairs beyond it in a dilute gas, and two thirds over a short run
- * after a build.) Returns the pairs to visit, or NULL for all of them (three quarters or more of the list). */
-static const int32_t *c_active(struct sphdem_dem_s *m, int64_t *nact) {
+ * in tf), the pass visits only the pairs of m->cpu_act (in increasing order), taken at some evaluation t0 as
+ * those whose bound e = gap at the build - move of a since the build - move of b since the build is <= lim,
+ * and those marked touching at the last evaluation. At a later evaluation the moves since the build are at most
+ * those at t0 plus the largest move M since t0, and the radius growth and the change of the periodic lengths
+ * add gap_rest, so a pair left out is apart while 2 M + gap_rest <= lim (and, apart at t0, is marked so in tf);
+ * past that, the set is taken again. The moves of each grain, not the largest one: in a gas the fastest grain
+ * moves several times as far as most. The margin lim - gap_rest weighs two costs: a pair visited in vain costs
+ * about as much as a tested one (its loads of positions and radii), each taking of the set a loop over the
+ * grains and one over the pairs. With the bound growing by g per evaluation (twice the fastest grain's move) and
+ * the gaps spread evenly over the skin s, a margin L costs per evaluation about the pairs within L of the
+ * touching ones plus the set taken every L/g evaluations: least near L = sqrt(2 (c_set / c_pair) g s), c_set /
+ * c_pair about 1/4 here: L = sqrt(g s / 2), at least s/128. Returns the pairs to visit, or NULL for all of them
+ * (three quarters or more of the list). */
+static const int32_t *c_active(struct sphdem_dem_s *m, const unsigned char *tf, int64_t *nact) {
   const dem_dev *D = &m->D;
-  const int64_t np = D->np;
+  const int64_t np = D->np, n = D->n;
   if (m->act_all) return NULL;
-  if (m->act_thr >= D->gap_thr && m->act_n >= 0) {
+  if (m->act_n >= 0 && 2.0 * sqrt(c_move2(D->x, m->cpu_xact, n)) + m->gap_rest <= m->act_lim) {
     *nact = m->act_n;
     return m->cpu_act;
   }
-  if (c_room((void **)&m->cpu_act, sizeof(int32_t), np, &m->cap_act)) { /* no room: visit every pair (the same forces) */
+  if (c_room((void **)&m->cpu_act, sizeof(int32_t), np, &m->cap_act) ||
+      c_room((void **)&m->cpu_xact, sizeof(double), 4 * n, &m->cap_xact)) { /* no room: every pair (the same forces) */
     m->act_all = 1;
     return NULL;
   }
-  const double thr = fmax(D->gap_thr, m->act_seen);
-  /* the threshold's growth per evaluation since the whole pass (0 at the build) */
-  const double rate = (thr - m->act_thr0) / (double)(m->act_calls > 0 ? m->act_calls : 1);
+  /* the bound's growth per evaluation since the whole pass (0 at the build) */
+  const double rate = (D->gap_thr - m->act_thr0) / (double)(m->act_calls > 0 ? m->act_calls : 1);
   const double margin = m->act_calls > 0 ? sqrt(0.5 * rate * D->P.skin) : 0.0625 * D->P.skin;
-  const double bound = thr + fmax(margin, fmax(0.0078125 * D->P.skin, 1e-6 * m->dmax_built));
-  const double *gap = D->gap0;
-  int32_t *act = m->cpu_act;
-  int64_t n = 0;
-  for (int64_t p = 0; p < np; p++) { /* (no branch: the index is written always, kept when the gap is in) */
-    act[n] = (int32_t)p;
-    n += gap[p] <= bound;
+  const double lim = m->gap_rest + fmax(margin, fmax(0.0078125 * D->P.skin, 1e-6 * m->dmax_built));
+  /* each grain's move since the build, then the positions now */
+  const double *x = D->x, *x0 = m->hx0, *gap = D->gap0;
+  double *xs = m->cpu_xact, *mv = xs + 3 * n;
+  for (int64_t i = 0; i < n; i++) {
+    const double dx = x[3 * i] - x0[3 * i], dy = x[3 * i + 1] - x0[3 * i + 1], dz = x[3 * i + 2] - x0[3 * i + 2];
+    mv[i] = sqrt(dx * dx + dy * dy + dz * dz);
   }
-  if (4 * n >= 3 * np) {
+  memcpy(xs, x, sizeof(double) * 3 * (size_t)n);
+  const int32_t *pa = D->pa, *pb = D->pb;
+  int32_t *act = m->cpu_act;
+  int64_t k = 0;
+  for (int64_t p = 0; p < np; p++) { /* (no branch: the index is written always, kept when the pair is in) */
+    const int32_t b = pb[p];
+    const double e = gap[p] - mv[pa[p]] - (b >= 0 ? mv[b] : 0.0);
+    act[k] = (int32_t)p;
+    k += (e <= lim) | (tf[p] != 0);
+  }
+  if (4 * k >= 3 * np) {
     m->act_all = 1;
     return NULL;
   }
-  m->act_thr = bound;
-  m->act_n = n;
-  *nact = n;
+  m->act_lim = lim;
+  m->act_n = k;
+  *nact = k;
   return act;
 }
 
@@ -449,13 +476,11 @@ int sphdem_dem_cpu_particle_forces(struct sphdem_dem_s *m) {
     if (!known) { /* this pass visits every pair; the visited set starts after it */
       m->act_all = 0;
       m->act_n = -1;
-      m->act_thr = -HUGE_VAL;
-      m->act_seen = m->act_thr0 = D->gap_thr;
+      m->act_thr0 = D->gap_thr;
       m->act_calls = 0;
     } else {
       m->act_calls++;
-      act = c_active(m, &nact);
-      if (D->gap_thr > m->act_seen) m->act_seen = D->gap_thr;
+      act = c_active(m, tf, &nact);
     }
     nt = c_serial_pairs(D, tf, act, nact, m->cpu_uniform);
     m->cpu_ntouch = nt;

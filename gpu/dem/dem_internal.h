@@ -161,11 +161,15 @@ struct sphdem_dem_s {
   int64_t cap_gap;
   int32_t *cpu_act;            /* the pairs the one-thread pass visits (c_active in dem_cpu.c) */
   int64_t cap_act, act_n;      /* capacity; act_n pairs in it (< 0: not taken yet) */
-  double act_thr;              /* cpu_act holds every pair of gap <= act_thr */
-  double act_seen;             /* the largest D->gap_thr since the pass over the whole list */
-  double act_thr0;             /* D->gap_thr at that pass */
+  double act_lim;              /* cpu_act stands while 2 (largest move since it was taken) + gap_rest <= act_lim */
+  double act_thr0;             /* D->gap_thr at the pass over the whole list */
   int64_t act_calls;           /* the evaluations since that pass */
   int act_all;                 /* visit every pair until the next pass over the whole list */
+  double *cpu_xact;            /* the positions when cpu_act was taken (3 n), then each grain's move since the
+                                  build at that time (n, scratch) */
+  int64_t cap_xact;
+  double gap_rest;             /* D->gap_thr less the grains' moves: twice the largest radius growth since the
+                                  build, and the change of the periodic lengths */
   int32_t *cpu_head;           /* D.head of the CPU backend */
   int64_t cap_head;
   int cpu_rev_valid;           /* rlist, rstart, rend hold the current list's reverse ranges (c_reverse) */
