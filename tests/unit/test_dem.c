@@ -1184,6 +1184,57 @@ static void test_serial_pass(void) {
   }
 }
 
+/* The pairs the one-thread pass visits between list builds: a pair that touched at the last step is visited (and
+ * its history cleared) even where the moves of its grains since the build no longer reach its gap. Grains a and b
+ * half a skin apart at the build come together (touching, a tangential history made), go back to where they were
+ * built, and come together again; a second pair stays apart throughout (the visited set is one pair of two). The
+ * history after each step is the same bits as the pair-parallel pass's, which looks at every pair. */
+static void test_visited_set(void) {
+  const int n = 4;
+  const double lo[3] = {0, 0, 0}, hi[3] = {2, 2, 2}, skin = 0.02;
+  grains g = make_grains(n, lo, hi, 0.1, 0.0);
+  const double x0[4][3] = {{0.8, 1, 1}, {1.01, 1, 1}, {0.5, 0.5, 0.5}, {0.715, 0.5, 0.5}}; /* gaps 0.5 and 0.75 skin */
+  for (int i = 0; i < n; i++) {
+    g.r[i] = 0.1;
+    g.m[i] = 2500 * 4.0 / 3.0 * M_PI * 1e-3;
+    for (int d = 0; d < 3; d++) g.x[3 * i + d] = x0[i][d], g.v[3 * i + d] = g.om[3 * i + d] = 0.0;
+  }
+  g.v[1] = 0.5; /* a slides past b (y) while they touch */
+  sphdem_dem_params p = hertz_params(skin, SPHDEM_DEM_PARTICLE_PARALLEL, lo, hi, 0), q = p;
+  q.algo = SPHDEM_DEM_PAIR_PARALLEL;
+  sphdem_dem A = make(&p), B = make(&q);
+  TEST_ASSERT(sphdem_dem_cpu_serial_pass(A) && !sphdem_dem_cpu_serial_pass(B), "visited set: the passes compared");
+  double fB[12], tB[12];
+  int rc = 0, same = 1, touched = 0;
+  for (int s = 0; s < 6; s++) {
+    const double in = (s == 2 || s == 4) ? 0.3 * skin : 0.0; /* each of a and b moves 0.3 skin toward the other */
+    g.x[0] = x0[0][0] + in;
+    g.x[3] = x0[1][0] - in;
+    rc |= sphdem_dem_compute(A, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-4, 1, g.f, g.t, NULL);
+    rc |= sphdem_dem_compute(B, n, g.tag, g.x, g.v, g.om, g.r, g.m, NULL, 1e-4, 1, fB, tB, NULL);
+    sphdem_dem_stats st;
+    sphdem_dem_stats_get(A, &st);
+    touched += st.ncontacts == 1;
+    uint64_t ka[4], kb[4];
+    double ha[4 * SPHDEM_DEM_HIST_DOUBLES], hb[4 * SPHDEM_DEM_HIST_DOUBLES];
+    const int64_t np = sphdem_dem_get_history(A, ka, ha, 4), nq = sphdem_dem_get_history(B, kb, hb, 4);
+    same &= np == 2 && nq == 2 && st.nbuilds == 1;
+    for (int64_t k = 0; same && k < np; k++) {
+      same &= ka[k] == kb[k];
+      for (int c = 0; c < SPHDEM_DEM_HIST_DOUBLES; c++)
+        same &= ha[SPHDEM_DEM_HIST_DOUBLES * k + c] == hb[SPHDEM_DEM_HIST_DOUBLES * k + c];
+    }
+    for (int k = 0; k < 3 * n; k++) same &= fabs(g.f[k] - fB[k]) <= 1e-12 * (1.0 + fabs(fB[k]));
+  }
+  printf("  visited set: a pair that separates with its grains back where they were built: history %s as the "
+         "pair-parallel pass's over 6 steps (%d with the contact)\n", same ? "the same bits" : "DIFFERENT", touched);
+  TEST_ASSERT(rc == 0 && touched == 2, "visited set: rc %d (%s), %d steps with the contact", rc,
+              sphdem_dem_last_error(A), touched);
+  TEST_ASSERT(same, "visited set: history or forces differ from the pair-parallel pass (or the list was rebuilt)");
+  sphdem_dem_destroy(&A); sphdem_dem_destroy(&B);
+  free_grains(&g);
+}
+
 /* sphdem_dem_same_tags: the caller's word that a call gets the last call's grains spares the tag comparison and
  * changes nothing (the same bits as a context that compares); it holds for one call only, so grains reordered at
  * the next call are still found (a new build, and the forces of the new order). */
@@ -1682,6 +1733,7 @@ int main(void) {
   test_ghost_once();
   test_skipped_copies();
   test_serial_pass();
+  test_visited_set();
   test_history_hand_over();
   test_same_tags();
   test_changing_box();
